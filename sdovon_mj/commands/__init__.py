@@ -1,0 +1,1 @@
+"""Subcommands that wire stages together (demo, generate, show, world)."""

@@ -1,0 +1,385 @@
+"""Every hyperparameter of the pipeline: the paper's appendix E table plus ours.
+
+Configs are frozen dataclasses grouped by stage. Each field carries its unit, a one-line meaning
+and, where the paper names it, its symbol (``field.metadata``). YAML in and out; an unknown key is
+an error that names the key (and the file, when there is one).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from dataclasses import dataclass, field, fields, is_dataclass, replace
+from pathlib import Path
+from typing import Any, get_type_hints
+
+import yaml
+
+from .errors import SdovonError
+
+
+class ConfigError(SdovonError, ValueError):
+    """A config file or override that cannot be applied (unknown key, wrong type)."""
+
+
+def _p(default: Any, unit: str, doc: str, symbol: str = "") -> Any:
+    """Declare a config field with its unit, one-line meaning and paper symbol."""
+    if isinstance(default, (list, dict)):
+        raise TypeError("use tuples for sequence defaults so configs stay frozen and hashable")
+    return field(default=default, metadata={"unit": unit, "doc": doc, "symbol": symbol})
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """The embedded default world: procedural apartments and objects."""
+
+    scene_seeds: tuple[int, ...] = _p((0,), "-", "seeds of the default apartments used as scenes (k_s = len)", "k_s")
+    scene_mode: str = _p("clean", "-", "clean (artist-like GLB) or scan (noisy fused PLY, ScanNet style)")
+    floors: int = _p(0, "-", "storeys per apartment: 1, 2, or 0 for the seeded choice")
+    object_seed: int = _p(0, "-", "seed of the procedural object library")
+    object_variants: int = _p(3, "-", "shape variants per object category")
+    object_categories: tuple[str, ...] = _p((), "-", "restrict the object library to these categories (empty = all)")
+
+
+@dataclass(frozen=True)
+class ConvertConfig:
+    """Mesh -> MJCF conversion (assets_convert)."""
+
+    units: str = _p("auto", "-", "auto, m, cm, mm, or a number: metres per file unit")
+    up: str = _p("auto", "-", "auto (glTF: +Y, else +Z), +Y, +Z, -Y, ...")
+    target_size: float = _p(0.0, "m", "rescale objects of unknown units so the largest extent equals this (0: off)")
+    coacd_threshold: float = _p(0.05, "-", "CoACD concavity threshold")
+    coacd_max_hulls: int = _p(32, "-", "maximum convex hulls per object")
+    coacd_max_hull_vertices: int = _p(64, "-", "maximum vertices per hull")
+    coacd_preprocess_resolution: int = _p(50, "-", "CoACD manifold preprocessing resolution")
+    coacd_seed: int = _p(0, "-", "CoACD random seed")
+    default_density: float = _p(500.0, "kg/m^3", "density for categories without a known one")
+    texture_max_size: int = _p(1024, "px", "textures are downscaled to at most this edge length")
+    timeout_s: float = _p(300.0, "s", "per-object conversion timeout in a batch")
+    jobs: int = _p(0, "-", "worker processes for batch conversion (0: number of cores)")
+
+
+@dataclass(frozen=True)
+class ObserveConfig:
+    """Floors, navigable maps, coverage sampling and rendering (paper section 3.1)."""
+
+    h_map: float = _p(0.3, "m", "slice height above the floor for the top-down map", "h_map")
+    map_resolution: float = _p(0.05, "m/cell", "navigable map grid resolution")
+    agent_radius: float = _p(0.18, "m", "erosion margin of the navigable map (agent radius)")
+    agent_height: float = _p(0.88, "m", "agent (camera) height above the floor")
+    floor_cluster_tol: float = _p(0.15, "m", "heights closer than this belong to one floor")
+    min_floor_area: float = _p(2.0, "m^2", "smallest horizontal area that counts as a floor")
+    min_component_area: float = _p(1.0, "m^2", "navigable components smaller than this are dropped")
+    eps_p_obs: float = _p(0.5, "-", "strong observation threshold on M_P", "epsilon_p_obs")
+    r_min: float = _p(0.5, "m", "invalid observation radius (depth too close)", "r_min")
+    r_max: float = _p(2.0, "m", "observation range; sigma of the coverage Gaussian", "r_max")
+    coverage_threshold: float = _p(0.9, "-", "stop when this fraction of navigable cells has M_P >= eps_p_obs")
+    max_iterations: int = _p(500, "-", "maximum candidate draws of the coverage sampler")
+    min_obstacle_distance: float = _p(0.3, "m", "candidates closer than this to an obstacle are rejected")
+    yaw_steps: int = _p(6, "-", "camera yaw steps per viewpoint (360 deg / yaw_steps)")
+    pitch_angles: tuple[float, ...] = _p((-30.0, 0.0), "deg", "camera pitch angles per yaw (negative looks down)")
+    width: int = _p(640, "px", "image width (Habitat ObjectNav default)")
+    height: int = _p(480, "px", "image height")
+    hfov: float = _p(79.0, "deg", "horizontal field of view (Habitat ObjectNav default)")
+    depth_min: float = _p(0.1, "m", "depth below this is invalid (0)")
+    depth_max: float = _p(10.0, "m", "depth above this is invalid (0)")
+    shadows: bool = _p(False, "-", "render shadows (off for data generation: speed)")
+    seed: int = _p(0, "-", "coverage sampling seed offset (combined with the scene seed)")
+
+
+@dataclass(frozen=True)
+class PerceiveConfig:
+    """2D detection, back-projection, instance fusion and error correction (paper section 3.2)."""
+
+    detector: str = _p("gt", "-", "detector plugin name (entry point group sdovon_mj.detectors)")
+    detector_weights: str = _p("", "path", "local weights folder for open-vocabulary detectors")
+    score_threshold: float = _p(0.3, "-", "detections below this score are dropped")
+    gt_eta: float = _p(1e-4, "-", "minimum pixel fraction for the ground-truth detector", "eta_gt")
+    gt_score_noise: float = _p(0.0, "-", "std of noise added to gt detection scores (0: score 1.0)")
+    depth_noise_sigma: float = _p(0.0, "m", "Gaussian noise added to depth before back-projection (robustness tests)")
+    fusion_preset: str = _p("paper", "-", "paper (k_sem 0.4 / k_geo 1.6 / phi_min 0.8), conceptgraphs, or custom (use k_sem/k_geo/phi_min as given)")
+    k_sem: float = _p(0.4, "-", "weight of the label-embedding similarity term", "k_sem")
+    k_geo: float = _p(1.6, "-", "weight of the point-overlap term", "k_geo")
+    phi_min: float = _p(0.8, "-", "minimum similarity for a match", "phi_min")
+    overlap_radius: float = _p(0.025, "m", "points closer than this count as overlapping")
+    voxel_size: float = _p(0.02, "m", "voxel downsampling of fused instances")
+    iou_min: float = _p(0.9, "-", "3D box IoU for fusion error correction", "IoU_min")
+    min_points: int = _p(30, "-", "instances with fewer points are dropped")
+
+
+@dataclass(frozen=True)
+class ReceptacleConfig:
+    """Receptacle identification and EM plane detection (paper section 3.3, algorithm 1)."""
+
+    labels: tuple[str, ...] = _p(
+        ("table", "desk", "dresser", "bookshelf", "shelf", "bed", "sofa", "couch", "counter",
+         "nightstand", "coffee table", "cabinet"),
+        "-", "receptacle labels (prespecified); empty: ask the LLM backend", "L_rec")
+    eps_t: float = _p(0.03, "m", "plane slab thickness", "epsilon_t")
+    rho_min: int = _p(50, "points", "minimum points in a slab to try a plane", "rho_min")
+    eps_c: float = _p(0.95, "-", "convergence: fraction of inliers kept between iterations", "epsilon_c")
+    max_em_iterations: int = _p(20, "-", "cap on EM iterations per slab")
+    max_normal_tilt: float = _p(10.0, "deg", "planes tilted more than this from +Z are rejected")
+    min_plane_area: float = _p(0.01, "m^2", "planes smaller than this are rejected")
+    merge_height_tol: float = _p(0.02, "m", "planes closer than this in height (and overlapping) are merged")
+
+
+@dataclass(frozen=True)
+class SemanticsConfig:
+    """LLM backends, region map and relevance (paper section 3.4, appendix C)."""
+
+    backend: str = _p("offline", "-", "LLM backend plugin (offline, ollama, openai, ...)")
+    model: str = _p("", "-", "model name for server backends (e.g. llama3.1:8b)")
+    url: str = _p("", "-", "server base URL (ollama default http://localhost:11434)")
+    timeout_s: float = _p(60.0, "s", "per-request timeout")
+    retries: int = _p(3, "-", "re-asks after an invalid reply / retries after a transport error")
+    fallback: str = _p("offline", "-", "backend to fall back to after the retries ('' = fail)")
+    window_radius: float = _p(1.5, "m", "sliding window radius", "r")
+    window_step: float = _p(0.5, "m", "sliding window step", "Delta d")
+    region_labels: tuple[str, ...] = _p(
+        ("kitchen", "living room", "bedroom", "bathroom", "office", "dining room"),
+        "-", "region vocabulary offered to the region-proposal prompt")
+    cache: bool = _p(True, "-", "cache LLM replies on disk")
+
+
+@dataclass(frozen=True)
+class PlaceConfig:
+    """Semantic placement and physical settling (paper section 3.4)."""
+
+    k_v: int = _p(2, "-", "variants per scene", "k_v")
+    m: int = _p(3, "-", "categories sampled per (receptacle plane, region)", "m")
+    max_objects: int = _p(30, "-", "cap on objects per variant")
+    temperature: float = _p(1.0, "-", "softmax temperature over joint relevance")
+    top_k: int = _p(8, "-", "sample among the top-k categories of each (region, receptacle)")
+    min_distance: float = _p(0.05, "m", "minimum gap between object footprints")
+    h_spawn: float = _p(0.3, "m", "spawn height above the plane", "h_spawn")
+    spawn_mode: str = _p("paper", "-", "paper (random X/Y/Z rotation from h_spawn) or stable (stable pose, random yaw, small drop)")
+    stable_drop: float = _p(0.02, "m", "drop height in stable mode")
+    timestep: float = _p(0.002, "s", "physics timestep while settling")
+    max_settle_time: float = _p(3.0, "s", "cap on simulated settling time")
+    settle_window: float = _p(0.2, "s", "speeds must stay below thresholds this long")
+    lin_vel_tol: float = _p(0.01, "m/s", "settled linear speed")
+    ang_vel_tol: float = _p(0.1, "rad/s", "settled angular speed")
+    resample_attempts: int = _p(2, "-", "resampling rounds for failed objects")
+    support_thickness: float = _p(0.02, "m", "thickness of support prisms built from receptacle polygons")
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """ObjectNav episode generation (paper section 3.5)."""
+
+    k_e: int = _p(3, "-", "episodes per object category per variant", "k_e")
+    viewpoint_radius: float = _p(1.0, "m", "goal view points lie within this distance of the object")
+    eta_gt: float = _p(1e-4, "-", "minimum visible pixel fraction of the goal object", "eta_gt")
+    max_viewpoints: int = _p(50, "-", "cap on view points per goal object")
+    min_start_distance: float = _p(1.0, "m", "minimum geodesic distance from start to goal")
+    max_start_tries: int = _p(200, "-", "start pose draws per episode")
+    success_distance: float = _p(0.1, "m", "success radius around view points")
+
+
+@dataclass(frozen=True)
+class NavConfig:
+    """Agent, actions and the A* baselines (appendix D)."""
+
+    forward_step: float = _p(0.25, "m", "MOVE_FORWARD distance")
+    turn_angle: float = _p(30.0, "deg", "TURN_LEFT/TURN_RIGHT angle")
+    tilt_angle: float = _p(30.0, "deg", "LOOK_UP/LOOK_DOWN angle")
+    max_steps: int = _p(500, "-", "episode step limit")
+    eps_nav: float = _p(0.5, "m", "navigation error tolerance", "epsilon_nav")
+    d_next: float = _p(1.0, "m", "minimum distance to the next navigation point", "d_next")
+    eta_gt: float = _p(1e-4, "-", "gt detector pixel fraction", "eta_gt")
+    final_nav: bool = _p(True, "-", "final point-goal navigation after detection (FN)")
+    obs_width: int = _p(640, "px", "agent camera width")
+    obs_height: int = _p(480, "px", "agent camera height")
+    depth_min: float = _p(0.5, "m", "agent depth sensor minimum")
+    depth_max: float = _p(5.0, "m", "agent depth sensor maximum")
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """The whole pipeline: one config file for `sdovon-mj generate`."""
+
+    seed: int = _p(0, "-", "master seed; per-scene and per-variant seeds are derived from it")
+    name: str = _p("sdovon", "-", "dataset name used by exporters")
+    split: str = _p("val", "-", "dataset split name")
+    exporters: tuple[str, ...] = _p(("habitat", "mjcf"), "-", "exporter plugins run at the end")
+    world: WorldConfig = field(default_factory=WorldConfig)
+    convert: ConvertConfig = field(default_factory=ConvertConfig)
+    observe: ObserveConfig = field(default_factory=ObserveConfig)
+    perceive: PerceiveConfig = field(default_factory=PerceiveConfig)
+    receptacles: ReceptacleConfig = field(default_factory=ReceptacleConfig)
+    semantics: SemanticsConfig = field(default_factory=SemanticsConfig)
+    place: PlaceConfig = field(default_factory=PlaceConfig)
+    episodes: EpisodeConfig = field(default_factory=EpisodeConfig)
+    nav: NavConfig = field(default_factory=NavConfig)
+
+
+FUSION_PRESETS: dict[str, dict[str, float]] = {
+    # The paper's appendix E values. The paper's text multiplies k_sem with the point-overlap term
+    # and k_geo with the label term (names swapped, see research/peers.md section 0). We follow the
+    # names: k_sem weighs label similarity, k_geo weighs geometric overlap.
+    "paper": {"k_sem": 0.4, "k_geo": 1.6, "phi_min": 0.8},
+    # ConceptGraphs: equal weights of 1 on both terms, match threshold 1.1 on the sum (of max 2).
+    "conceptgraphs": {"k_sem": 1.0, "k_geo": 1.0, "phi_min": 1.1},
+}
+
+
+def to_dict(cfg: Any) -> dict[str, Any]:
+    """Return a config as plain YAML-able data (tuples become lists)."""
+    out: dict[str, Any] = {}
+    for f in fields(cfg):
+        v = getattr(cfg, f.name)
+        if is_dataclass(v):
+            out[f.name] = to_dict(v)
+        elif isinstance(v, tuple):
+            out[f.name] = list(v)
+        else:
+            out[f.name] = v
+    return out
+
+
+def _coerce(value: Any, typ: Any, key: str, source: str) -> Any:
+    """Convert a YAML value to a field's declared type, or raise naming the key."""
+    where = f" in {source}" if source else ""
+    origin = getattr(typ, "__origin__", None)
+    try:
+        if typ is bool:
+            if isinstance(value, bool):
+                return value
+            if isinstance(value, str) and value.lower() in ("true", "false", "1", "0", "yes", "no"):
+                return value.lower() in ("true", "1", "yes")
+            raise TypeError
+        if typ is int:
+            if isinstance(value, bool):
+                raise TypeError
+            if isinstance(value, float) and not value.is_integer():
+                raise TypeError
+            return int(value)
+        if typ is float:
+            if isinstance(value, bool):
+                raise TypeError
+            return float(value)
+        if typ is str:
+            if not isinstance(value, (str, int, float)):
+                raise TypeError
+            return str(value)
+        if origin is tuple:
+            (inner, _ellipsis) = typ.__args__
+            if isinstance(value, str):
+                value = [v.strip() for v in value.split(",") if v.strip()] if value else []
+            if not isinstance(value, (list, tuple)):
+                raise TypeError
+            return tuple(_coerce(v, inner, key, source) for v in value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"config key '{key}'{where}: cannot use {value!r} as {getattr(typ, '__name__', typ)}") from None
+    raise ConfigError(f"config key '{key}'{where}: unsupported type {typ}")
+
+
+def from_dict(cls: type, data: dict[str, Any], source: str = "", prefix: str = "") -> Any:
+    """Build a config dataclass from plain data; unknown keys raise ConfigError naming them."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"config section '{prefix or '<root>'}'{' in ' + source if source else ''} must be a mapping")
+    hints = get_type_hints(cls)
+    known = {f.name for f in fields(cls)}
+    for key in data:
+        if key not in known:
+            full = f"{prefix}{key}"
+            close = _closest(str(key), known)
+            hint = f" (did you mean '{prefix}{close}'?)" if close else ""
+            raise ConfigError(f"unknown config key '{full}'{' in ' + source if source else ''}{hint}")
+    kwargs: dict[str, Any] = {}
+    for f in fields(cls):
+        if f.name not in data:
+            continue
+        typ = hints[f.name]
+        if is_dataclass(typ):
+            kwargs[f.name] = from_dict(typ, data[f.name] or {}, source, f"{prefix}{f.name}.")
+        else:
+            kwargs[f.name] = _coerce(data[f.name], typ, f"{prefix}{f.name}", source)
+    return cls(**kwargs)
+
+
+def _closest(key: str, known: set[str]) -> str:
+    """Return the known key nearest to a misspelt one, or ''."""
+    import difflib
+
+    m = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.6)
+    return m[0] if m else ""
+
+
+def load_config(path: str | Path | None = None, overrides: list[str] | tuple[str, ...] = ()) -> RunConfig:
+    """Load a RunConfig from YAML (or defaults) and apply KEY=VALUE overrides."""
+    data: dict[str, Any] = {}
+    source = ""
+    if path is not None:
+        source = str(path)
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise ConfigError(f"config file not found: {path}") from None
+        try:
+            data = yaml.safe_load(text) or {}
+        except yaml.YAMLError as e:
+            raise ConfigError(f"config file {path} is not valid YAML: {e}") from None
+    cfg = from_dict(RunConfig, data, source)
+    return apply_overrides(cfg, overrides)
+
+
+def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...]) -> RunConfig:
+    """Apply dotted KEY=VALUE overrides (values parsed as YAML scalars or lists)."""
+    data = to_dict(cfg)
+    for item in overrides:
+        if "=" not in item:
+            raise ConfigError(f"override '{item}' is not KEY=VALUE")
+        key, raw = item.split("=", 1)
+        parts = key.strip().split(".")
+        node = data
+        for i, part in enumerate(parts[:-1]):
+            if part not in node or not isinstance(node[part], dict):
+                raise ConfigError(f"unknown config key '{'.'.join(parts[: i + 1])}' in --set {item}")
+            node = node[part]
+        if parts[-1] not in node or isinstance(node[parts[-1]], dict):
+            raise ConfigError(f"unknown config key '{key.strip()}' in --set {item}")
+        node[parts[-1]] = yaml.safe_load(raw) if raw != "" else ""
+    return from_dict(RunConfig, data, "--set")
+
+
+def save_config(cfg: Any, path: str | Path) -> None:
+    """Write a config as YAML (atomically)."""
+    from .store import atomic_write_text
+
+    atomic_write_text(Path(path), dump_yaml(cfg))
+
+
+def dump_yaml(cfg: Any) -> str:
+    """Return a config as deterministic YAML text."""
+    return yaml.safe_dump(to_dict(cfg), sort_keys=True, default_flow_style=None)
+
+
+def config_hash(cfg: Any) -> str:
+    """Return a stable hex digest of a config (or config section)."""
+    blob = json.dumps(to_dict(cfg) if is_dataclass(cfg) else cfg, sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def with_fusion_preset(cfg: PerceiveConfig) -> PerceiveConfig:
+    """Return the perceive config with the named fusion preset's weights applied."""
+    if cfg.fusion_preset == "custom":
+        return cfg
+    if cfg.fusion_preset not in FUSION_PRESETS:
+        raise ConfigError(f"unknown fusion preset '{cfg.fusion_preset}' (known: {', '.join(FUSION_PRESETS)}, custom)")
+    return replace(cfg, **FUSION_PRESETS[cfg.fusion_preset])
+
+
+def describe(cls: type = RunConfig, prefix: str = "") -> list[tuple[str, Any, str, str, str]]:
+    """List (key, default, unit, symbol, meaning) for every field, for docs and `--help`."""
+    rows = []
+    inst = cls()
+    for f in dataclasses.fields(cls):
+        v = getattr(inst, f.name)
+        if is_dataclass(v):
+            rows.extend(describe(type(v), f"{prefix}{f.name}."))
+        else:
+            rows.append((prefix + f.name, v, f.metadata.get("unit", ""), f.metadata.get("symbol", ""), f.metadata.get("doc", "")))
+    return rows

@@ -1,0 +1,605 @@
+"""The data model every stage speaks: plain dataclasses + numpy, exact JSON / npz round trips.
+
+Conventions (all records):
+- Positions are MuJoCo world frame: metres, **Z up**. Frames of other simulators appear only
+  inside exporters.
+- Quaternions are **wxyz** (MuJoCo order).
+- Camera poses ``T_cam`` are 4x4 world <- camera transforms in the **OpenCV** camera convention
+  (x right, y down, z forward); ``K`` is the 3x3 pinhole intrinsic matrix.
+- Path fields are POSIX strings relative to the root of the store (or output folder) the record
+  was written into, so a run folder can be moved and two runs compare byte for byte.
+- Polygons are (M, 2) arrays of world XY vertices in counter-clockwise order.
+
+``to_dict`` / ``from_dict`` encode numpy arrays exactly (dtype, shape, raw bytes as base64), so a
+JSON round trip reproduces every bit. ``save_npz`` / ``load_npz`` keep big arrays (observations)
+uncompressed-exact in compressed npz shards.
+"""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import io
+import json
+import types
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar, TypeVar, Union, get_args, get_origin, get_type_hints
+
+import numpy as np
+
+from .errors import SdovonError
+
+T = TypeVar("T", bound="Record")
+
+_REGISTRY: dict[str, type["Record"]] = {}
+
+
+class RecordError(SdovonError, ValueError):
+    """A record file that cannot be read back (wrong kind, missing field, corrupt)."""
+
+
+def _encode(value: Any) -> Any:
+    """Encode a field value as JSON-able data, arrays exactly."""
+    if isinstance(value, Record):
+        return value.to_dict()
+    if isinstance(value, np.ndarray):
+        arr = np.ascontiguousarray(value)
+        return {
+            "__ndarray__": base64.b64encode(arr.tobytes()).decode("ascii"),
+            "dtype": arr.dtype.str,
+            "shape": list(arr.shape),
+        }
+    if isinstance(value, (list, tuple)):
+        return [_encode(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _encode(v) for k, v in value.items()}
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (np.floating,)):
+        return float(value)
+    if isinstance(value, (np.bool_,)):
+        return bool(value)
+    if isinstance(value, Path):
+        return value.as_posix()
+    return value
+
+
+def _decode_array(data: dict[str, Any]) -> np.ndarray:
+    """Decode an exactly encoded numpy array."""
+    raw = base64.b64decode(data["__ndarray__"])
+    return np.frombuffer(raw, dtype=np.dtype(data["dtype"])).reshape(data["shape"]).copy()
+
+
+def _decode(value: Any, typ: Any) -> Any:
+    """Decode JSON data into the declared field type."""
+    if value is None:
+        return None
+    origin = get_origin(typ)
+    if origin in (Union, types.UnionType):
+        args = [a for a in get_args(typ) if a is not type(None)]
+        if len(args) == 1:
+            return _decode(value, args[0])
+        if isinstance(value, dict) and "__ndarray__" in value:
+            return _decode_array(value)
+        return value
+    if isinstance(value, dict) and "__ndarray__" in value:
+        return _decode_array(value)
+    if isinstance(typ, type) and issubclass(typ, Record):
+        return typ.from_dict(value)
+    if origin in (list, tuple):
+        args = get_args(typ)
+        inner = args[0] if args else Any
+        items = [_decode(v, inner) for v in value]
+        return items if origin is list else tuple(items)
+    if origin is dict:
+        _k, inner = get_args(typ)
+        return {k: _decode(v, inner) for k, v in value.items()}
+    if typ is np.ndarray:
+        return np.asarray(value)
+    return value
+
+
+class Record:
+    """Base of all records: exact dict/JSON round trips and a `kind` tag."""
+
+    kind: ClassVar[str] = "record"
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.kind = cls.__name__
+        _REGISTRY[cls.__name__] = cls
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data (arrays encoded exactly)."""
+        out: dict[str, Any] = {"kind": self.kind}
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            out[f.name] = _encode(getattr(self, f.name))
+        return out
+
+    @classmethod
+    def from_dict(cls: type[T], data: dict[str, Any]) -> T:
+        """Rebuild a record from `to_dict` data."""
+        if not isinstance(data, dict):
+            raise RecordError(f"{cls.__name__}: expected a mapping, got {type(data).__name__}")
+        kind = data.get("kind", cls.__name__)
+        if kind != cls.__name__:
+            raise RecordError(f"expected a {cls.__name__} record, found {kind}")
+        hints = get_type_hints(cls)
+        kwargs = {}
+        for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+            if f.name in data:
+                kwargs[f.name] = _decode(data[f.name], hints[f.name])
+            elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:  # type: ignore[misc]
+                raise RecordError(f"{cls.__name__} record lacks field '{f.name}'")
+        return cls(**kwargs)
+
+    def to_json(self) -> str:
+        """Return deterministic JSON text of the record."""
+        return dumps(self.to_dict())
+
+    @classmethod
+    def from_json(cls: type[T], text: str) -> T:
+        """Parse a record from JSON text."""
+        return cls.from_dict(json.loads(text))
+
+
+def dumps(data: Any) -> str:
+    """Deterministic JSON text (sorted keys, fixed separators, trailing newline)."""
+    return json.dumps(data, sort_keys=True, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+def record_from_dict(data: dict[str, Any]) -> Record:
+    """Rebuild a record of any registered kind from `to_dict` data."""
+    kind = data.get("kind")
+    if kind not in _REGISTRY:
+        raise RecordError(f"unknown record kind {kind!r}")
+    return _REGISTRY[kind].from_dict(data)
+
+
+def records_equal(a: Any, b: Any) -> bool:
+    """Compare two records (or values) exactly, arrays bit for bit."""
+    return dumps(_encode(a)) == dumps(_encode(b))
+
+
+# ----------------------------------------------------------------------------------------------
+# Assets
+
+
+@dataclass
+class Floor(Record):
+    """One storey of a scene: its walkable height (world Z)."""
+
+    index: int
+    height: float
+    area: float = 0.0
+
+
+@dataclass
+class SemanticInstance(Record):
+    """An instance of the scene's own semantics (sidecar, HM3D txt, ScanNet aggregation)."""
+
+    id: int
+    label: str
+    geoms: list[str] = field(default_factory=list)
+    room: int = -1
+    floor: int = -1
+    kind: str = ""
+    bounds: np.ndarray | None = None  # (2, 3) world min/max
+
+
+@dataclass
+class Room(Record):
+    """Ground-truth room of a generated world (for evaluating the semantics stage)."""
+
+    id: int
+    type: str
+    floor: int
+    polygon: np.ndarray  # (M, 2) CCW
+
+
+@dataclass
+class SupportSurface(Record):
+    """Ground-truth horizontal support surface of a receptacle instance."""
+
+    instance_id: int
+    height: float
+    polygon: np.ndarray  # (M, 2) CCW
+
+
+@dataclass
+class SceneAsset(Record):
+    """A converted scene: visual-only MJCF plus what the input knew about it."""
+
+    name: str
+    mjcf: str
+    source: str = ""
+    license: str = ""
+    floors: list[Floor] = field(default_factory=list)
+    instances: list[SemanticInstance] = field(default_factory=list)
+    bounds: np.ndarray | None = None  # (2, 3) world min/max
+    rooms: list[Room] = field(default_factory=list)
+    support_surfaces: list[SupportSurface] = field(default_factory=list)
+    mesh: str = ""  # merged Z-up metre mesh of the whole scene (for ray casts, slicing)
+    content_hash: str = ""
+
+    def instance(self, instance_id: int) -> SemanticInstance:
+        """Return the semantic instance with this id."""
+        for inst in self.instances:
+            if inst.id == instance_id:
+                return inst
+        raise KeyError(f"scene {self.name} has no instance {instance_id}")
+
+
+@dataclass
+class ObjectAsset(Record):
+    """A converted household object: MJCF with visual meshes and CoACD collision hulls."""
+
+    name: str
+    category: str
+    mjcf: str
+    bbox: np.ndarray  # (2, 3) min/max in the object frame (metres, Z up)
+    mass: float
+    hull_count: int
+    volume: float = 0.0  # hull volume, m^3
+    volume_ratio: float = 0.0  # hull volume / mesh volume
+    source: str = ""
+    license: str = ""
+    content_hash: str = ""
+
+    @property
+    def footprint_radius(self) -> float:
+        """Radius of the object's XY bounding circle about its origin."""
+        lo, hi = np.asarray(self.bbox[0]), np.asarray(self.bbox[1])
+        corners = np.array([[lo[0], lo[1]], [lo[0], hi[1]], [hi[0], lo[1]], [hi[0], hi[1]]])
+        return float(np.linalg.norm(corners, axis=1).max())
+
+
+# ----------------------------------------------------------------------------------------------
+# Observation
+
+
+@dataclass
+class NavMap(Record):
+    """Navigable top-down map of one floor. Cell (i, j) centre = origin + ((j+.5)*res, (i+.5)*res)."""
+
+    floor: int
+    height: float
+    origin: np.ndarray  # (2,) world XY of the grid corner (row 0, col 0)
+    resolution: float
+    navigable: np.ndarray  # (H, W) bool, eroded by the agent radius
+    free: np.ndarray  # (H, W) bool, floor present and no obstacle (not eroded)
+
+    def world_to_cell(self, xy: np.ndarray) -> np.ndarray:
+        """Return (row, col) integer cells of world XY points (N, 2)."""
+        xy = np.atleast_2d(np.asarray(xy, dtype=float))
+        col = np.floor((xy[:, 0] - self.origin[0]) / self.resolution).astype(int)
+        row = np.floor((xy[:, 1] - self.origin[1]) / self.resolution).astype(int)
+        return np.stack([row, col], axis=1)
+
+    def cell_to_world(self, cells: np.ndarray) -> np.ndarray:
+        """Return world XY centres (N, 2) of (row, col) cells."""
+        cells = np.atleast_2d(np.asarray(cells))
+        x = self.origin[0] + (cells[:, 1] + 0.5) * self.resolution
+        y = self.origin[1] + (cells[:, 0] + 0.5) * self.resolution
+        return np.stack([x, y], axis=1)
+
+    def is_navigable(self, xy: np.ndarray) -> np.ndarray:
+        """Return whether world XY points (N, 2) fall on navigable cells."""
+        rc = self.world_to_cell(xy)
+        h, w = self.navigable.shape
+        ok = (rc[:, 0] >= 0) & (rc[:, 0] < h) & (rc[:, 1] >= 0) & (rc[:, 1] < w)
+        out = np.zeros(len(rc), dtype=bool)
+        out[ok] = self.navigable[rc[ok, 0], rc[ok, 1]]
+        return out
+
+
+@dataclass
+class Viewpoint(Record):
+    """A sampled observation point on a floor."""
+
+    floor: int
+    position: np.ndarray  # (3,) world, camera height included
+
+
+@dataclass
+class Observation(Record):
+    """One RGB-D(+segmentation) frame with its camera."""
+
+    rgb: np.ndarray  # (H, W, 3) uint8
+    depth: np.ndarray  # (H, W) float32 metres along the optical axis, 0 = invalid
+    K: np.ndarray  # (3, 3)
+    T_cam: np.ndarray  # (4, 4) world <- camera (OpenCV)
+    segmentation: np.ndarray | None = None  # (H, W) int32 instance id, -1 = none
+    view_id: int = 0
+    viewpoint: int = 0
+    yaw: float = 0.0  # deg
+    pitch: float = 0.0  # deg
+
+
+# ----------------------------------------------------------------------------------------------
+# Perception
+
+
+@dataclass
+class Detection(Record):
+    """A 2D instance in one image: mask, label, score."""
+
+    mask: np.ndarray  # (H, W) bool
+    label: str
+    score: float
+    view_id: int = 0
+    gt_id: int = -1  # ground-truth instance id when known (gt detector)
+
+
+@dataclass
+class Instance(Record):
+    """A fused 3D instance: centred points P, centre p, label l (paper equation 2)."""
+
+    id: int
+    label: str
+    points: np.ndarray  # (N, 3) float32, centred
+    center: np.ndarray  # (3,)
+    confidences: list[float] = field(default_factory=list)
+    source_views: list[int] = field(default_factory=list)
+    gt_id: int = -1
+
+    @property
+    def world_points(self) -> np.ndarray:
+        """Return the instance's points in world coordinates."""
+        return np.asarray(self.points, dtype=float) + np.asarray(self.center, dtype=float)
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Return the (2, 3) axis-aligned box of the world points."""
+        p = self.world_points
+        return np.stack([p.min(axis=0), p.max(axis=0)])
+
+
+@dataclass
+class ReceptaclePlane(Record):
+    """A horizontal support plane of a receptacle instance."""
+
+    id: int
+    instance_id: int
+    label: str
+    height: float
+    polygon: np.ndarray  # (M, 2) CCW world XY
+    normal: np.ndarray  # (3,)
+    region: str = ""
+    floor: int = 0
+    inliers: int = 0
+
+    @property
+    def area(self) -> float:
+        """Return the polygon area (m^2)."""
+        p = np.asarray(self.polygon, dtype=float)
+        x, y = p[:, 0], p[:, 1]
+        return float(0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+# ----------------------------------------------------------------------------------------------
+# Semantics
+
+
+@dataclass
+class RegionMap(Record):
+    """Dense region labels of one floor on a grid aligned with its NavMap."""
+
+    floor: int
+    origin: np.ndarray  # (2,)
+    resolution: float
+    labels: list[str]  # region vocabulary
+    label_map: np.ndarray  # (H, W) int16 index into labels, -1 = unknown
+    scores: np.ndarray  # (H, W, len(labels)) float32 aggregated proposal scores
+
+    def region_at(self, xy: np.ndarray) -> str:
+        """Return the region label at a world XY point ('' if outside or unknown)."""
+        col = int(np.floor((xy[0] - self.origin[0]) / self.resolution))
+        row = int(np.floor((xy[1] - self.origin[1]) / self.resolution))
+        h, w = self.label_map.shape
+        if 0 <= row < h and 0 <= col < w and self.label_map[row, col] >= 0:
+            return self.labels[int(self.label_map[row, col])]
+        return ""
+
+
+@dataclass
+class Relevance(Record):
+    """P(obj|region) and P(obj|receptacle) tables and the backend that produced them."""
+
+    objects: list[str]
+    regions: list[str]
+    receptacles: list[str]
+    p_obj_region: np.ndarray  # (O, R): column-normalised over objects
+    p_obj_receptacle: np.ndarray  # (O, C)
+    backend: str = "offline"
+    model: str = ""
+    fallbacks: list[str] = field(default_factory=list)
+
+    def joint(self, region: str, receptacle: str) -> np.ndarray:
+        """Return P(obj|rgn) * P(obj|rec) over `objects` (the paper's eq. 5 without its typo)."""
+        r = self.regions.index(region) if region in self.regions else None
+        c = self.receptacles.index(receptacle) if receptacle in self.receptacles else None
+        pr = self.p_obj_region[:, r] if r is not None else np.full(len(self.objects), 1.0 / max(len(self.objects), 1))
+        pc = self.p_obj_receptacle[:, c] if c is not None else np.full(len(self.objects), 1.0 / max(len(self.objects), 1))
+        return np.asarray(pr, dtype=float) * np.asarray(pc, dtype=float)
+
+
+# ----------------------------------------------------------------------------------------------
+# Placement
+
+
+@dataclass
+class Placement(Record):
+    """One placed object: what, where it was meant to go, where it came to rest."""
+
+    object_id: str  # unique within the variant, e.g. "obj_003"
+    asset: str  # ObjectAsset name
+    category: str
+    plane_id: int
+    receptacle_instance: int
+    region: str
+    spawn_pos: np.ndarray  # (3,)
+    spawn_quat: np.ndarray  # (4,) wxyz
+    settled_pos: np.ndarray | None = None
+    settled_quat: np.ndarray | None = None
+    status: str = "pending"  # resting | resting_elsewhere | fell | unstable | dropped
+    reason: str = ""
+    attempts: int = 1
+
+
+@dataclass
+class SceneVariant(Record):
+    """A scene with settled objects."""
+
+    scene: str
+    index: int
+    seed: int
+    placements: list[Placement] = field(default_factory=list)
+    qpos: np.ndarray | None = None
+    mjcf: str = ""  # composed MJCF (scene + support + objects), relative path
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        """Return the variant's name, e.g. 'apt_0000_v002'."""
+        return f"{self.scene}_v{self.index:03d}"
+
+    @property
+    def resting(self) -> list[Placement]:
+        """Return the placements that came to rest on their intended plane."""
+        return [p for p in self.placements if p.status == "resting"]
+
+
+# ----------------------------------------------------------------------------------------------
+# Episodes
+
+
+@dataclass
+class ViewPoint(Record):
+    """A goal view point: agent base position (on the floor) and camera orientation."""
+
+    position: np.ndarray  # (3,) agent base on the floor
+    rotation: np.ndarray  # (4,) wxyz yaw about +Z
+    visible_fraction: float = 0.0
+
+
+@dataclass
+class Goal(Record):
+    """A goal object instance with its view points."""
+
+    object_id: str
+    category: str
+    position: np.ndarray  # (3,)
+    view_points: list[ViewPoint] = field(default_factory=list)
+    bounds: np.ndarray | None = None  # (2, 3)
+
+
+@dataclass
+class Episode(Record):
+    """An ObjectNav episode."""
+
+    episode_id: str
+    scene: str
+    variant: str
+    object_category: str
+    start_position: np.ndarray  # (3,) on the floor
+    start_rotation: np.ndarray  # (4,) wxyz
+    goals: list[Goal] = field(default_factory=list)
+    geodesic_distance: float = 0.0
+    euclidean_distance: float = 0.0
+    closest_goal_object_id: str = ""
+    floor: int = 0
+
+
+# ----------------------------------------------------------------------------------------------
+# Files
+
+
+def save_json(record_or_records: Record | list[Record], path: str | Path) -> None:
+    """Write a record (or a list of records) as deterministic JSON, atomically."""
+    from .store import atomic_write_text
+
+    data = _encode(record_or_records)
+    atomic_write_text(Path(path), dumps(data))
+
+
+def load_json(path: str | Path, cls: type[T] | None = None) -> Any:
+    """Read a record (or a list of records) written by `save_json`."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise RecordError(f"{path}: not a valid record file ({e})") from None
+    try:
+        if isinstance(data, list):
+            return [cls.from_dict(d) if cls else record_from_dict(d) for d in data]
+        return cls.from_dict(data) if cls else record_from_dict(data)
+    except (RecordError, KeyError, TypeError, ValueError) as e:
+        raise RecordError(f"{path}: {e}") from None
+
+
+def save_npz(records: list[Record], path: str | Path) -> None:
+    """Write records with big arrays as one compressed npz shard (exact), atomically."""
+    from .store import atomic_write_bytes
+
+    arrays: dict[str, np.ndarray] = {}
+    meta = []
+    for i, rec in enumerate(records):
+        d = {"kind": rec.kind}
+        for f in dataclasses.fields(rec):  # type: ignore[arg-type]
+            v = getattr(rec, f.name)
+            if isinstance(v, np.ndarray):
+                key = f"{i}/{f.name}"
+                arrays[key] = v
+                d[f.name] = {"__npz__": key}
+            else:
+                d[f.name] = _encode(v)
+        meta.append(d)
+    arrays["__meta__"] = np.frombuffer(dumps(meta).encode("utf-8"), dtype=np.uint8)
+    buf = io.BytesIO()
+    _savez_deterministic(buf, arrays)
+    atomic_write_bytes(Path(path), buf.getvalue())
+
+
+def _savez_deterministic(fileobj: io.BytesIO, arrays: dict[str, np.ndarray]) -> None:
+    """np.savez_compressed with fixed zip timestamps, so equal arrays give equal bytes."""
+    import zipfile
+
+    with zipfile.ZipFile(fileobj, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for key in sorted(arrays):
+            info = zipfile.ZipInfo(key + ".npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            b = io.BytesIO()
+            np.lib.format.write_array(b, np.asanyarray(arrays[key]), allow_pickle=False)
+            zf.writestr(info, b.getvalue())
+
+
+def load_npz(path: str | Path) -> list[Record]:
+    """Read records written by `save_npz`."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(bytes(z["__meta__"]).decode("utf-8"))
+            out = []
+            for d in meta:
+                cls = _REGISTRY[d["kind"]]
+                for k, v in list(d.items()):
+                    if isinstance(v, dict) and "__npz__" in v:
+                        d[k] = {"__ndarray__": None, "_arr": z[v["__npz__"]]}
+                out.append(_from_npz_dict(cls, d))
+            return out
+    except (OSError, KeyError, ValueError) as e:
+        raise RecordError(f"{path}: not a valid record shard ({e})") from None
+
+
+def _from_npz_dict(cls: type[T], d: dict[str, Any]) -> T:
+    """Rebuild a record whose arrays were loaded from an npz shard."""
+    arrays = {k: v["_arr"] for k, v in d.items() if isinstance(v, dict) and "_arr" in v}
+    rest = {k: v for k, v in d.items() if k not in arrays}
+    rec = cls.from_dict({**rest, **{k: None for k in arrays}})
+    for k, v in arrays.items():
+        setattr(rec, k, np.array(v))
+    return rec

@@ -1,0 +1,79 @@
+"""Pinhole cameras: intrinsics from a field of view, poses from position/yaw/pitch, frame changes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# OpenCV camera axes (x right, y down, z forward) expressed in MuJoCo camera axes (x right, y up,
+# z backward): flip y and z.
+CV_FROM_MJ = np.diag([1.0, -1.0, -1.0])
+
+
+def vfov_from_hfov(hfov_deg: float, width: int, height: int) -> float:
+    """Return the vertical field of view (deg) matching a horizontal one for an image size."""
+    return math.degrees(2.0 * math.atan(math.tan(math.radians(hfov_deg) / 2.0) * height / width))
+
+
+def intrinsics(width: int, height: int, hfov_deg: float) -> np.ndarray:
+    """Return the 3x3 pinhole matrix K for square pixels and a centred principal point."""
+    fx = (width / 2.0) / math.tan(math.radians(hfov_deg) / 2.0)
+    return np.array([[fx, 0.0, width / 2.0], [0.0, fx, height / 2.0], [0.0, 0.0, 1.0]])
+
+
+def look_direction(yaw_deg: float, pitch_deg: float) -> np.ndarray:
+    """Return the unit forward vector for a yaw about +Z (0 = +X) and pitch (negative = down)."""
+    y, p = math.radians(yaw_deg), math.radians(pitch_deg)
+    return np.array([math.cos(p) * math.cos(y), math.cos(p) * math.sin(y), math.sin(p)])
+
+
+def pose_cv(position: np.ndarray, yaw_deg: float, pitch_deg: float) -> np.ndarray:
+    """Return T_cam (world <- OpenCV camera) for a camera at `position` looking along yaw/pitch."""
+    f = look_direction(yaw_deg, pitch_deg)
+    up = np.array([0.0, 0.0, 1.0])
+    right = np.cross(f, up)
+    n = np.linalg.norm(right)
+    right = right / n if n > 1e-9 else np.array([math.sin(math.radians(yaw_deg)), -math.cos(math.radians(yaw_deg)), 0.0])
+    down = np.cross(f, right)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2] = right, down, f
+    T[:3, 3] = np.asarray(position, dtype=float)
+    return T
+
+
+def yaw_quat(yaw_deg: float) -> np.ndarray:
+    """Return the wxyz quaternion of a rotation by `yaw_deg` about +Z."""
+    h = math.radians(yaw_deg) / 2.0
+    return np.array([math.cos(h), 0.0, 0.0, math.sin(h)])
+
+
+def quat_yaw(q: np.ndarray) -> float:
+    """Return the yaw (deg) about +Z of a wxyz quaternion."""
+    w, x, y, z = (float(v) for v in q)
+    return math.degrees(math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+
+
+def backproject(depth: np.ndarray, K: np.ndarray, T_cam: np.ndarray, mask: np.ndarray | None = None,
+                depth_min: float = 0.0, depth_max: float = np.inf) -> np.ndarray:
+    """Return world points (N, 3) of the valid depth pixels (optionally inside `mask`)."""
+    valid = (depth > max(depth_min, 0.0)) & (depth < depth_max) & np.isfinite(depth)
+    if mask is not None:
+        valid &= mask
+    v, u = np.nonzero(valid)
+    z = depth[v, u].astype(np.float64)
+    x = (u + 0.5 - K[0, 2]) * z / K[0, 0]
+    y = (v + 0.5 - K[1, 2]) * z / K[1, 1]
+    pc = np.stack([x, y, z], axis=1)
+    return pc @ T_cam[:3, :3].T + T_cam[:3, 3]
+
+
+def project(points: np.ndarray, K: np.ndarray, T_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return pixel coordinates (N, 2) and camera depths (N,) of world points."""
+    R, t = T_cam[:3, :3], T_cam[:3, 3]
+    pc = (np.asarray(points, dtype=float) - t) @ R
+    z = pc[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = K[0, 0] * pc[:, 0] / z + K[0, 2]
+        v = K[1, 1] * pc[:, 1] / z + K[1, 2]
+    return np.stack([u, v], axis=1), z
