@@ -176,6 +176,12 @@ class EpisodeConfig:
     min_start_distance: float = _p(1.0, "m", "minimum geodesic distance from start to goal")
     max_start_tries: int = _p(200, "-", "start pose draws per episode")
     success_distance: float = _p(0.1, "m", "success radius around view points")
+    viewpoint_step: float = _p(0.25, "m", "lattice step of view point candidates")
+    camera_height: float = _p(0.88, "m", "agent camera height above the floor")
+    hfov: float = _p(79.0, "deg", "agent camera horizontal field of view")
+    vis_width: int = _p(160, "px", "width of the visibility-check segmentation render")
+    vis_height: int = _p(120, "px", "height of the visibility-check segmentation render")
+    pitches: tuple[float, ...] = _p((-30.0, 0.0), "deg", "pitches tried after the one aimed at the object centre")
 
 
 @dataclass(frozen=True)
@@ -194,6 +200,11 @@ class NavConfig:
     obs_height: int = _p(480, "px", "agent camera height")
     depth_min: float = _p(0.5, "m", "agent depth sensor minimum")
     depth_max: float = _p(5.0, "m", "agent depth sensor maximum")
+    hfov: float = _p(79.0, "deg", "agent camera horizontal field of view")
+    agent_radius: float = _p(0.18, "m", "agent cylinder radius")
+    agent_height: float = _p(0.88, "m", "agent cylinder height (camera at the top)")
+    max_tilt: float = _p(60.0, "deg", "LOOK_UP/LOOK_DOWN camera pitch limit")
+    success_distance: float = _p(0.1, "m", "STOP within this geodesic distance of a view point succeeds")
 
 
 @dataclass(frozen=True)
