@@ -1,0 +1,155 @@
+"""ObjectNav episodes for one scene variant (paper section 3.5).
+
+Goals: every placed object body present in the composed model with at least one valid view point
+(objects nobody can see are dropped). For each category with goals: ``k_e`` episodes, each with a
+randomly chosen goal instance; the start is a navigable cell on that instance's floor whose grid
+geodesic distance to the category's nearest view point is finite and >= ``min_start_distance``
+(and finite to the chosen instance itself), with a uniformly random yaw. An episode's goals are all
+goal instances of its category (Habitat's ``goals_by_category``); its info gives the geodesic
+distance to the nearest view point, the Euclidean distance to that goal's centre and that goal.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..config import EpisodeConfig
+from ..records import Episode, Goal, NavMap, SceneVariant
+from ..sim.camera import yaw_quat
+from .geodesic import GeodesicField
+from .viewpoints import VisibilityChecker, floor_navmap, load_variant_model, object_box, object_view_points
+
+
+@dataclass
+class GoalReport:
+    """What happened to each placed object when building goals."""
+
+    kept: list[str]
+    dropped: dict[str, str]  # object_id -> reason
+
+
+def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path,
+                cfg: EpisodeConfig) -> tuple[list[Goal], dict[str, int], GoalReport]:
+    """Return the variant's valid goals, each goal's floor index, and a kept/dropped report."""
+    model, data = load_variant_model(variant, store_root)
+    goals: list[Goal] = []
+    floors: dict[str, int] = {}
+    dropped: dict[str, str] = {}
+    checker = VisibilityChecker(model, data, cfg)
+    try:
+        for p in sorted(variant.placements, key=lambda p: p.object_id):
+            box = object_box(model, data, p.object_id)
+            if box is None:
+                dropped[p.object_id] = "not in the composed model"
+                continue
+            nm = floor_navmap(navmaps, float(box.lo[2]))
+            if nm is None:
+                dropped[p.object_id] = "below every floor"
+                continue
+            vps = object_view_points(checker, nm, box, cfg)
+            if not vps:
+                dropped[p.object_id] = "no view point sees it"
+                continue
+            goals.append(Goal(object_id=p.object_id, category=p.category, position=box.center.copy(),
+                              view_points=vps, bounds=np.stack([box.lo, box.hi])))
+            floors[p.object_id] = nm.floor
+    finally:
+        checker.close()
+    return goals, floors, GoalReport([g.object_id for g in goals], dropped)
+
+
+def generate_episodes(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path,
+                      cfg: EpisodeConfig, seed: int) -> list[Episode]:
+    """Return k_e ObjectNav episodes per valid goal category of a variant (empty: no valid goals)."""
+    episodes, _report = generate_episodes_with_report(variant, navmaps, store_root, cfg, seed)
+    return episodes
+
+
+def generate_episodes_with_report(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path,
+                                  cfg: EpisodeConfig, seed: int) -> tuple[list[Episode], GoalReport]:
+    """Return the episodes of a variant and the goal report (which objects were dropped and why)."""
+    rng = np.random.default_rng(seed)
+    goals, floors, report = build_goals(variant, navmaps, store_root, cfg)
+    by_floor = {m.floor: m for m in navmaps}
+    by_cat: dict[str, list[Goal]] = {}
+    for g in goals:
+        by_cat.setdefault(g.category, []).append(g)
+    episodes: list[Episode] = []
+    for cat in sorted(by_cat):
+        cat_goals = by_cat[cat]
+        fields: dict[int, GeodesicField] = {}
+        goal_fields: dict[str, GeodesicField] = {}
+        for k in range(cfg.k_e):
+            chosen = cat_goals[int(rng.integers(len(cat_goals)))]
+            floor = floors[chosen.object_id]
+            nm = by_floor[floor]
+            if floor not in fields:
+                same_floor = [g for g in cat_goals if floors[g.object_id] == floor]
+                fields[floor] = GeodesicField(nm, np.concatenate([_vp_xy(g) for g in same_floor]))
+            if chosen.object_id not in goal_fields:
+                goal_fields[chosen.object_id] = GeodesicField(nm, _vp_xy(chosen))
+            start = _sample_start(rng, nm, fields[floor], goal_fields[chosen.object_id], cfg)
+            if start is None:
+                continue
+            xy, geo = start
+            start_pos = np.array([xy[0], xy[1], nm.height])
+            closest = _closest_goal(nm, xy, [g for g in cat_goals if floors[g.object_id] == floor])
+            yaw = float(rng.uniform(0.0, 360.0))
+            episodes.append(Episode(
+                episode_id=f"{variant.name}_{len(episodes):04d}", scene=variant.scene, variant=variant.name,
+                object_category=cat, start_position=start_pos, start_rotation=yaw_quat(yaw), goals=cat_goals,
+                geodesic_distance=float(geo), euclidean_distance=float(np.linalg.norm(closest.position - start_pos)),
+                closest_goal_object_id=closest.object_id, floor=floor))
+    return episodes, report
+
+
+def _vp_xy(goal: Goal) -> np.ndarray:
+    """Return the world XY of a goal's view points (N, 2)."""
+    return np.array([vp.position[:2] for vp in goal.view_points], dtype=float)
+
+
+def _sample_start(rng: np.random.Generator, nm: NavMap, cat_field: GeodesicField, goal_field: GeodesicField,
+                  cfg: EpisodeConfig) -> tuple[np.ndarray, float] | None:
+    """Draw a navigable start cell with finite geodesic distance >= min_start_distance, or None."""
+    ok = np.isfinite(cat_field.field) & (cat_field.field >= cfg.min_start_distance) & np.isfinite(goal_field.field) & nm.navigable
+    cells = np.argwhere(ok)
+    if len(cells) == 0:
+        return None
+    for _ in range(max(1, cfg.max_start_tries)):
+        rc = cells[int(rng.integers(len(cells)))]
+        geo = float(cat_field.field[rc[0], rc[1]])
+        if math.isfinite(geo):
+            return nm.cell_to_world(rc[None])[0], geo
+    return None
+
+
+def _closest_goal(nm: NavMap, xy: np.ndarray, goals: list[Goal]) -> Goal:
+    """Return the goal whose nearest view point is geodesically closest to a start point."""
+    best, best_d = goals[0], math.inf
+    for g in goals:
+        d = float(GeodesicField(nm, _vp_xy(g)).at(xy[None])[0])
+        if d < best_d:
+            best, best_d = g, d
+    return best
+
+
+def n_episodes_formula(k_s: int, k_v: int, n_c: float, k_e: int) -> float:
+    """Return the paper's dataset size N = k_s * k_v * n_c * k_e."""
+    return float(k_s) * float(k_v) * float(n_c) * float(k_e)
+
+
+def episode_report(episodes_by_variant: dict[str, list[Episode]], k_e: int) -> dict[str, float]:
+    """Return N = k_s*k_v*n_c*k_e (n_c = mean valid categories per variant) next to the actual count."""
+    variants = sorted(episodes_by_variant)
+    scenes = sorted({ep.scene for eps in episodes_by_variant.values() for ep in eps} |
+                    {v.rsplit("_v", 1)[0] for v in variants})
+    k_s = len(scenes)
+    k_v = len(variants) / k_s if k_s else 0.0
+    n_c = float(np.mean([len({e.object_category for e in episodes_by_variant[v]}) for v in variants])) if variants else 0.0
+    actual = sum(len(v) for v in episodes_by_variant.values())
+    return {"k_s": k_s, "k_v": k_v, "n_c": n_c, "k_e": k_e,
+            "N_formula": n_episodes_formula(k_s, k_v, n_c, k_e), "N_actual": actual}

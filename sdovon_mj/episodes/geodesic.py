@@ -1,0 +1,83 @@
+"""Grid geodesics on a NavMap: multi-source Dijkstra, 8-connected, sqrt(2) diagonals, no corner cutting."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from ..records import NavMap
+
+# (drow, dcol, cost in cells); a diagonal needs both orthogonal neighbours free (no corner cutting).
+_STEPS = ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2.0)), (1, -1, math.sqrt(2.0)))
+
+
+def _graph(navigable: np.ndarray):
+    """Return the sparse cell graph of the navigable cells and the cell -> node index map."""
+    nav = np.asarray(navigable, dtype=bool)
+    h, w = nav.shape
+    index = np.full((h, w), -1, dtype=np.int64)
+    index[nav] = np.arange(int(nav.sum()))
+    rows, cols, costs = [], [], []
+    for dr, dc, cost in _STEPS:
+        r0, r1 = max(0, -dr), h - max(0, dr)
+        c0, c1 = max(0, -dc), w - max(0, dc)
+        a = nav[r0:r1, c0:c1]
+        b = nav[r0 + dr:r1 + dr, c0 + dc:c1 + dc]
+        ok = a & b
+        if dr and dc:
+            ok &= nav[r0 + dr:r1 + dr, c0:c1] & nav[r0:r1, c0 + dc:c1 + dc]
+        ia = index[r0:r1, c0:c1][ok]
+        ib = index[r0 + dr:r1 + dr, c0 + dc:c1 + dc][ok]
+        rows += [ia, ib]
+        cols += [ib, ia]
+        costs += [np.full(len(ia), cost), np.full(len(ia), cost)]
+    n = int(nav.sum())
+    if rows:
+        g = coo_matrix((np.concatenate(costs), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+    else:
+        g = coo_matrix((n, n)).tocsr()
+    return g, index
+
+
+def distance_field(navigable: np.ndarray, sources: np.ndarray, resolution: float) -> np.ndarray:
+    """Return the (H, W) geodesic distance (metres) from the nearest source cell; inf where unreachable."""
+    nav = np.asarray(navigable, dtype=bool)
+    out = np.full(nav.shape, np.inf)
+    src = np.atleast_2d(np.asarray(sources, dtype=np.int64)).reshape(-1, 2)
+    g, index = _graph(nav)
+    h, w = nav.shape
+    inside = (src[:, 0] >= 0) & (src[:, 0] < h) & (src[:, 1] >= 0) & (src[:, 1] < w)
+    src = src[inside]
+    nodes = np.unique(index[src[:, 0], src[:, 1]]) if len(src) else np.zeros(0, dtype=np.int64)
+    nodes = nodes[nodes >= 0]
+    if len(nodes) == 0:
+        return out
+    d = dijkstra(g, directed=False, indices=nodes, min_only=True)
+    out[nav] = d * float(resolution)
+    return out
+
+
+class GeodesicField:
+    """Geodesic distances on one NavMap from a fixed set of world XY sources (e.g. a category's view points)."""
+
+    def __init__(self, navmap: NavMap, sources_xy: np.ndarray) -> None:
+        self.navmap = navmap
+        cells = navmap.world_to_cell(np.asarray(sources_xy, dtype=float).reshape(-1, 2)) if len(sources_xy) else np.zeros((0, 2), int)
+        self.field = distance_field(navmap.navigable, cells, navmap.resolution)
+
+    def at(self, xy: np.ndarray) -> np.ndarray:
+        """Return geodesic distances (N,) at world XY points; inf off the grid or unreachable."""
+        rc = self.navmap.world_to_cell(np.asarray(xy, dtype=float).reshape(-1, 2))
+        h, w = self.field.shape
+        ok = (rc[:, 0] >= 0) & (rc[:, 0] < h) & (rc[:, 1] >= 0) & (rc[:, 1] < w)
+        out = np.full(len(rc), np.inf)
+        out[ok] = self.field[rc[ok, 0], rc[ok, 1]]
+        return out
+
+
+def geodesic_distance(navmap: NavMap, start_xy: np.ndarray, goals_xy: np.ndarray) -> float:
+    """Return the grid geodesic distance (m) from a world XY point to the nearest of goals_xy."""
+    return float(GeodesicField(navmap, goals_xy).at(np.asarray(start_xy, dtype=float).reshape(1, 2))[0])

@@ -1,0 +1,202 @@
+"""Goal view points: navigable cells near a settled object from which the agent camera sees it.
+
+A candidate is a navigable cell (on a ``viewpoint_step`` lattice) whose centre lies within
+``viewpoint_radius`` of the object's XY bounding box. Cheap test first: MuJoCo rays from the camera
+to the object's centre and box corners; a candidate whose every ray is blocked by scene geometry
+is dropped without rendering. The kept test is the segmentation render: the object's pixel
+fraction must reach ``eta_gt`` at one of a few pitches (camera at agent height, yaw facing the
+object). View points are sorted by visible fraction, largest first, and capped.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import mujoco  # noqa: E402
+
+from ..config import EpisodeConfig
+from ..errors import InputError
+from ..records import NavMap, SceneVariant, ViewPoint
+from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from ..sim.camera import pose_cv, yaw_quat
+from ..sim.model import geom_segment_ids, object_segment_id, segment_image
+from ..sim.render import SceneRenderer
+
+
+@dataclass
+class ObjectBox:
+    """World axis-aligned box and centre of a placed object body."""
+
+    object_id: str
+    body: int
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @property
+    def center(self) -> np.ndarray:
+        """Return the box centre (3,)."""
+        return (self.lo + self.hi) / 2.0
+
+
+def load_variant_model(variant: SceneVariant, store_root: str | Path) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """Compile a variant's composed MJCF and set its settled qpos."""
+    path = Path(store_root) / variant.mjcf
+    if not variant.mjcf or not path.exists():
+        raise InputError(path, f"variant {variant.name}: composed MJCF not found")
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as e:
+        raise InputError(path, f"MJCF does not compile: {e}") from None
+    data = mujoco.MjData(model)
+    if variant.qpos is not None:
+        q = np.asarray(variant.qpos, dtype=float).ravel()
+        if q.size != model.nq:
+            raise InputError(path, f"variant {variant.name}: qpos has {q.size} values, model has nq={model.nq}")
+        data.qpos[:] = q
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def object_box(model: mujoco.MjModel, data: mujoco.MjData, object_id: str,
+               groups: tuple[int, ...] = (GROUP_OBJECT_VISUAL,)) -> ObjectBox | None:
+    """Return the world AABB of a body's visual geoms (None when the body is absent)."""
+    b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, object_id)
+    if b < 0:
+        return None
+    bodies = {b} | {i for i in range(model.nbody) if _descends(model, i, b)}
+    corners = []
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    for g in range(model.ngeom):
+        if int(model.geom_bodyid[g]) not in bodies:
+            continue
+        if groups and int(model.geom_group[g]) not in groups:
+            continue
+        c, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+        local = c[None, :] + signs * half[None, :]
+        R = data.geom_xmat[g].reshape(3, 3)
+        corners.append(local @ R.T + data.geom_xpos[g])
+    if not corners:
+        return None
+    pts = np.concatenate(corners)
+    return ObjectBox(object_id, b, pts.min(axis=0), pts.max(axis=0))
+
+
+def _descends(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
+    """Return whether `body` is a strict descendant of `ancestor`."""
+    while body > 0:
+        body = int(model.body_parentid[body])
+        if body == ancestor:
+            return True
+    return False
+
+
+def candidate_cells(navmap: NavMap, box: ObjectBox, radius: float, step: float) -> np.ndarray:
+    """Return navigable (row, col) cells on a `step` lattice within `radius` of the box's XY footprint."""
+    lo, hi = box.lo[:2] - radius, box.hi[:2] + radius
+    stride = max(1, int(round(step / navmap.resolution)))
+    h, w = navmap.navigable.shape
+    rc_lo = navmap.world_to_cell(lo[None])[0]
+    rc_hi = navmap.world_to_cell(hi[None])[0]
+    # Anchor the lattice to the grid (not to the box), so nearby objects share cells.
+    r0 = max(0, int(math.ceil(rc_lo[0] / stride)) * stride)
+    c0 = max(0, int(math.ceil(rc_lo[1] / stride)) * stride)
+    rows = np.arange(r0, min(h - 1, rc_hi[0]) + 1, stride)
+    cols = np.arange(c0, min(w - 1, rc_hi[1]) + 1, stride)
+    if len(rows) == 0 or len(cols) == 0:
+        return np.zeros((0, 2), dtype=int)
+    rr, cc = np.meshgrid(rows, cols, indexing="ij")
+    cells = np.stack([rr.ravel(), cc.ravel()], axis=1)
+    cells = cells[navmap.navigable[cells[:, 0], cells[:, 1]]]
+    xy = navmap.cell_to_world(cells)
+    dx = np.maximum(np.maximum(box.lo[0] - xy[:, 0], 0.0), xy[:, 0] - box.hi[0])
+    dy = np.maximum(np.maximum(box.lo[1] - xy[:, 1], 0.0), xy[:, 1] - box.hi[1])
+    return cells[np.hypot(dx, dy) <= radius]
+
+
+def facing(camera: np.ndarray, target: np.ndarray) -> tuple[float, float]:
+    """Return (yaw, pitch) in degrees pointing a camera at a target."""
+    d = np.asarray(target, float) - np.asarray(camera, float)
+    yaw = math.degrees(math.atan2(d[1], d[0]))
+    pitch = math.degrees(math.atan2(d[2], math.hypot(d[0], d[1])))
+    return yaw, pitch
+
+
+class VisibilityChecker:
+    """Renders segmentation from agent camera poses and measures an object's pixel fraction."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, cfg: EpisodeConfig) -> None:
+        self.model, self.data, self.cfg = model, data, cfg
+        self.renderer = SceneRenderer(model, data, width=cfg.vis_width, height=cfg.vis_height, hfov=cfg.hfov,
+                                      groups=(GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL))
+        self.lut = geom_segment_ids(model)
+        self._scene_groups = np.zeros(6, dtype=np.uint8)
+        for g in (GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL):
+            self._scene_groups[g] = 1
+
+    def close(self) -> None:
+        """Free the renderer."""
+        self.renderer.close()
+
+    def rays_clear(self, camera: np.ndarray, box: ObjectBox) -> bool:
+        """Return whether any ray from the camera to the box centre or corners reaches the object first."""
+        lo, hi = box.lo, box.hi
+        targets = [box.center] + [np.array([x, y, z]) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        geomid = np.zeros(1, dtype=np.int32)
+        for t in targets:
+            t = box.center + 0.9 * (np.asarray(t) - box.center)  # just inside the box
+            vec = t - camera
+            dist = float(np.linalg.norm(vec))
+            if dist < 1e-6:
+                return True
+            d = mujoco.mj_ray(self.model, self.data, camera, vec / dist, self._scene_groups, 1, -1, geomid)
+            if d < 0 or d >= dist - 1e-3:
+                return True
+            hit_body = int(self.model.geom_bodyid[geomid[0]])
+            if hit_body == box.body or _descends(self.model, hit_body, box.body):
+                return True
+        return False
+
+    def visible_fraction(self, camera: np.ndarray, box: ObjectBox) -> tuple[float, float, float]:
+        """Return (best pixel fraction, yaw, pitch) of the object seen from a camera position."""
+        yaw, pitch0 = facing(camera, box.center)
+        seg_id = object_segment_id(box.object_id)
+        best = (0.0, yaw, pitch0)
+        pitches = [float(np.clip(pitch0, -80.0, 80.0))] + [float(p) for p in self.cfg.pitches]
+        for k, pitch in enumerate(dict.fromkeys(round(p, 6) for p in pitches)):
+            frame = self.renderer.render(pose_cv(camera, yaw, pitch), rgb=False, depth=False, segmentation=True)
+            seg = segment_image(frame.segmentation, self.lut)
+            frac = float(np.count_nonzero(seg == seg_id)) / seg.size
+            if frac > best[0]:
+                best = (frac, yaw, pitch)
+            if frac >= self.cfg.eta_gt and k == 0:
+                break  # the pitch aimed at the centre already sees it
+        return best
+
+
+def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBox, cfg: EpisodeConfig) -> list[ViewPoint]:
+    """Return the valid view points of one object on one floor, best visible fraction first."""
+    cells = candidate_cells(navmap, box, cfg.viewpoint_radius, cfg.viewpoint_step)
+    out: list[tuple[float, ViewPoint]] = []
+    for xy in navmap.cell_to_world(cells):
+        cam = np.array([xy[0], xy[1], navmap.height + cfg.camera_height])
+        if not checker.rays_clear(cam, box):
+            continue
+        frac, yaw, _pitch = checker.visible_fraction(cam, box)
+        if frac >= cfg.eta_gt:
+            vp = ViewPoint(position=np.array([xy[0], xy[1], navmap.height]), rotation=yaw_quat(yaw), visible_fraction=frac)
+            out.append((frac, vp))
+    out.sort(key=lambda t: (-t[0], float(t[1].position[0]), float(t[1].position[1])))
+    return [vp for _f, vp in out[: cfg.max_viewpoints]]
+
+
+def floor_navmap(navmaps: list[NavMap], z: float) -> NavMap | None:
+    """Return the navmap of the floor an object at height z stands over (highest floor below it)."""
+    below = [m for m in navmaps if m.height <= z + 0.05]
+    return max(below, key=lambda m: m.height) if below else None
