@@ -1,0 +1,182 @@
+"""Occupancy-grid helpers on NavMap-aligned grids: cell graphs, geodesic fields, free segments, erosion.
+
+Grids follow `records.NavMap`: cell (i, j) centre = origin + ((j + .5) * res, (i + .5) * res); rows
+grow with world Y, columns with world X. Graphs are 8-connected with sqrt(2) diagonals and no corner
+cutting (a diagonal needs both orthogonal neighbours free).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from ..records import NavMap
+
+# (drow, dcol, cost in cells) for the 4 "forward" neighbour directions; the graph adds both ways.
+_STEPS = ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2.0)), (1, -1, math.sqrt(2.0)))
+NEIGHBOURS8 = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
+
+
+@dataclass
+class GridFrame:
+    """Placement of a grid in the world: origin (world XY of the corner) and resolution (m)."""
+
+    origin: np.ndarray
+    resolution: float
+    shape: tuple[int, int]
+
+    @classmethod
+    def of(cls, navmap: NavMap) -> "GridFrame":
+        """Return the frame of a NavMap."""
+        return cls(np.asarray(navmap.origin, dtype=float), float(navmap.resolution), tuple(navmap.navigable.shape))
+
+    def to_cell(self, xy: np.ndarray) -> np.ndarray:
+        """Return (row, col) cells (N, 2) of world XY points (N, 2)."""
+        xy = np.atleast_2d(np.asarray(xy, dtype=float))
+        col = np.floor((xy[:, 0] - self.origin[0]) / self.resolution).astype(np.int64)
+        row = np.floor((xy[:, 1] - self.origin[1]) / self.resolution).astype(np.int64)
+        return np.stack([row, col], axis=1)
+
+    def to_world(self, cells: np.ndarray) -> np.ndarray:
+        """Return world XY centres (N, 2) of (row, col) cells."""
+        c = np.atleast_2d(np.asarray(cells, dtype=float))
+        return np.stack([self.origin[0] + (c[:, 1] + 0.5) * self.resolution,
+                         self.origin[1] + (c[:, 0] + 0.5) * self.resolution], axis=1)
+
+    def inside(self, cells: np.ndarray) -> np.ndarray:
+        """Return whether cells (N, 2) lie on the grid."""
+        c = np.atleast_2d(cells)
+        return (c[:, 0] >= 0) & (c[:, 0] < self.shape[0]) & (c[:, 1] >= 0) & (c[:, 1] < self.shape[1])
+
+
+def lookup(mask: np.ndarray, frame: GridFrame, xy: np.ndarray) -> np.ndarray:
+    """Return mask values (N,) at world XY points; False off the grid."""
+    rc = frame.to_cell(xy)
+    ok = frame.inside(rc)
+    out = np.zeros(len(rc), dtype=bool)
+    out[ok] = mask[rc[ok, 0], rc[ok, 1]]
+    return out
+
+
+def segment_free(mask: np.ndarray, frame: GridFrame, a: np.ndarray, b: np.ndarray, step: float | None = None) -> bool:
+    """Return whether every sample of the straight segment a -> b (world XY) lies on True cells."""
+    a, b = np.asarray(a, dtype=float)[:2], np.asarray(b, dtype=float)[:2]
+    step = frame.resolution / 2.0 if step is None else step
+    n = max(1, int(math.ceil(np.linalg.norm(b - a) / step)))
+    t = np.linspace(0.0, 1.0, n + 1)[:, None]
+    return bool(lookup(mask, frame, a[None] + t * (b - a)[None]).all())
+
+
+def erode(mask: np.ndarray, radius: float, resolution: float) -> np.ndarray:
+    """Return the cells whose disc of `radius` (m) lies inside `mask` (off-grid counts as blocked)."""
+    blocked = ~np.asarray(mask, dtype=bool)
+    padded = np.pad(blocked, 1, constant_values=True)
+    dist = ndimage.distance_transform_edt(~padded)[1:-1, 1:-1] * resolution
+    return dist > radius
+
+
+def dilate(mask: np.ndarray, radius: float, resolution: float) -> np.ndarray:
+    """Return the cells within `radius` (m) of a True cell."""
+    m = np.asarray(mask, dtype=bool)
+    if not m.any():
+        return m.copy()
+    return ndimage.distance_transform_edt(~m) * resolution <= radius
+
+
+def nearest_true(mask: np.ndarray, cell: np.ndarray) -> np.ndarray | None:
+    """Return the True cell nearest (Euclidean) to `cell`, or None when the mask is empty."""
+    m = np.asarray(mask, dtype=bool)
+    if not m.any():
+        return None
+    r, c = int(np.clip(cell[0], 0, m.shape[0] - 1)), int(np.clip(cell[1], 0, m.shape[1] - 1))
+    if m[r, c]:
+        return np.array([r, c])
+    _, idx = ndimage.distance_transform_edt(~m, return_indices=True)
+    return np.array([idx[0][r, c], idx[1][r, c]])
+
+
+def cell_graph(mask: np.ndarray) -> tuple[csr_matrix, np.ndarray]:
+    """Return the 8-connected graph (costs in cells) of the True cells and the cell -> node index map."""
+    nav = np.asarray(mask, dtype=bool)
+    h, w = nav.shape
+    index = np.full((h, w), -1, dtype=np.int64)
+    n = int(nav.sum())
+    index[nav] = np.arange(n)
+    rows, cols, costs = [], [], []
+    for dr, dc, cost in _STEPS:
+        r0, r1 = max(0, -dr), h - max(0, dr)
+        c0, c1 = max(0, -dc), w - max(0, dc)
+        ok = nav[r0:r1, c0:c1] & nav[r0 + dr:r1 + dr, c0 + dc:c1 + dc]
+        if dr and dc:
+            ok &= nav[r0 + dr:r1 + dr, c0:c1] & nav[r0:r1, c0 + dc:c1 + dc]
+        ia = index[r0:r1, c0:c1][ok]
+        ib = index[r0 + dr:r1 + dr, c0 + dc:c1 + dc][ok]
+        rows += [ia, ib]
+        cols += [ib, ia]
+        costs += [np.full(len(ia), cost), np.full(len(ia), cost)]
+    g = coo_matrix((np.concatenate(costs), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+    return g, index
+
+
+class GeodesicField:
+    """Geodesic distance (m) on a grid to the nearest of a set of world XY targets.
+
+    Targets enter through a virtual source linked to each target's cell with the exact Euclidean
+    offset to the cell centre; queries add the offset from the query point to the best neighbouring
+    cell centre, and use the straight distance when the segment to a target is free. So distances
+    are exact on open floor and grid-geodesic around obstacles.
+    """
+
+    def __init__(self, mask: np.ndarray, frame: GridFrame, targets_xy: np.ndarray,
+                 graph: tuple[csr_matrix, np.ndarray] | None = None) -> None:
+        self.mask = np.asarray(mask, dtype=bool)
+        self.frame = frame
+        self.targets = np.atleast_2d(np.asarray(targets_xy, dtype=float))[:, :2] if len(targets_xy) else np.zeros((0, 2))
+        g, index = graph if graph is not None else cell_graph(self.mask)
+        n = g.shape[0]
+        self.field = np.full(self.mask.shape, np.inf)
+        cells = frame.to_cell(self.targets) if len(self.targets) else np.zeros((0, 2), np.int64)
+        ok = frame.inside(cells)
+        nodes = np.full(len(cells), -1, dtype=np.int64)
+        nodes[ok] = index[cells[ok, 0], cells[ok, 1]]
+        keep = nodes >= 0
+        if not keep.any() or n == 0:
+            return
+        offs = np.linalg.norm(self.targets[keep] - frame.to_world(cells[keep]), axis=1) / frame.resolution
+        g2 = g.tocoo()
+        rows = np.concatenate([g2.row, np.full(int(keep.sum()), n)])
+        cols = np.concatenate([g2.col, nodes[keep]])
+        vals = np.concatenate([g2.data, offs + 1e-9])
+        big = coo_matrix((vals, (rows, cols)), shape=(n + 1, n + 1)).tocsr()
+        d = dijkstra(big, directed=True, indices=n)
+        self.field[self.mask] = d[:n] * frame.resolution
+
+    def distance(self, xy: np.ndarray) -> float:
+        """Return the geodesic distance (m) from a world XY point to the nearest target; inf if unreachable."""
+        p = np.asarray(xy, dtype=float)[:2]
+        if len(self.targets) == 0:
+            return math.inf
+        best = math.inf
+        eu = np.linalg.norm(self.targets - p[None], axis=1)
+        for k in np.argsort(eu)[:8]:
+            if eu[k] >= best:
+                break
+            if eu[k] < 2.0 and segment_free(self.mask, self.frame, p, self.targets[k]):
+                best = float(eu[k])
+                break
+        rc = self.frame.to_cell(p[None])[0]
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                c = np.array([rc[0] + dr, rc[1] + dc])
+                if not self.frame.inside(c[None])[0] or not self.mask[c[0], c[1]]:
+                    continue
+                centre = self.frame.to_world(c[None])[0]
+                if (dr or dc) and not segment_free(self.mask, self.frame, p, centre):
+                    continue
+                best = min(best, float(self.field[c[0], c[1]] + np.linalg.norm(centre - p)))
+        return best

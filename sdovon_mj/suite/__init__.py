@@ -1,0 +1,88 @@
+"""dm_control-style ObjectNav task suite over MJCF episode bundles.
+
+    from sdovon_mj import suite
+    env = suite.load("objectnav", task_kwargs={"bundle": "out/mjcf/apt_0000_v000"})
+    ts = env.reset(); ts = env.step(suite.MOVE_FORWARD)
+
+Tasks (tagged like `dm_control.suite`): ``objectnav`` (rgb+depth, 640x480), ``objectnav_semantic``
+(adds segmentation), ``objectnav_small`` (128x128, for fast training loops) and ``fixture`` (the
+built-in two-room apartment, written to a cache folder; needs no dataset).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from dm_control.rl import control
+from dm_control.utils import containers
+
+from .bundle import Bundle, find_bundles, load_bundle
+from .objectnav import (ACTION_NAMES, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, ObjectNavTask,
+                        Physics, build_model, make_environment)
+
+SUITE = containers.TaggedTasks()
+
+__all__ = ["SUITE", "ALL_TASKS", "BENCHMARKING", "load", "make_environment", "Bundle", "find_bundles", "load_bundle",
+           "ObjectNavTask", "Physics", "build_model", "ACTION_NAMES", "STOP", "MOVE_FORWARD", "TURN_LEFT",
+           "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN", "fixture_bundle"]
+
+
+def _bundle_arg(bundle: Any) -> Any:
+    if bundle is None:
+        raise TypeError("this task needs task_kwargs={'bundle': <variant folder>}")
+    if isinstance(bundle, Bundle):
+        return bundle
+    return find_bundles(bundle)[0] if not (Path(bundle) / "episodes.json").exists() else bundle
+
+
+@SUITE.add("benchmarking", "rgbd")
+def objectnav(bundle: Any = None, environment_kwargs: dict | None = None, **task_kwargs: Any) -> control.Environment:
+    """ObjectNav with rgb + depth at 640x480, gps, compass, object goal."""
+    return make_environment(_bundle_arg(bundle), **task_kwargs, **(environment_kwargs or {}))
+
+
+@SUITE.add("benchmarking", "rgbd", "semantic")
+def objectnav_semantic(bundle: Any = None, environment_kwargs: dict | None = None, **task_kwargs: Any) -> control.Environment:
+    """ObjectNav with rgb + depth + semantic segmentation at 640x480."""
+    task_kwargs.setdefault("semantic", True)
+    return make_environment(_bundle_arg(bundle), **task_kwargs, **(environment_kwargs or {}))
+
+
+@SUITE.add("rgbd", "small")
+def objectnav_small(bundle: Any = None, environment_kwargs: dict | None = None, **task_kwargs: Any) -> control.Environment:
+    """ObjectNav with rgb + depth at 128x128."""
+    task_kwargs.setdefault("width", 128)
+    task_kwargs.setdefault("height", 128)
+    return make_environment(_bundle_arg(bundle), **task_kwargs, **(environment_kwargs or {}))
+
+
+def fixture_bundle(root: str | Path | None = None, variants: int = 2, seed: int = 0) -> Path:
+    """Return the folder of the built-in fixture dataset, writing it on first use."""
+    from .fixture import build_fixture
+
+    root = Path(root) if root else Path(os.environ.get("SDOVON_CACHE", Path(tempfile.gettempdir()) / "sdovon_mj_cache")) / f"fixture_s{seed}_v{variants}"
+    if not all((root / f"fixture_apartment_v{v:03d}" / "episodes.json").exists() for v in range(variants)):
+        build_fixture(root, variants=variants, seed=seed)
+    return root
+
+
+@SUITE.add("fixture", "rgbd")
+def fixture(bundle: Any = None, environment_kwargs: dict | None = None, **task_kwargs: Any) -> control.Environment:
+    """ObjectNav in the built-in two-room apartment (no dataset needed)."""
+    b = bundle or (fixture_bundle() / "fixture_apartment_v000")
+    return make_environment(b, **task_kwargs, **(environment_kwargs or {}))
+
+
+ALL_TASKS = tuple(sorted(SUITE.keys()))
+BENCHMARKING = tuple(sorted(SUITE.tagged("benchmarking")))
+TASKS_BY_TAG = {tag: tuple(sorted(SUITE.tagged(tag))) for tag in ("benchmarking", "rgbd", "semantic", "small", "fixture")}
+
+
+def load(task_name: str, task_kwargs: dict | None = None, environment_kwargs: dict | None = None) -> control.Environment:
+    """Return the environment of a registered task (like `dm_control.suite.load`, without a domain)."""
+    if task_name not in SUITE:
+        raise ValueError(f"unknown task {task_name!r} (known: {', '.join(ALL_TASKS)})")
+    return SUITE[task_name](environment_kwargs=environment_kwargs, **(task_kwargs or {}))

@@ -1,0 +1,136 @@
+"""Reading MJCF episode bundles: one folder per scene variant with its MJCF, episodes and navmap.
+
+Layout read (exporters/mjcf_bundle writes it; the fixture builder in `fixture.py` writes the same):
+
+    <variant>/
+      <name>.xml              scene + objects MJCF, loads from any cwd (asset paths relative to it)
+      episodes.json           list of records.Episode (MuJoCo frame)
+      navmap*.json            records.NavMap (one per floor; floor 0 first)
+      scene*.json             optional records.SceneAsset (instance labels, rooms)
+      relevance.json          optional records.Relevance (for Semantic A*)
+      region_map*.json        optional records.RegionMap (for Semantic A*)
+
+A dataset is a folder of such variant folders (or one variant folder itself).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import InputError
+from ..records import Episode, NavMap, RecordError, RegionMap, Relevance, SceneAsset, load_json
+
+EPISODES = "episodes.json"
+
+
+@dataclass
+class Bundle:
+    """One loaded variant folder."""
+
+    root: Path
+    mjcf: Path
+    episodes: list[Episode]
+    navmaps: list[NavMap]
+    scene: SceneAsset | None = None
+    relevance: Relevance | None = None
+    region_maps: list[RegionMap] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        """Return the variant's folder name."""
+        return self.root.name
+
+    def navmap(self, floor: int = 0) -> NavMap:
+        """Return the navmap of a floor (the first one if the floor is unknown)."""
+        for nm in self.navmaps:
+            if nm.floor == floor:
+                return nm
+        return self.navmaps[0]
+
+    def region_map(self, floor: int = 0) -> RegionMap | None:
+        """Return the region map of a floor, if the bundle has one."""
+        for rm in self.region_maps:
+            if rm.floor == floor:
+                return rm
+        return self.region_maps[0] if self.region_maps else None
+
+    def instance_labels(self) -> dict[int, str]:
+        """Return scene instance id -> label from the scene record (empty without one)."""
+        return {int(i.id): i.label for i in self.scene.instances} if self.scene else {}
+
+    def categories(self) -> list[str]:
+        """Return the sorted goal categories of the episodes."""
+        return sorted({e.object_category for e in self.episodes})
+
+
+def find_bundles(root: str | Path) -> list[Path]:
+    """Return the variant folders under a dataset folder (sorted), or the folder itself."""
+    root = Path(root)
+    if not root.is_dir():
+        raise InputError(root, "dataset folder not found")
+    if (root / EPISODES).exists():
+        return [root]
+    found = sorted(p.parent for p in root.rglob(EPISODES))
+    if not found:
+        raise InputError(root, f"no {EPISODES} under this folder: not an MJCF episode bundle")
+    return found
+
+
+def _load(path: Path, cls: type):
+    try:
+        return load_json(path, cls)
+    except (RecordError, json.JSONDecodeError) as e:
+        raise InputError(path, f"not a valid {cls.__name__} file ({e})") from None
+
+
+def _find_mjcf(root: Path) -> Path:
+    xmls = sorted(p for p in root.glob("*.xml") if p.is_file())
+    if not xmls:
+        raise InputError(root, "no MJCF (*.xml) in this bundle folder")
+    for pref in (f"{root.name}.xml", "scene.xml", "variant.xml", "model.xml"):
+        for p in xmls:
+            if p.name == pref:
+                return p
+    for p in xmls:
+        head = p.read_text(encoding="utf-8", errors="replace")[:2000]
+        if "<mujoco" in head and "<worldbody" in p.read_text(encoding="utf-8", errors="replace"):
+            return p
+    return xmls[0]
+
+
+def load_bundle(path: str | Path) -> Bundle:
+    """Load one variant folder: MJCF path, episodes, navmaps and optional semantics."""
+    root = Path(path).resolve()
+    ep_path = root / EPISODES
+    if not ep_path.exists():
+        raise InputError(root, f"bundle folder lacks {EPISODES}")
+    episodes = _load(ep_path, Episode)
+    if not isinstance(episodes, list):
+        raise InputError(ep_path, "expected a list of Episode records")
+    nav_paths = sorted(root.glob("navmap*.json")) or sorted(root.glob("*navmap*.json"))
+    if not nav_paths:
+        raise InputError(root, "bundle folder lacks a navmap*.json (records.NavMap)")
+    navmaps = []
+    for p in nav_paths:
+        nm = _load(p, NavMap)
+        navmaps.extend(nm if isinstance(nm, list) else [nm])
+    navmaps.sort(key=lambda n: n.floor)
+    scene = None
+    for p in sorted(root.glob("scene*.json")):
+        try:
+            scene = load_json(p, SceneAsset)
+            break
+        except (RecordError, json.JSONDecodeError, TypeError, ValueError):
+            continue
+    relevance = None
+    for p in (root / "relevance.json", root.parent / "relevance.json"):
+        if p.exists():
+            relevance = _load(p, Relevance)
+            break
+    region_maps: list[RegionMap] = []
+    for p in sorted(root.glob("region_map*.json")):
+        rm = _load(p, RegionMap)
+        region_maps.extend(rm if isinstance(rm, list) else [rm])
+    return Bundle(root, _find_mjcf(root), episodes, navmaps, scene, relevance, region_maps)

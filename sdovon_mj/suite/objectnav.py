@@ -1,0 +1,343 @@
+"""The dm_control ObjectNav task: a kinematic cylinder agent in an MJCF episode bundle.
+
+Design (research/mjcf_and_dmcontrol.md section 4):
+- The bundle's MJCF is loaded with MjSpec and gets a mocap body ``agent`` (a 0.18 m x 0.88 m
+  cylinder, geom group 5, no contacts) carrying the camera ``agent/camera`` at the top, so
+  ``physics.render(camera_id="agent/camera")`` shows the agent's view too.
+- Collision: the scene is visual-only (contype 0), so, as Habitat does with its navmesh, the agent's
+  base must stay on the bundle's navigable grid (free space eroded by the agent radius). A forward
+  move is taken only when the whole 0.25 m segment is navigable; otherwise the agent stays (Habitat's
+  ``allow_sliding: false``).
+- Moves are kinematic: ``Physics.step`` runs forward kinematics only, objects never integrate.
+- Observations are rendered by a `sim.render.SceneRenderer` on the physics' own model/data (shadows
+  and multisampling off), which is ~6x faster than dm_control's default ``physics.render``.
+- Metrics follow habitat-lab (``sdovon_mj.metrics``): distance to goal is the grid geodesic to the
+  nearest view point; success = STOP with d < success_distance; SPL; Soft SPL.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import mujoco  # noqa: E402
+from dm_control import mujoco as dm_mujoco  # noqa: E402
+from dm_control.mujoco import wrapper as dm_wrapper  # noqa: E402
+from dm_control.rl import control  # noqa: E402
+from dm_env import specs  # noqa: E402
+
+from .. import metrics as M  # noqa: E402
+from ..config import NavConfig  # noqa: E402
+from ..errors import InputError  # noqa: E402
+from ..records import Episode  # noqa: E402
+from ..sim import GROUP_AGENT  # noqa: E402
+from ..sim.camera import intrinsics, pose_cv, quat_yaw, vfov_from_hfov  # noqa: E402
+from ..sim.model import geom_segment_ids, object_segment_id, segment_image  # noqa: E402
+from ..sim.render import SceneRenderer  # noqa: E402
+from ..nav.grid import GeodesicField, GridFrame, cell_graph, lookup, segment_free  # noqa: E402
+from .bundle import Bundle, load_bundle  # noqa: E402
+
+STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN = range(6)
+ACTION_NAMES = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN")
+_CAM_BASE = np.array([0.5, 0.5, -0.5, -0.5])  # body +X forward -> MuJoCo camera looking along +X
+
+
+def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
+def build_model(mjcf: str | Path, nav: NavConfig = NavConfig()) -> mujoco.MjModel:
+    """Compile a bundle MJCF with the agent's mocap body, cylinder and camera added."""
+    try:
+        spec = mujoco.MjSpec.from_file(str(mjcf))
+    except Exception as e:  # MuJoCo raises ValueError with the parser message
+        raise InputError(mjcf, f"MJCF does not load: {e}") from None
+    body = spec.worldbody.add_body(name="agent", mocap=True)
+    body.add_geom(name="agent/body", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                  size=[nav.agent_radius, nav.agent_height / 2.0, 0.0], pos=[0, 0, nav.agent_height / 2.0],
+                  contype=0, conaffinity=0, group=GROUP_AGENT, rgba=[0.2, 0.4, 0.9, 0.5])
+    body.add_camera(name="agent/camera", pos=[0, 0, nav.agent_height], quat=list(_CAM_BASE),
+                    fovy=vfov_from_hfov(nav.hfov, nav.obs_width, nav.obs_height))
+    try:
+        return spec.compile()
+    except Exception as e:
+        raise InputError(mjcf, f"MJCF does not compile: {e}") from None
+
+
+class Physics(dm_mujoco.Physics):
+    """Kinematic physics: stepping runs forward kinematics only (objects stay where they settled)."""
+
+    def step(self, n_sub_steps: int = 1) -> None:  # noqa: ARG002 - dm_control signature
+        """Update positions of everything (the agent is moved by the task)."""
+        mujoco.mj_kinematics(self.model.ptr, self.data.ptr)
+        mujoco.mj_camlight(self.model.ptr, self.data.ptr)
+
+
+@dataclass
+class AgentState:
+    """The agent's base position (on the floor), heading and camera pitch (deg)."""
+
+    position: np.ndarray
+    yaw: float
+    pitch: float = 0.0
+
+
+class ObjectNavTask(control.Task):
+    """ObjectNav on one bundle: discrete actions, RGB-D(+seg), GPS+compass, object goal; habitat metrics."""
+
+    def __init__(self, bundle: Bundle, nav: NavConfig = NavConfig(), semantic: bool = False,
+                 episode_order: str = "sequential", random: int | np.random.Generator | None = None,
+                 categories: list[str] | None = None, pose_observations: bool = True) -> None:
+        if not bundle.episodes:
+            raise InputError(bundle.root, "bundle has no episodes")
+        self.bundle = bundle
+        self.nav = nav
+        self.semantic = semantic
+        self.pose_observations = pose_observations
+        self.episode_order = episode_order
+        self.random = random if isinstance(random, np.random.Generator) else np.random.default_rng(random)
+        self.categories = sorted(categories or bundle.categories())
+        self.K = intrinsics(nav.obs_width, nav.obs_height, nav.hfov)
+        self._renderer: SceneRenderer | None = None
+        self._lut: np.ndarray | None = None
+        self._graphs: dict[int, tuple] = {}
+        self._next_index = 0
+        self.render_frames = True
+        self.episode: Episode = bundle.episodes[0]
+        self.state = AgentState(np.zeros(3), 0.0)
+        self.frame_mask: np.ndarray | None = None
+
+    # -- episodes --------------------------------------------------------------------------------
+
+    def set_next_episode(self, index: int) -> None:
+        """Make the next reset start the episode with this index."""
+        self._next_index = int(index) % len(self.bundle.episodes)
+
+    @property
+    def num_episodes(self) -> int:
+        """Return the number of episodes in the bundle."""
+        return len(self.bundle.episodes)
+
+    def initialize_episode(self, physics: Physics) -> None:
+        """Pick the next episode, place the agent at its start and reset the metrics."""
+        if physics.model.nkey > 0:
+            mujoco.mj_resetDataKeyframe(physics.model.ptr, physics.data.ptr, 0)
+        if self.episode_order == "random":
+            idx = int(self.random.integers(len(self.bundle.episodes)))
+        else:
+            idx = self._next_index
+            self._next_index = (self._next_index + 1) % len(self.bundle.episodes)
+        self.episode_index = idx
+        self.episode = ep = self.bundle.episodes[idx]
+        self.navmap = self.bundle.navmap(ep.floor)
+        self.frame = GridFrame.of(self.navmap)
+        if ep.floor not in self._graphs:
+            self._graphs[ep.floor] = cell_graph(self.navmap.navigable)
+        vps = [vp.position for g in ep.goals for vp in g.view_points]
+        self.view_points = np.array(vps, dtype=float).reshape(-1, 3)
+        self.geodesic = GeodesicField(self.navmap.navigable, self.frame, self.view_points[:, :2], self._graphs[ep.floor])
+        self.state = AgentState(np.asarray(ep.start_position, dtype=float).copy(), quat_yaw(ep.start_rotation), 0.0)
+        self.start = AgentState(self.state.position.copy(), self.state.yaw, 0.0)
+        self.goal_segment_ids = np.array(sorted(object_segment_id(g.object_id) for g in ep.goals), dtype=np.int64)
+        self.stop_called = False
+        self.steps = 0
+        self.collisions = 0
+        self.trajectory = [self.state.position.copy()]
+        self.shortest = self.geodesic.distance(self.state.position)
+        self.distance = self.shortest
+        self._prev_distance = self.distance
+        self._apply_agent(physics)
+
+    # -- dynamics --------------------------------------------------------------------------------
+
+    def _apply_agent(self, physics: Physics) -> None:
+        """Write the agent state to the mocap body and camera, then update kinematics."""
+        m, d = physics.model.ptr, physics.data.ptr
+        bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "agent")
+        mid = int(m.body_mocapid[bid])
+        h = math.radians(self.state.yaw) / 2.0
+        d.mocap_pos[mid] = self.state.position
+        d.mocap_quat[mid] = [math.cos(h), 0.0, 0.0, math.sin(h)]
+        cid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "agent/camera")
+        p = math.radians(self.state.pitch) / 2.0
+        m.cam_quat[cid] = _qmul(np.array([math.cos(p), 0.0, -math.sin(p), 0.0]), _CAM_BASE)
+        physics.step()
+
+    def can_stand(self, xy: np.ndarray) -> bool:
+        """Return whether the agent's base may stand at a world XY point."""
+        return bool(lookup(self.navmap.navigable, self.frame, np.asarray(xy, float)[None, :2])[0])
+
+    def before_step(self, action, physics: Physics) -> None:
+        """Apply one discrete action kinematically (collision: the base stays on navigable cells)."""
+        a = int(np.asarray(action).reshape(-1)[0])
+        if not 0 <= a < len(ACTION_NAMES):
+            raise ValueError(f"action {a} outside 0..{len(ACTION_NAMES) - 1}")
+        s = self.state
+        if a == STOP:
+            self.stop_called = True
+        elif a == MOVE_FORWARD:
+            yaw = math.radians(s.yaw)
+            new = s.position + self.nav.forward_step * np.array([math.cos(yaw), math.sin(yaw), 0.0])
+            if segment_free(self.navmap.navigable, self.frame, s.position, new):
+                s.position = new
+            else:
+                self.collisions += 1
+        elif a == TURN_LEFT:
+            s.yaw = (s.yaw + self.nav.turn_angle + 180.0) % 360.0 - 180.0
+        elif a == TURN_RIGHT:
+            s.yaw = (s.yaw - self.nav.turn_angle + 180.0) % 360.0 - 180.0
+        elif a == LOOK_UP:
+            s.pitch = min(self.nav.max_tilt, s.pitch + self.nav.tilt_angle)
+        elif a == LOOK_DOWN:
+            s.pitch = max(-self.nav.max_tilt, s.pitch - self.nav.tilt_angle)
+        self._apply_agent(physics)
+
+    def after_step(self, physics: Physics) -> None:
+        """Update the trajectory, step count and distance to goal."""
+        self.steps += 1
+        self.trajectory.append(self.state.position.copy())
+        self._prev_distance = self.distance
+        if np.linalg.norm(self.trajectory[-1] - self.trajectory[-2]) > 1e-4:
+            self.distance = self.geodesic.distance(self.state.position)
+
+    # -- specs and observations -------------------------------------------------------------------
+
+    def action_spec(self, physics: Physics) -> specs.DiscreteArray:
+        """Return the discrete action spec: STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN."""
+        return specs.DiscreteArray(num_values=len(ACTION_NAMES), dtype=np.int64, name="action")
+
+    def observation_spec(self, physics: Physics) -> dict:
+        """Return the observation specs (defined explicitly, valid before the first reset)."""
+        h, w = self.nav.obs_height, self.nav.obs_width
+        out = {
+            "rgb": specs.Array((h, w, 3), np.uint8, name="rgb"),
+            "depth": specs.BoundedArray((h, w, 1), np.float32, self.nav.depth_min, self.nav.depth_max, name="depth"),
+            "gps": specs.Array((2,), np.float32, name="gps"),
+            "compass": specs.BoundedArray((1,), np.float32, -math.pi, math.pi, name="compass"),
+            "objectgoal": specs.BoundedArray((1,), np.int64, 0, max(len(self.categories) - 1, 0), name="objectgoal"),
+            "objectgoal_text": specs.StringArray((), name="objectgoal_text"),
+        }
+        if self.semantic:
+            out["semantic"] = specs.Array((h, w), np.int32, name="semantic")
+        if self.pose_observations:
+            out["position"] = specs.Array((3,), np.float32, name="position")
+            out["heading"] = specs.BoundedArray((1,), np.float32, -math.pi, math.pi, name="heading")
+            out["pitch"] = specs.Array((1,), np.float32, name="pitch")
+        return out
+
+    def renderer(self, physics: Physics) -> SceneRenderer:
+        """Return the (lazily built) offscreen renderer bound to this physics."""
+        if self._renderer is None or self._renderer.model is not physics.model.ptr:
+            if self._renderer is not None:
+                self._renderer.close()
+            self._renderer = SceneRenderer(physics.model.ptr, physics.data.ptr, self.nav.obs_width, self.nav.obs_height,
+                                           self.nav.hfov, znear=0.05, zfar=50.0)
+            self._lut = geom_segment_ids(physics.model.ptr)
+        return self._renderer
+
+    def camera_pose(self) -> np.ndarray:
+        """Return T_cam (world <- OpenCV camera) of the agent camera now."""
+        p = self.state.position + np.array([0.0, 0.0, self.nav.agent_height])
+        return pose_cv(p, self.state.yaw, self.state.pitch)
+
+    def render(self, physics: Physics, segmentation: bool | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Render rgb (H,W,3), depth (H,W) metres clipped to the sensor range, and segment ids (or None)."""
+        seg = self.semantic if segmentation is None else segmentation
+        r = self.renderer(physics)
+        f = r.render(self.camera_pose(), rgb=True, depth=True, segmentation=seg)
+        depth = np.clip(np.nan_to_num(f.depth, nan=self.nav.depth_max, posinf=self.nav.depth_max),
+                        self.nav.depth_min, self.nav.depth_max).astype(np.float32)
+        ids = segment_image(f.segmentation, self._lut) if seg else None
+        return f.rgb, depth, ids
+
+    def get_observation(self, physics: Physics) -> dict:
+        """Return the observation dict matching `observation_spec` (blank frames when rendering is off)."""
+        h, w = self.nav.obs_height, self.nav.obs_width
+        if self.render_frames:
+            rgb, depth, ids = self.render(physics)
+        else:
+            rgb = np.zeros((h, w, 3), np.uint8)
+            depth = np.full((h, w), self.nav.depth_min, np.float32)
+            ids = np.full((h, w), -1, np.int32) if self.semantic else None
+        yaw0 = math.radians(self.start.yaw)
+        d = self.state.position[:2] - self.start.position[:2]
+        c, s = math.cos(yaw0), math.sin(yaw0)
+        gps = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]], dtype=np.float32)  # start frame: x fwd, y left
+        comp = (math.radians(self.state.yaw) - yaw0 + math.pi) % (2 * math.pi) - math.pi
+        cat = self.episode.object_category
+        obs = {
+            "rgb": rgb,
+            "depth": depth[..., None],
+            "gps": gps,
+            "compass": np.array([comp], dtype=np.float32),
+            "objectgoal": np.array([self.categories.index(cat) if cat in self.categories else 0], dtype=np.int64),
+            "objectgoal_text": np.array(cat, dtype=object),
+        }
+        if self.semantic:
+            obs["semantic"] = ids
+        if self.pose_observations:
+            obs["position"] = self.state.position.astype(np.float32)
+            obs["heading"] = np.array([(math.radians(self.state.yaw) + math.pi) % (2 * math.pi) - math.pi], np.float32)
+            obs["pitch"] = np.array([math.radians(self.state.pitch)], np.float32)
+        return obs
+
+    # -- reward, termination, metrics --------------------------------------------------------------
+
+    def get_reward(self, physics: Physics) -> float:
+        """Return habitat's distance-to-goal reward: the decrease of the geodesic distance to goal."""
+        if not (math.isfinite(self.distance) and math.isfinite(self._prev_distance)):
+            return 0.0
+        return float(self._prev_distance - self.distance)
+
+    def get_termination(self, physics: Physics) -> float | None:
+        """Return 0.0 on STOP (terminal), 1.0 at the step limit (truncation), else None."""
+        if self.stop_called:
+            return 0.0
+        if self.steps >= self.nav.max_steps:
+            return 1.0
+        return None
+
+    def metrics(self) -> M.EpisodeMetrics:
+        """Return the episode's habitat metrics so far (final after the last step)."""
+        p = M.path_length(np.array(self.trajectory))
+        s = M.success(self.stop_called, self.distance, self.nav.success_distance)
+        return M.EpisodeMetrics(success=s, spl=M.spl(s, self.shortest, p), soft_spl=M.soft_spl(self.distance, self.shortest, p),
+                                distance_to_goal=float(self.distance), shortest=float(self.shortest), path_length=p,
+                                steps=self.steps, stop_called=self.stop_called)
+
+    def close(self) -> None:
+        """Free the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def make_physics(bundle: Bundle, nav: NavConfig = NavConfig()) -> Physics:
+    """Return the kinematic Physics of a bundle with the agent added."""
+    model = build_model(bundle.mjcf, nav)
+    return Physics.from_model(dm_wrapper.MjModel(model))
+
+
+def make_environment(bundle: str | Path | Bundle, nav: NavConfig | None = None, semantic: bool = False,
+                     episode_order: str = "sequential", random: int | None = None, width: int | None = None,
+                     height: int | None = None, max_steps: int | None = None, pose_observations: bool = True,
+                     **environment_kwargs) -> control.Environment:
+    """Return a dm_control Environment running ObjectNav episodes of one bundle."""
+    b = bundle if isinstance(bundle, Bundle) else load_bundle(bundle)
+    nav = nav or NavConfig()
+    upd = {k: v for k, v in (("obs_width", width), ("obs_height", height), ("max_steps", max_steps)) if v is not None}
+    nav = replace(nav, **upd) if upd else nav
+    physics = make_physics(b, nav)
+    task = ObjectNavTask(b, nav, semantic=semantic, episode_order=episode_order, random=random,
+                         pose_observations=pose_observations)
+    environment_kwargs.setdefault("time_limit", float("inf"))
+    return control.Environment(physics, task, **environment_kwargs)
