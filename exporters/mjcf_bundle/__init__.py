@@ -1,0 +1,146 @@
+"""MJCF bundle exporter: one self-contained folder per variant (layout in README.md next to this file)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import mujoco  # noqa: E402
+
+from sdovon_mj.errors import InputError  # noqa: E402
+from sdovon_mj.records import SceneVariant, dumps  # noqa: E402
+from sdovon_mj.store import atomic_copy, atomic_write_text  # noqa: E402
+
+from ..base import ExportOptions, ExportReport, Exporter, RunView  # noqa: E402
+
+BUNDLE_VERSION = 1
+
+
+def _resolve(spec_dir: Path, subdir: str, file: str) -> Path:
+    """Return the absolute path MuJoCo would open for an asset file of a spec."""
+    p = Path(file)
+    if p.is_absolute():
+        return p
+    return (spec_dir / subdir / p).resolve()
+
+
+def _bundle_name(src: Path, used: dict[str, Path]) -> str:
+    """Return a unique file name in assets/ for a source file (same file -> same name)."""
+    name = src.name
+    if name in used and used[name] != src:
+        name = f"{hashlib.sha256(str(src).encode()).hexdigest()[:8]}_{src.name}"
+    used[name] = src
+    return name
+
+
+def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path) -> tuple[str, list[Path]]:
+    """Return the variant's self-contained MJCF text (objects posed settled) and the asset files copied."""
+    path = run.path(variant.mjcf)
+    if not path.exists():
+        raise InputError(path, "composed MJCF not found")
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+        model = spec.compile()
+    except ValueError as e:
+        raise InputError(path, f"MJCF does not load: {e}") from None
+    data = mujoco.MjData(model)
+    if variant.qpos is not None:
+        q = np.asarray(variant.qpos, dtype=float).ravel()
+        if q.size != model.nq:
+            raise InputError(path, f"qpos has {q.size} values, model has nq={model.nq}")
+        data.qpos[:] = q
+    mujoco.mj_forward(model, data)
+    spec_dir = path.parent
+    used: dict[str, Path] = {}
+    copied: list[Path] = []
+
+    def take(file: str, subdir: str) -> str:
+        if not file:
+            return file
+        src = _resolve(spec_dir, subdir, file)
+        if not src.exists():
+            raise InputError(src, f"asset referenced by {path} not found")
+        name = _bundle_name(src, used)
+        dst = bundle_dir / "assets" / name
+        if dst not in copied:
+            atomic_copy(src, dst)
+            copied.append(dst)
+        return name
+
+    for m in spec.meshes:
+        m.file = take(m.file, spec.meshdir)
+    for h in spec.hfields:
+        h.file = take(h.file, spec.meshdir)
+    for s in spec.skins:
+        s.file = take(s.file, spec.meshdir)
+    for t in spec.textures:
+        t.file = take(t.file, spec.texturedir)
+        if any(t.cubefiles):
+            t.cubefiles = [take(f, spec.texturedir) for f in t.cubefiles]
+    spec.meshdir = "assets"
+    spec.texturedir = "assets"
+    spec.strippath = False
+    # Settled poses become the bodies' initial poses (qpos0) and a keyframe.
+    for j in range(model.njnt):
+        if int(model.jnt_type[j]) != int(mujoco.mjtJoint.mjJNT_FREE):
+            continue
+        b = int(model.jnt_bodyid[j])
+        if int(model.body_parentid[b]) != 0:
+            continue
+        body = spec.body(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b))
+        body.pos = data.xpos[b].copy()
+        body.quat = data.xquat[b].copy()
+    if variant.qpos is not None and not any(k.name == "settled" for k in spec.keys):
+        spec.add_key(name="settled", qpos=np.asarray(data.qpos, dtype=float).copy())
+    spec.modelfiledir = str(bundle_dir.resolve()) + os.sep  # to_xml recompiles: resolve assets in the bundle
+    return spec.to_xml(), copied
+
+
+class MjcfBundleExporter(Exporter):
+    """Writes <out>/<name>/<variant>/{scene.xml, assets/, episodes.json, navmap_<floor>.json, bundle.json}."""
+
+    name = "mjcf"
+
+    def export(self, run: RunView, out_dir: Path, options: ExportOptions) -> ExportReport:
+        """Write one self-contained MJCF bundle per variant with episodes."""
+        root = Path(out_dir) / options.name
+        report = ExportReport(format=self.name, out_dir=str(out_dir), name=options.name)
+        written: list[Path] = []
+        index = []
+        for variant in run.all_variants():
+            eps = run.episodes(variant)
+            if not eps:
+                report.skipped[variant.name] = "no valid goals (zero episodes)"
+                continue
+            bdir = root / variant.name
+            xml, copied = bundle_variant_xml(run, variant, bdir)
+            atomic_write_text(bdir / "scene.xml", xml)
+            written += copied + [bdir / "scene.xml"]
+            navmaps = run.navmaps(variant.scene)
+            for nm in navmaps:
+                atomic_write_text(bdir / f"navmap_{nm.floor}.json", nm.to_json())
+                written.append(bdir / f"navmap_{nm.floor}.json")
+            atomic_write_text(bdir / "episodes.json", dumps([e.to_dict() for e in eps]))
+            written.append(bdir / "episodes.json")
+            meta = {"bundle_version": BUNDLE_VERSION, "dataset": options.name, "split": options.split,
+                    "scene": variant.scene, "variant": variant.name, "model": "scene.xml", "episodes": "episodes.json",
+                    "navmaps": {str(nm.floor): f"navmap_{nm.floor}.json" for nm in navmaps},
+                    "keyframe": "settled" if variant.qpos is not None else "",
+                    "categories": sorted({e.object_category for e in eps}), "n_episodes": len(eps),
+                    "frame": "mujoco: metres, Z up, quaternions wxyz; positions are the agent base on the floor"}
+            atomic_write_text(bdir / "bundle.json", json.dumps(meta, indent=1, sort_keys=True) + "\n")
+            written.append(bdir / "bundle.json")
+            index.append({"variant": variant.name, "path": variant.name, "n_episodes": len(eps)})
+            report.variants.append(variant.name)
+            report.episodes += len(eps)
+        atomic_write_text(root / "index.json", json.dumps({"dataset": options.name, "split": options.split,
+                                                           "bundles": index}, indent=1, sort_keys=True) + "\n")
+        written.append(root / "index.json")
+        report.files = sorted(p.relative_to(out_dir).as_posix() for p in written)
+        return report
