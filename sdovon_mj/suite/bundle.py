@@ -7,6 +7,7 @@ Layout read (exporters/mjcf_bundle writes it; the fixture builder in `fixture.py
       episodes.json           list of records.Episode (MuJoCo frame)
       navmap*.json            records.NavMap (one per floor; floor 0 first)
       scene*.json             optional records.SceneAsset (instance labels, rooms)
+      instance_labels.json    optional {"<instance id>": "<label>"} (used when no SceneAsset loads)
       relevance.json          optional records.Relevance (for Semantic A*)
       region_map*.json        optional records.RegionMap (for Semantic A*)
 
@@ -36,6 +37,7 @@ class Bundle:
     scene: SceneAsset | None = None
     relevance: Relevance | None = None
     region_maps: list[RegionMap] = field(default_factory=list)
+    labels: dict[int, str] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -58,7 +60,9 @@ class Bundle:
 
     def instance_labels(self) -> dict[int, str]:
         """Return scene instance id -> label from the scene record (empty without one)."""
-        return {int(i.id): i.label for i in self.scene.instances} if self.scene else {}
+        if self.scene is not None:
+            return {int(i.id): i.label for i in self.scene.instances}
+        return dict(self.labels)
 
     def categories(self) -> list[str]:
         """Return the sorted goal categories of the episodes."""
@@ -133,4 +137,11 @@ def load_bundle(path: str | Path) -> Bundle:
     for p in sorted(root.glob("region_map*.json")):
         rm = _load(p, RegionMap)
         region_maps.extend(rm if isinstance(rm, list) else [rm])
-    return Bundle(root, _find_mjcf(root), episodes, navmaps, scene, relevance, region_maps)
+    labels: dict[int, str] = {}
+    lp = root / "instance_labels.json"
+    if lp.exists():
+        try:
+            labels = {int(k): str(v) for k, v in json.loads(lp.read_text(encoding="utf-8")).items()}
+        except (json.JSONDecodeError, ValueError, AttributeError) as e:
+            raise InputError(lp, f"expected a JSON object of instance id -> label ({e})") from None
+    return Bundle(root, _find_mjcf(root), episodes, navmaps, scene, relevance, region_maps, labels)

@@ -9,6 +9,7 @@ rooms, a RegionMap of the rooms and a Relevance table matching the placement pri
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -225,7 +226,10 @@ def build_fixture(out_dir: str | Path, variants: int = 2, seed: int = 0, episode
                                         yaw_quat(float(rng.uniform(-180, 180))), goals, float(dg), eu, closest, 0))
         save_json(episodes, root / "episodes.json")
         save_json(nm, root / "navmap.json")
-        save_json(scene_asset(f"{name}.xml"), root / "scene.json")
+        scene = scene_asset(f"{name}.xml")
+        save_json(scene, root / "scene.json")
+        atomic_write_text(root / "instance_labels.json",
+                          json.dumps({str(i.id): i.label for i in scene.instances}, indent=1, sort_keys=True) + "\n")
         save_json(region_map(), root / "region_map.json")
         save_json(relevance_table(), root / "relevance.json")
     return out

@@ -1,0 +1,287 @@
+"""Agents for the ObjectNav suite: Random A* and Semantic A* (paper appendix D), Oracle and Random.
+
+Protocol (what `eval_cli` and any plugin agent follow):
+    agent.prepare(bundle, make_env)   once per bundle; A* agents explore a scene they do not know yet
+    agent.reset(env, timestep)        at each episode start
+    action = agent.act(timestep)      one discrete action per step
+    agent.wants_frame                 whether the next observation needs rendered images (runners
+                                      may skip rendering otherwise; dm_env specs still hold)
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Generator
+
+import numpy as np
+
+from ..config import NavConfig, ReceptacleConfig
+from ..errors import InputError
+from ..records import Relevance, ReceptaclePlane
+from ..sim.camera import backproject, pose_cv
+from ..sim.model import object_segment_id
+from .control import Navigator, lattice_approach, segment_checker
+from .frontier import explore
+from .grid import GeodesicField, GridFrame, nearest_true
+from .memory import SceneMemory, build_memory
+
+STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN = range(6)
+
+
+class Agent:
+    """Base agent: generator-driven policies; `_run` yields actions and reads `self.ts`."""
+
+    name = "agent"
+    needs_semantic = False
+
+    def __init__(self, nav: NavConfig | None = None, seed: int = 0) -> None:
+        self.nav = nav or NavConfig()
+        self.seed = seed
+        self.wants_frame = True
+        self._gen: Generator[int, object, None] | None = None
+        self.ts = None
+        self.info: dict = {}
+
+    def prepare(self, bundle, make_env: Callable[..., object]) -> None:
+        """Prepare for a bundle's episodes (default: nothing)."""
+
+    def reset(self, env, ts) -> None:
+        """Start an episode."""
+        self.env, self.ts = env, ts
+        self.info = {}
+        self._gen = self._run(env)
+        self._started = False
+
+    def act(self, ts) -> int:
+        """Return the next action for the current timestep (STOP once the policy is done)."""
+        self.ts = ts
+        try:
+            a = next(self._gen) if not self._started else self._gen.send(ts)
+        except StopIteration:
+            a = STOP
+        self._started = True
+        return int(a)
+
+    def _run(self, env) -> Generator[int, object, None]:
+        yield STOP
+
+
+class RandomAgent(Agent):
+    """Uniformly random moves; STOP with probability `p_stop` per step."""
+
+    name = "random"
+
+    def __init__(self, nav: NavConfig | None = None, seed: int = 0, p_stop: float = 0.0) -> None:
+        super().__init__(nav, seed)
+        self.p_stop = p_stop
+        self.wants_frame = False
+
+    def _run(self, env) -> Generator[int, object, None]:
+        rng = np.random.default_rng([self.seed, abs(hash(env.task.episode.episode_id)) % (2 ** 31)])
+        while True:
+            yield STOP if rng.random() < self.p_stop else int(rng.integers(1, 6))
+
+
+class OracleAgent(Agent):
+    """Walks the shortest grid path to the nearest view point, lines up exactly, and stops (privileged)."""
+
+    name = "oracle"
+
+    def __init__(self, nav: NavConfig | None = None, seed: int = 0, stop: bool = True) -> None:
+        super().__init__(nav, seed)
+        self.stop = stop
+        self.wants_frame = False
+
+    def _run(self, env) -> Generator[int, object, None]:
+        task = env.task
+        mask, frame = task.navmap.navigable, task.frame
+        pos = np.asarray(self.ts.observation["position"], float)[:2]
+        from_agent = GeodesicField(mask, frame, pos[None])
+        vps = task.view_points[:, :2]
+        d = np.array([from_agent.distance(v) for v in vps])
+        target = vps[int(np.argmin(d))]
+        nv = Navigator(self.nav, lambda: mask, frame)
+        yield from nv.goto(target, 0.3, self.ts)
+        pos = np.asarray(self.ts.observation["position"], float)[:2]
+        yaw = math.degrees(float(self.ts.observation["heading"][0]))
+        acts = lattice_approach(pos, yaw, target, segment_checker(mask, frame), self.nav, radius=0.05)
+        for a in acts or []:
+            yield a
+        if self.stop:
+            yield STOP
+        while True:
+            yield TURN_LEFT
+
+
+def goal_segment_ids(bundle, category: str) -> np.ndarray:
+    """Return the segmentation ids of every goal object of a category in a bundle (gt detector)."""
+    ids = {object_segment_id(g.object_id) for e in bundle.episodes for g in e.goals if g.category == category}
+    return np.array(sorted(ids), dtype=np.int64)
+
+
+class GroundTruthDetector:
+    """Detects a category from the semantic observation: its objects' pixels, if >= eta_gt of the image."""
+
+    def __init__(self, bundle, eta_gt: float = 1e-4) -> None:
+        self.bundle = bundle
+        self.eta_gt = eta_gt
+        self._cache: dict[str, np.ndarray] = {}
+
+    def __call__(self, observation: dict, category: str) -> np.ndarray | None:
+        """Return the goal mask (H, W) when detected, else None."""
+        if category not in self._cache:
+            self._cache[category] = goal_segment_ids(self.bundle, category)
+        seg = observation.get("semantic")
+        if seg is None:
+            raise InputError("observation", "the gt detector needs the 'semantic' observation (task semantic=True)")
+        mask = np.isin(seg, self._cache[category])
+        return mask if mask.sum() >= self.eta_gt * mask.size else None
+
+
+class ReceptacleAStar(Agent):
+    """Receptacle search with A* (paper algorithms 3/4); subclasses choose the receptacle order."""
+
+    name = "receptacle-astar"
+    needs_semantic = True
+
+    def __init__(self, nav: NavConfig | None = None, seed: int = 0, final_nav: bool | None = None,
+                 detector: Callable[[dict, str], np.ndarray | None] | None = None,
+                 receptacle_labels: tuple[str, ...] | None = None, relevance: Relevance | None = None,
+                 planes: list[ReceptaclePlane] | None = None, region_of: Callable[[np.ndarray], str] | None = None,
+                 explore_steps: int = 3000, explore_size: tuple[int, int] = (160, 120), planning: str = "explored") -> None:
+        super().__init__(nav, seed)
+        self.final_nav = self.nav.final_nav if final_nav is None else bool(final_nav)
+        self.detector = detector
+        self.receptacle_labels = receptacle_labels or ReceptacleConfig().labels
+        self.relevance = relevance
+        self.planes = planes
+        self.region_of = region_of
+        self.explore_steps = explore_steps
+        self.explore_size = explore_size
+        self.planning = planning
+        self.memories: dict[str, SceneMemory] = {}
+        self.wants_frame = False
+
+    # -- memory (once per scene) -----------------------------------------------------------------
+
+    def prepare(self, bundle, make_env: Callable[..., object]) -> None:
+        """Explore the bundle's scene the first time it is seen and build the memory."""
+        self.bundle = bundle
+        if self.detector is None or isinstance(self.detector, GroundTruthDetector):
+            self.detector = GroundTruthDetector(bundle, self.nav.eta_gt)
+        if self.relevance is None and bundle.relevance is not None:
+            self._relevance = bundle.relevance
+        else:
+            self._relevance = self.relevance
+        scene = bundle.episodes[0].scene if bundle.episodes else bundle.name
+        if scene in self.memories:
+            return
+        labels = bundle.instance_labels()
+        if not labels and self.planes is None:
+            raise InputError(bundle.root, "no instance labels (scene*.json SceneAsset) and no receptacle planes given")
+        w, h = self.explore_size
+        env = make_env(bundle, semantic=True, width=w, height=h, max_steps=self.explore_steps + 100)
+        frames, occ = explore(env, env.task.nav, max_steps=self.explore_steps)
+        frame = GridFrame.of(env.task.navmap)
+        trav = occ.traversable() if self.planning == "explored" else env.task.navmap.navigable
+        region_of = self.region_of
+        if region_of is None and bundle.region_map() is not None:
+            region_of = bundle.region_map().region_at
+        self.memories[scene] = build_memory(scene, frames, labels, trav, frame, self.receptacle_labels, self.planes,
+                                            region_of, env.task.nav.depth_max)
+        self.explored = {"frames": len(frames), "free_cells": int((occ.state == 1).sum())}
+        env.task.close()
+
+    def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
+        """Return the memory entries in visiting order."""
+        raise NotImplementedError
+
+    # -- one episode ---------------------------------------------------------------------------------
+
+    def _observe(self) -> Generator[int, object, np.ndarray | None]:
+        """Look down and back up, rendering both frames; return the goal mask of a detection (or None)."""
+        cat = str(self.ts.observation["objectgoal_text"])
+        for a in (LOOK_DOWN, LOOK_UP):
+            self.wants_frame = True
+            yield a
+            self.wants_frame = False
+            mask = self.detector(self.ts.observation, cat)
+            if mask is not None:
+                pts = self._reconstruct(mask)
+                if pts is not None:
+                    return pts
+        return None
+
+    def _reconstruct(self, mask: np.ndarray) -> np.ndarray | None:
+        """Return the goal object's 3D position from the masked depth (median of back-projected points)."""
+        o = self.ts.observation
+        pos = np.asarray(o["position"], float)
+        T = pose_cv(pos + np.array([0.0, 0.0, self.nav.agent_height]), math.degrees(float(o["heading"][0])),
+                    math.degrees(float(o["pitch"][0])))
+        K = self.env.task.K
+        pts = backproject(o["depth"][..., 0], K, T, mask=mask, depth_max=self.nav.depth_max - 1e-3)
+        return np.median(pts, axis=0) if len(pts) else None
+
+    def _run(self, env) -> Generator[int, object, None]:
+        scene = env.task.episode.scene
+        memory = self.memories.get(scene)
+        if memory is None:
+            raise InputError(scene, "agent.prepare(bundle, make_env) was not called for this scene")
+        rng = np.random.default_rng([self.seed, int(env.task.episode_index)])
+        cat = str(self.ts.observation["objectgoal_text"])
+        nv = Navigator(self.nav, lambda: memory.traversable, memory.frame)
+        visited = 0
+        for entry in self.order(memory, cat, rng):
+            pts = [p for p in entry.nav_points]
+            while pts:
+                pos = np.asarray(self.ts.observation["position"], float)[:2]
+                k = int(np.argmin([np.linalg.norm(p - pos) for p in pts]))
+                p_nav = pts.pop(k)
+                yield from nv.goto(p_nav, self.nav.eps_nav, self.ts)
+                yield from nv.face(entry.centre, self.ts)
+                visited += 1
+                goal = yield from self._observe()
+                if goal is not None:
+                    self.info = {"detected": True, "goal": goal.tolist(), "nav_points": visited}
+                    if self.final_nav:
+                        cell = nearest_true(memory.traversable, memory.frame.to_cell(goal[None, :2])[0])
+                        if cell is not None:
+                            near = memory.frame.to_world(cell[None])[0]
+                            if float(np.linalg.norm(near - goal[:2])) <= self.nav.eps_nav:
+                                yield from nv.goto(goal[:2], self.nav.eps_nav, self.ts)
+                            else:  # the goal is farther than eps_nav from any free cell: go to the closest one
+                                yield from nv.goto(near, memory.frame.resolution * 2, self.ts)
+                    yield STOP
+                    return
+                pos = np.asarray(self.ts.observation["position"], float)[:2]
+                pts = [p for p in pts if np.linalg.norm(p - pos) >= self.nav.d_next]
+        self.info = {"detected": False, "nav_points": visited}
+        yield STOP
+
+
+class RandomAStar(ReceptacleAStar):
+    """Random A*: receptacles in a random order each episode (algorithm 3)."""
+
+    name = "random-astar"
+
+    def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
+        """Return the entries shuffled."""
+        return [memory.entries[i] for i in rng.permutation(len(memory.entries))]
+
+
+class SemanticAStar(ReceptacleAStar):
+    """Semantic A*: receptacles by decreasing joint relevance P(g|region) * P(g|receptacle) (algorithm 4)."""
+
+    name = "semantic-astar"
+
+    def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
+        """Return the entries ranked by joint relevance (random among ties)."""
+        return memory.ranked(category, self._relevance, rng)
+
+
+AGENTS: dict[str, type[Agent]] = {
+    "random-astar": RandomAStar,
+    "semantic-astar": SemanticAStar,
+    "oracle": OracleAgent,
+    "random": RandomAgent,
+}

@@ -1,0 +1,196 @@
+"""Frontier-based exploration: an occupancy map built from depth, frontiers, a scan at each frontier.
+
+The map is aligned with the bundle's NavMap frame (origin, resolution) but holds only what the
+agent saw: depth pixels back-projected to the world; hits between `obstacle_min` above the floor and
+the agent height (+ margin) mark occupied cells; rays carve free cells from the camera to each hit
+in 2D. Planning uses free cells away from occupied ones by the agent radius; unknown is not
+traversable. Exploration drives any dm_env-style environment whose observations include `position`,
+`heading`, `depth` (and `semantic` to keep segmentation with the frames).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse.csgraph import dijkstra
+
+from ..records import Observation
+from ..sim.camera import backproject, pose_cv
+from .grid import GridFrame, cell_graph, dilate, erode, lookup
+
+UNKNOWN, FREE, OCCUPIED = 0, 1, 2
+
+
+@dataclass
+class OccupancyMap:
+    """Occupancy grid from depth: UNKNOWN / FREE / OCCUPIED per cell."""
+
+    frame: GridFrame
+    floor_z: float = 0.0
+    agent_height: float = 0.88
+    agent_radius: float = 0.18
+    obstacle_min: float = 0.1
+    state: np.ndarray = field(default=None)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        if self.state is None:
+            self.state = np.zeros(self.frame.shape, dtype=np.int8)
+
+    def integrate(self, depth: np.ndarray, K: np.ndarray, T_cam: np.ndarray, depth_max: float, stride: int = 2) -> None:
+        """Add one depth frame (metres, (H, W)) seen from T_cam."""
+        d = np.asarray(depth, dtype=np.float32)
+        if d.ndim == 3:
+            d = d[..., 0]
+        d = d[::stride, ::stride]
+        Ks = K.copy()
+        Ks[0, 0] /= stride
+        Ks[1, 1] /= stride
+        Ks[0, 2] /= stride
+        Ks[1, 2] /= stride
+        far = d >= depth_max - 1e-3
+        pts = backproject(np.where(far, depth_max, d), Ks, T_cam, depth_min=0.01, depth_max=depth_max + 1.0)
+        farv = far[np.nonzero((np.where(far, depth_max, d) > 0.01))]
+        cam = T_cam[:3, 3]
+        z = pts[:, 2] - self.floor_z
+        hit_obstacle = (~farv) & (z > self.obstacle_min) & (z < self.agent_height + 0.1)
+        # carve free space along each ray (2D), stopping short of the hit cell
+        res = self.frame.resolution
+        vec = pts[:, :2] - cam[None, :2]
+        length = np.linalg.norm(vec, axis=1)
+        n = int(np.ceil(length.max() / res)) if len(length) else 0
+        if n > 0:
+            t = np.arange(n)[None, :] * res
+            valid = t < (length[:, None] - res)
+            unit = vec / np.maximum(length[:, None], 1e-9)
+            samples = cam[None, None, :2] + unit[:, None, :] * t[..., None]
+            cells = self.frame.to_cell(samples[valid])
+            ok = self.frame.inside(cells)
+            cells = cells[ok]
+            free = np.zeros(self.frame.shape, bool)
+            free[cells[:, 0], cells[:, 1]] = True
+            self.state[free & (self.state != OCCUPIED)] = FREE
+        floor_hits = (~farv) & (np.abs(z) <= self.obstacle_min)
+        fc = self.frame.to_cell(pts[floor_hits, :2])
+        fc = fc[self.frame.inside(fc)]
+        mark = np.zeros(self.frame.shape, bool)
+        mark[fc[:, 0], fc[:, 1]] = True
+        self.state[mark & (self.state != OCCUPIED)] = FREE
+        oc = self.frame.to_cell(pts[hit_obstacle, :2])
+        oc = oc[self.frame.inside(oc)]
+        self.state[oc[:, 0], oc[:, 1]] = OCCUPIED
+
+    def mark_free_disc(self, xy: np.ndarray, radius: float) -> None:
+        """Mark the agent's own footprint free (it stands there)."""
+        rc = self.frame.to_cell(np.asarray(xy, float)[None, :2])[0]
+        r = int(math.ceil(radius / self.frame.resolution))
+        rr, cc = np.mgrid[-r:r + 1, -r:r + 1]
+        inside = rr ** 2 + cc ** 2 <= r * r
+        rows, cols = rc[0] + rr[inside], rc[1] + cc[inside]
+        ok = (rows >= 0) & (rows < self.frame.shape[0]) & (cols >= 0) & (cols < self.frame.shape[1])
+        sel = self.state[rows[ok], cols[ok]] != OCCUPIED
+        self.state[rows[ok][sel], cols[ok][sel]] = FREE
+
+    def traversable(self) -> np.ndarray:
+        """Return cells the agent's base may plan through: free and at least a radius from obstacles."""
+        occ = self.state == OCCUPIED
+        return (self.state == FREE) & ~dilate(occ, self.agent_radius, self.frame.resolution)
+
+    def frontiers(self, min_cells: int = 4) -> list[np.ndarray]:
+        """Return clusters (each (N, 2) cells) of traversable cells next to unknown cells."""
+        trav = self.traversable()
+        unknown = self.state == UNKNOWN
+        near_unknown = ndimage.binary_dilation(unknown, structure=np.ones((3, 3), bool))
+        fr = trav & near_unknown
+        lab, n = ndimage.label(fr, structure=np.ones((3, 3), bool))
+        out = []
+        for k in range(1, n + 1):
+            cells = np.argwhere(lab == k)
+            if len(cells) >= min_cells:
+                out.append(cells)
+        return out
+
+
+def scan_actions(turn_angle: float) -> int:
+    """Return how many turns make a full 360-degree scan."""
+    return max(1, int(round(360.0 / turn_angle)))
+
+
+def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random.Generator | None = None) -> tuple[list[Observation], OccupancyMap]:
+    """Explore from the environment's current episode start; return the frames seen and the occupancy map."""
+    from .control import Navigator
+
+    ts = env.reset()
+    task = env.task
+    frame = GridFrame.of(task.navmap)
+    occ = OccupancyMap(frame, floor_z=float(task.navmap.height), agent_height=nav.agent_height, agent_radius=nav.agent_radius)
+    frames: list[Observation] = []
+    state = {"ts": ts, "steps": 0, "views": 0}
+    K = task.K
+
+    def record(ts) -> None:
+        o = ts.observation
+        pos = np.asarray(o["position"], float)
+        T = pose_cv(pos + np.array([0.0, 0.0, nav.agent_height]), math.degrees(float(o["heading"][0])), math.degrees(float(o["pitch"][0])))
+        occ.integrate(o["depth"], K, T, nav.depth_max)
+        state["views"] += 1
+        if state["views"] % keep_every == 0:
+            frames.append(Observation(rgb=o["rgb"], depth=o["depth"][..., 0], K=K, T_cam=T,
+                                      segmentation=o.get("semantic"), view_id=len(frames)))
+
+    def step(action: int, render: bool):
+        task.render_frames = render
+        state["ts"] = env.step(action)
+        state["steps"] += 1
+        return state["ts"]
+
+    def scan() -> None:
+        for _ in range(scan_actions(nav.turn_angle)):
+            record(step(2, True))  # TURN_LEFT
+
+    occ.mark_free_disc(np.asarray(ts.observation["position"]), nav.agent_radius + 0.05)
+    record(ts)
+    scan()
+    tried: list[np.ndarray] = []
+    while state["steps"] < max_steps and not state["ts"].last():
+        pos = np.asarray(state["ts"].observation["position"], float)[:2]
+        occ.mark_free_disc(pos, nav.agent_radius + 0.05)
+        trav = occ.traversable()
+        clusters = occ.frontiers()
+        if not clusters:
+            break
+        g, index = cell_graph(trav)
+        rc = frame.to_cell(pos[None])[0]
+        if not trav[rc[0], rc[1]]:
+            break
+        dist = dijkstra(g, indices=int(index[rc[0], rc[1]]))
+        best, best_d = None, math.inf
+        for cells in clusters:
+            nodes = index[cells[:, 0], cells[:, 1]]
+            dd = dist[nodes]
+            k = int(np.argmin(dd))
+            target = frame.to_world(cells[k][None])[0]
+            if not math.isfinite(dd[k]) or any(np.linalg.norm(target - t) < 0.5 for t in tried):
+                continue
+            if dd[k] < best_d:
+                best, best_d = target, dd[k]
+        if best is None:
+            break
+        tried.append(best)
+        nv = Navigator(nav, lambda: trav, frame)
+        gen = nv.goto(best, tolerance=0.25, ts=state["ts"])
+        try:
+            action = next(gen)
+            while state["steps"] < max_steps:
+                ts2 = step(action, False)
+                if ts2.last():
+                    break
+                action = gen.send(ts2)
+        except StopIteration:
+            pass
+        if state["ts"].last():
+            break
+        scan()
+    return frames, occ

@@ -1,0 +1,157 @@
+"""The A* baselines' memory of a scene: frames -> instances -> receptacle planes -> navigation points.
+
+Light-weight built-in stages (ground-truth detector semantics): depth + segmentation frames are
+back-projected and grouped by segmentation id; a receptacle's plane is the top slab of its points
+(convex hull in XY). Every stage can be replaced: pass `planes` (e.g. from the EM plane detector),
+`region_of` (e.g. `RegionMap.region_at`) and a `Relevance` table to `build_memory`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+from matplotlib.path import Path as MplPath
+from scipy import ndimage
+from scipy.spatial import ConvexHull, QhullError
+
+from ..records import Instance, Observation, ReceptaclePlane, Relevance
+from ..sim.camera import backproject
+from .grid import GridFrame
+
+
+@dataclass
+class MemoryEntry:
+    """One receptacle plane with its region and the navigation points around it."""
+
+    plane: ReceptaclePlane
+    region: str
+    nav_points: np.ndarray  # (K, 2) world XY
+
+    @property
+    def centre(self) -> np.ndarray:
+        """Return the plane polygon's centroid (world XY)."""
+        return np.asarray(self.plane.polygon, float).mean(axis=0)
+
+
+@dataclass
+class SceneMemory:
+    """What an A* baseline remembers of a scene after exploring it."""
+
+    scene: str
+    frame: GridFrame
+    traversable: np.ndarray  # (H, W) bool planning mask
+    entries: list[MemoryEntry] = field(default_factory=list)
+    instances: list[Instance] = field(default_factory=list)
+
+    def ranked(self, category: str, relevance: Relevance | None, rng: np.random.Generator) -> list[MemoryEntry]:
+        """Return entries by decreasing joint relevance P(g|rgn) * P(g|rec) (ties in random order)."""
+        tiebreak = rng.permutation(len(self.entries))
+        if relevance is None or category not in relevance.objects:
+            return [self.entries[i] for i in tiebreak]
+        oi = relevance.objects.index(category)
+        scores = np.array([relevance.joint(e.region, e.plane.label)[oi] for e in self.entries])
+        order = sorted(range(len(self.entries)), key=lambda i: (-scores[i], tiebreak[i]))
+        return [self.entries[i] for i in order]
+
+
+def instances_from_frames(frames: Sequence[Observation], labels: dict[int, str], depth_max: float = 5.0,
+                          min_points: int = 30, voxel: float = 0.03) -> list[Instance]:
+    """Return one Instance per segmentation id seen in the frames (gt detector semantics)."""
+    pts: dict[int, list[np.ndarray]] = {}
+    views: dict[int, list[int]] = {}
+    for f in frames:
+        if f.segmentation is None:
+            continue
+        seg = np.asarray(f.segmentation)
+        for sid in np.unique(seg):
+            sid = int(sid)
+            if sid < 0 or sid not in labels:
+                continue
+            p = backproject(f.depth, f.K, f.T_cam, mask=seg == sid, depth_max=depth_max - 1e-3)
+            if len(p):
+                pts.setdefault(sid, []).append(p)
+                views.setdefault(sid, []).append(int(f.view_id))
+    out = []
+    for sid in sorted(pts):
+        p = np.concatenate(pts[sid])
+        q = np.unique(np.floor(p / voxel).astype(np.int64), axis=0, return_index=True)[1]
+        p = p[np.sort(q)]
+        if len(p) < min_points:
+            continue
+        c = np.median(p, axis=0)
+        out.append(Instance(id=sid, label=labels[sid], points=(p - c).astype(np.float32), center=c,
+                            confidences=[1.0], source_views=sorted(set(views[sid])), gt_id=sid))
+    return out
+
+
+def top_plane(inst: Instance, plane_id: int, slab: float = 0.04, min_points: int = 10) -> ReceptaclePlane | None:
+    """Return the top horizontal plane of an instance's points (convex hull of the top slab), or None."""
+    p = inst.world_points
+    top = np.quantile(p[:, 2], 0.98)
+    sel = p[np.abs(p[:, 2] - top) <= slab]
+    if len(sel) < min_points:
+        return None
+    try:
+        hull = ConvexHull(sel[:, :2])
+    except (QhullError, ValueError):
+        return None
+    poly = sel[hull.vertices, :2]  # scipy returns 2D hull vertices counter-clockwise
+    return ReceptaclePlane(id=plane_id, instance_id=inst.id, label=inst.label, height=float(np.median(sel[:, 2])),
+                           polygon=poly, normal=np.array([0.0, 0.0, 1.0]), inliers=int(len(sel)))
+
+
+def planes_from_instances(instances: Sequence[Instance], receptacle_labels: Sequence[str]) -> list[ReceptaclePlane]:
+    """Return the top plane of every instance whose label is a receptacle label."""
+    rec = {l.lower() for l in receptacle_labels}
+    out = []
+    for inst in instances:
+        if inst.label.lower() in rec:
+            pl = top_plane(inst, len(out))
+            if pl is not None:
+                out.append(pl)
+    return out
+
+
+def sample_nav_points(plane: ReceptaclePlane, traversable: np.ndarray, frame: GridFrame, near: float = 0.25,
+                      far: float = 1.0, spacing: float = 0.5) -> np.ndarray:
+    """Return navigation points (K, 2): traversable cells `near`..`far` m from the plane, `spacing` apart."""
+    h, w = traversable.shape
+    rows, cols = np.mgrid[0:h, 0:w]
+    centres = frame.to_world(np.stack([rows.ravel(), cols.ravel()], 1))
+    inside = MplPath(np.asarray(plane.polygon, float)).contains_points(centres).reshape(h, w)
+    if not inside.any():
+        c = frame.to_cell(np.asarray(plane.polygon, float).mean(axis=0)[None])[0]
+        if frame.inside(c[None])[0]:
+            inside[c[0], c[1]] = True
+    dist = ndimage.distance_transform_edt(~inside) * frame.resolution
+    cand = np.argwhere(traversable & (dist >= near) & (dist <= far))
+    if len(cand) == 0:
+        cand = np.argwhere(traversable & (dist <= far + 1.0))
+    if len(cand) == 0:
+        return np.zeros((0, 2))
+    order = np.argsort(dist[cand[:, 0], cand[:, 1]], kind="stable")
+    xy = frame.to_world(cand[order])
+    keep: list[np.ndarray] = []
+    for p in xy:
+        if all(np.linalg.norm(p - q) >= spacing for q in keep):
+            keep.append(p)
+    return np.array(keep)
+
+
+def build_memory(scene: str, frames: Sequence[Observation], labels: dict[int, str], traversable: np.ndarray,
+                 frame: GridFrame, receptacle_labels: Sequence[str], planes: Sequence[ReceptaclePlane] | None = None,
+                 region_of: Callable[[np.ndarray], str] | None = None, depth_max: float = 5.0) -> SceneMemory:
+    """Return the memory of a scene from exploration frames (or injected planes) and a planning mask."""
+    instances = instances_from_frames(frames, labels, depth_max) if planes is None or frames else []
+    pl = list(planes) if planes is not None else planes_from_instances(instances, receptacle_labels)
+    entries = []
+    for p in pl:
+        pts = sample_nav_points(p, traversable, frame)
+        if len(pts) == 0:
+            continue
+        centre = np.asarray(p.polygon, float).mean(axis=0)
+        region = p.region or (region_of(centre) if region_of else "")
+        entries.append(MemoryEntry(p, region, pts))
+    return SceneMemory(scene, frame, traversable, entries, instances)
