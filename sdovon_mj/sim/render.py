@@ -96,6 +96,74 @@ class SceneRenderer:
         scn.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = int(self.shadows)
         scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
         scn.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = 0
+        if not _LOW_LEVEL_OK(r):
+            return self._render_passes(rgb, depth, segmentation)
+        out_rgb = out_depth = out_seg = None
+        if rgb:
+            out_rgb = np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
+        if depth or segmentation:
+            # One flat id-colour pass gives both the segmentation (colour) and the depth buffer.
+            ids, d = self._pass(flat=True, want_rgb=segmentation, want_depth=depth)
+            if depth:
+                out_depth = self._linear_depth(d)
+            if segmentation:
+                out_seg = self._decode_ids(ids)
+        return Frame(out_rgb, out_depth, out_seg)
+
+    def _pass(self, flat: bool, want_rgb: bool, want_depth: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Render once and read colour and/or depth buffers (flipped to image rows top-down)."""
+        r = self._renderer
+        scn = r.scene
+        saved = scn.flags.copy()
+        if flat:
+            scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 1
+            scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = 1
+        if r._gl_context:
+            r._gl_context.make_current()
+        col = np.empty((self.height, self.width, 3), dtype=np.uint8) if want_rgb else None
+        dep = np.empty((self.height, self.width), dtype=np.float32) if want_depth else None
+        try:
+            mujoco.mjr_render(r._rect, scn, r._mjr_context)
+            mujoco.mjr_readPixels(col, dep, r._rect, r._mjr_context)
+        finally:
+            np.copyto(scn.flags, saved)
+        if r._gl_context:  # GL rows run bottom-up; callers copy (convert) the flipped views
+            col = col[::-1] if col is not None else None
+            dep = dep[::-1] if dep is not None else None
+        return col, dep
+
+    def _linear_depth(self, buf: np.ndarray) -> np.ndarray:
+        """Convert a depth buffer to metric z-depth (the conversion of mujoco.Renderer)."""
+        extent = self.model.stat.extent
+        znear = np.float32(self.model.vis.map.znear * extent)
+        zfar = np.float32(self.model.vis.map.zfar * extent)
+        c_coef = -(zfar + znear) / (zfar - znear)
+        d_coef = -(np.float32(2) * zfar * znear) / (zfar - znear)
+        c_coef = np.float32(-0.5) * c_coef - np.float32(0.5)
+        d_coef = np.float32(-0.5) * d_coef
+        # float32 is exact enough: at 5 m the buffer term is ~1e-2, float32 keeps ~1e-9 of it
+        return d_coef / (buf + c_coef)
+
+    def _decode_ids(self, ids: np.ndarray) -> np.ndarray:
+        """Map an id-colour image to geom ids (-1 where no geom)."""
+        scn = self._renderer.scene
+        n = scn.ngeom
+        lut = np.full(n + 1, -1, dtype=np.int32)
+        geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
+        for g in scn.geoms[:n]:
+            if g.segid != -1 and g.objtype == geom_type:
+                lut[g.segid + 1] = g.objid
+        if n < 255:  # ids fit the red channel
+            lut256 = np.full(256, -1, dtype=np.int32)
+            lut256[: n + 1] = lut
+            return lut256[ids[..., 0]]
+        seg = ids[..., 0].astype(np.int32) | (ids[..., 1].astype(np.int32) << 8) | (ids[..., 2].astype(np.int32) << 16)
+        np.clip(seg, 0, n, out=seg)
+        return lut[seg]
+
+    def _render_passes(self, rgb: bool, depth: bool, segmentation: bool) -> Frame:
+        """Fallback through the public mujoco.Renderer API (one pass per image)."""
+        r = self._renderer
         out_rgb = out_depth = out_seg = None
         if rgb:
             r.disable_depth_rendering()
@@ -130,6 +198,11 @@ class SceneRenderer:
 
 
 _LIVE: "weakref.WeakSet[SceneRenderer]" = weakref.WeakSet()
+
+
+def _LOW_LEVEL_OK(r: mujoco.Renderer) -> bool:
+    """Return whether the mujoco.Renderer exposes the context/rect the combined pass needs."""
+    return all(hasattr(r, a) for a in ("_rect", "_mjr_context", "_gl_context")) and r._mjr_context is not None
 
 
 _CLEANUP_REGISTERED = False

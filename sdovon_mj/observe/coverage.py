@@ -1,0 +1,128 @@
+"""Gaussian coverage sampling of observation points (paper section 3.1), and a uniform baseline.
+
+The probability layer M_P lives on the navmap grid and starts at 0. Candidates are drawn one at a
+time over navigable cells with probability proportional to (1 - M_P). A candidate closer than
+``min_obstacle_distance`` to a non-free cell is rejected (invalid). Each valid point p overlays the
+Gaussian g(q) = exp(-|q - p|^2 / (2 r_max^2)) (peak 1, so g >= 0.5 marks the paper's *strong*
+observation region, out to 1.18 r_max), set to 0 inside the invalid radius r_min. "Overlaid" is
+read as accumulation: ``coverage_combine = "add"`` sums the Gaussians and clips M_P to 1 (two
+weak observations of a cell make a strong one); ``"max"`` keeps the best single observation.
+Sampling stops when the fraction of navigable cells with M_P >= eps_p_obs reaches
+``coverage_threshold`` or after ``max_iterations`` candidate draws. Coverage ignores occlusion, as
+in the paper.
+
+``uniform_viewpoints`` draws candidates uniformly over navigable cells with the same rejection,
+the same M_P bookkeeping and the same stop rule: the baseline the coverage sampler must beat.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..config import ObserveConfig
+from ..errors import StageError
+from ..records import NavMap, Viewpoint
+from .navmap import clearance
+
+
+@dataclass
+class CoverageStats:
+    """What a sampling run did: draws, accepted/rejected points, final coverage."""
+
+    iterations: int = 0
+    accepted: int = 0
+    rejected_obstacle: int = 0
+    coverage: float = 0.0
+    reached: bool = False
+    history: list[float] = field(default_factory=list)  # coverage after each accepted point
+
+    def to_dict(self) -> dict:
+        """Return the stats as plain JSON-able data."""
+        return {"iterations": self.iterations, "accepted": self.accepted, "rejected_obstacle": self.rejected_obstacle,
+                "coverage": round(self.coverage, 6), "reached": self.reached,
+                "history": [round(h, 6) for h in self.history]}
+
+
+def gaussian_footprint(navmap: NavMap, xy: np.ndarray, cfg: ObserveConfig) -> tuple[tuple[slice, slice], np.ndarray]:
+    """Return the grid window and the Gaussian g (r_min hole zeroed) of a viewpoint at world XY."""
+    res = navmap.resolution
+    h, w = navmap.navigable.shape
+    reach = 4.0 * cfg.r_max  # g < 3.4e-4 beyond 4 sigma
+    c = (np.asarray(xy, dtype=np.float64) - navmap.origin) / res - 0.5  # fractional (col, row)
+    r0, r1 = max(0, int(np.floor(c[1] - reach / res))), min(h, int(np.ceil(c[1] + reach / res)) + 1)
+    c0, c1 = max(0, int(np.floor(c[0] - reach / res))), min(w, int(np.ceil(c[0] + reach / res)) + 1)
+    rows = (np.arange(r0, r1) - c[1]) * res
+    cols = (np.arange(c0, c1) - c[0]) * res
+    d2 = rows[:, None] ** 2 + cols[None, :] ** 2
+    g = np.exp(-d2 / (2.0 * cfg.r_max ** 2))
+    g[d2 < cfg.r_min ** 2] = 0.0
+    return (slice(r0, r1), slice(c0, c1)), g
+
+
+def overlay(mp: np.ndarray, navmap: NavMap, xy: np.ndarray, cfg: ObserveConfig) -> None:
+    """Overlay a viewpoint's Gaussian on M_P in place (add-and-clip or max)."""
+    win, g = gaussian_footprint(navmap, xy, cfg)
+    if cfg.coverage_combine == "add":
+        mp[win] = np.minimum(mp[win] + g, 1.0)
+    elif cfg.coverage_combine == "max":
+        mp[win] = np.maximum(mp[win], g)
+    else:
+        raise StageError(f"observe.coverage_combine must be 'add' or 'max', got {cfg.coverage_combine!r}")
+
+
+def coverage_fraction(mp: np.ndarray, navmap: NavMap, cfg: ObserveConfig) -> float:
+    """Return the fraction of navigable cells with M_P >= eps_p_obs."""
+    nav = navmap.navigable
+    n = int(nav.sum())
+    return float((mp[nav] >= cfg.eps_p_obs).sum()) / n if n else 0.0
+
+
+def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int],
+            weighted: bool) -> tuple[list[Viewpoint], np.ndarray, CoverageStats]:
+    """Sequential candidate sampling with rejection and M_P bookkeeping."""
+    nav = np.asarray(navmap.navigable, dtype=bool)
+    cells = np.argwhere(nav)
+    if not len(cells):
+        raise StageError(f"floor {navmap.floor}: the navigable map is empty; nothing to sample")
+    rng = np.random.default_rng(seed)
+    clear = clearance(np.asarray(navmap.free, dtype=bool), navmap.resolution)
+    ok = clear[cells[:, 0], cells[:, 1]] >= cfg.min_obstacle_distance
+    mp = np.zeros(nav.shape, dtype=np.float64)
+    stats = CoverageStats()
+    points: list[Viewpoint] = []
+    z = float(navmap.height) + float(cfg.agent_height)
+    while stats.iterations < cfg.max_iterations:
+        if weighted:
+            wgt = 1.0 - mp[cells[:, 0], cells[:, 1]]
+            total = wgt.sum()
+            if total <= 0:
+                break
+            k = int(rng.choice(len(cells), p=wgt / total))
+        else:
+            k = int(rng.integers(len(cells)))
+        stats.iterations += 1
+        if not ok[k]:
+            stats.rejected_obstacle += 1
+            continue
+        xy = navmap.cell_to_world(cells[k])[0]
+        overlay(mp, navmap, xy, cfg)
+        points.append(Viewpoint(floor=int(navmap.floor), position=np.array([xy[0], xy[1], z], dtype=np.float64)))
+        stats.accepted += 1
+        stats.coverage = coverage_fraction(mp, navmap, cfg)
+        stats.history.append(stats.coverage)
+        if stats.coverage >= cfg.coverage_threshold:
+            stats.reached = True
+            break
+    return points, mp, stats
+
+
+def coverage_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0) -> tuple[list[Viewpoint], np.ndarray, CoverageStats]:
+    """Return viewpoints sampled by the paper's Gaussian coverage filter, the final M_P, and stats."""
+    return _sample(navmap, cfg, seed, weighted=True)
+
+
+def uniform_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0) -> tuple[list[Viewpoint], np.ndarray, CoverageStats]:
+    """Return viewpoints drawn uniformly over navigable cells until the same coverage (baseline)."""
+    return _sample(navmap, cfg, seed, weighted=False)

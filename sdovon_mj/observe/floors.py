@@ -1,0 +1,127 @@
+"""Distinct floors (storeys) of a scene mesh by clustering the heights of upward-facing area.
+
+The paper clusters mesh vertices by height. Vertex counts depend on tessellation (a floor made of
+two triangles has four vertices, a chair thousands), so we cluster *upward-facing surface area*
+instead: every triangle whose normal is within ``UP_COS`` of +Z adds its area at its centroid
+height. Peaks of the area-by-height histogram (window ``floor_cluster_tol``) with at least
+``min_floor_area`` are floor candidates. Candidates are then accepted from the lowest up:
+
+- the lowest candidate is a floor;
+- a higher candidate must lie at least ``MIN_STOREY_HEIGHT`` above the last accepted floor (beds,
+  counters and table tops are large horizontal areas too, but lie within a storey), and
+- it must carry walls: vertical surface area in the band ``[h + 0.3, h + agent_height]`` above it
+  (the top of a roof slab is a large upward area at storey spacing, but nothing stands on it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..config import ObserveConfig
+from ..errors import StageError
+from ..records import Floor
+
+UP_COS = 0.9  # |angle to +Z| < ~25.8 deg counts as upward-facing (tolerates scan noise)
+MIN_STOREY_HEIGHT = 1.8  # m: floors closer than this above the previous floor are furniture
+MIN_WALL_AREA = 1.0  # m^2 of vertical surface above a higher floor candidate
+BIN = 0.01  # m: histogram bin of the height clustering
+
+
+def face_geometry(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return per-face unit normals (M, 3), areas (M,) and centroids (M, 3)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    n = np.cross(b - a, c - a)
+    norm = np.linalg.norm(n, axis=1)
+    area = 0.5 * norm
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = np.where(norm[:, None] > 0, n / np.maximum(norm[:, None], 1e-300), 0.0)
+    return unit, area, (a + b + c) / 3.0
+
+
+def _peaks(heights: np.ndarray, weights: np.ndarray, tol: float) -> list[tuple[float, float]]:
+    """Greedy peaks of an area-by-height histogram: (height, area within +-tol/2), largest first."""
+    lo = heights.min() - tol
+    nb = int(np.ceil((heights.max() + tol - lo) / BIN)) + 1
+    idx = np.clip(((heights - lo) / BIN).astype(np.int64), 0, nb - 1)
+    hist = np.bincount(idx, weights=weights, minlength=nb)
+    half = max(1, int(round(tol / 2 / BIN)))
+    cs = np.concatenate([[0.0], np.cumsum(hist)])
+    i = np.arange(nb)
+    window = cs[np.minimum(i + half + 1, nb)] - cs[np.maximum(i - half, 0)]
+    taken = np.zeros(nb, dtype=bool)
+    out = []
+    order = np.argsort(-window, kind="stable")
+    for k in order:
+        if taken[k] or window[k] <= 0:
+            continue
+        a, b = max(0, k - half), min(nb, k + half + 1)
+        if taken[a:b].any():
+            continue
+        sel = (idx >= a) & (idx < b)
+        w = weights[sel]
+        h = heights[sel]
+        # area-weighted median height of the cluster (robust to scan noise)
+        o = np.argsort(h, kind="stable")
+        cw = np.cumsum(w[o])
+        med = float(h[o][np.searchsorted(cw, cw[-1] / 2.0)])
+        out.append((med, float(w.sum())))
+        taken[max(0, k - 2 * half): min(nb, k + 2 * half + 1)] = True
+    return out
+
+
+def find_floors(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveConfig) -> list[Floor]:
+    """Return the distinct floors of a scene mesh, lowest first (StageError when there is none)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+        raise StageError(f"find_floors: expected vertices (N, 3) and faces (M, 3), got {v.shape} and {f.shape}")
+    normal, area, centre = face_geometry(v, f)
+    up = normal[:, 2] >= UP_COS
+    if not up.any() or area[up].sum() <= 0:
+        raise StageError("no floor found: the scene mesh has no upward-facing surface")
+    tol = float(cfg.floor_cluster_tol)
+    peaks = _peaks(centre[up, 2], area[up], tol)
+    cands = sorted((h, a) for h, a in peaks if a >= cfg.min_floor_area)
+    if not cands:
+        best = max(a for _h, a in peaks)
+        raise StageError(f"no floor found: the largest horizontal upward-facing area at one height is {best:.2f} m^2, "
+                         f"below min_floor_area {cfg.min_floor_area} m^2")
+    vertical = np.abs(normal[:, 2]) < 0.3
+    floors: list[Floor] = []
+    for h, a in cands:
+        if floors:
+            if h - floors[-1].height < MIN_STOREY_HEIGHT:
+                continue
+            # walls must rise above a higher floor, inside its footprint
+            sel = up & (np.abs(centre[:, 2] - h) <= tol / 2)
+            pts = v[f[sel]].reshape(-1, 3)[:, :2]
+            lo, hi = pts.min(axis=0) - 0.5, pts.max(axis=0) + 0.5
+            z0, z1 = h + 0.3, h + max(cfg.agent_height, 0.6)
+            wall = _band_area(v, f, vertical & _spans(v, f, z0, z1), z0, z1, lo, hi)
+            if wall < MIN_WALL_AREA:
+                continue
+        floors.append(Floor(index=len(floors), height=round(float(h), 4), area=round(float(a), 4)))
+    return floors
+
+
+def _spans(v: np.ndarray, f: np.ndarray, z0: float, z1: float) -> np.ndarray:
+    """Return which faces overlap the height band [z0, z1]."""
+    z = v[f][:, :, 2]
+    return (z.max(axis=1) >= z0) & (z.min(axis=1) <= z1)
+
+
+def _band_area(v: np.ndarray, f: np.ndarray, sel: np.ndarray, z0: float, z1: float, lo: np.ndarray, hi: np.ndarray) -> float:
+    """Approximate the area of selected (vertical) faces inside a height band and an XY box."""
+    if not sel.any():
+        return 0.0
+    tri = v[f[sel]]
+    z = tri[:, :, 2]
+    zmin, zmax = z.min(axis=1), z.max(axis=1)
+    # a vertical triangle's area scales with its height extent; keep the band's share of it
+    frac = np.clip((np.minimum(zmax, z1) - np.maximum(zmin, z0)) / np.maximum(zmax - zmin, 1e-9), 0.0, 1.0)
+    xy = tri[:, :, :2].mean(axis=1)
+    inside = np.all((xy >= lo) & (xy <= hi), axis=1)
+    _n, area, _c = face_geometry(tri.reshape(-1, 3), np.arange(len(tri) * 3).reshape(-1, 3))
+    return float((area * frac * inside).sum())

@@ -1,0 +1,131 @@
+"""Small synthetic scenes (boxes as mesh assets) for tests and benchmarks of the observe stage.
+
+A scene is a list of named boxes: storey floors, walls with a door gap, a table with thin legs, a
+bed, ceilings. It is written the way a converted scene is: a visual-only MJCF whose geoms are named
+``inst_<k>`` (one OBJ mesh asset each) and the scene mesh sidecar npz, plus a SceneAsset record.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..records import SceneAsset, SemanticInstance, save_json
+from ..sim import GROUP_CEILING, GROUP_SCENE
+from ..sim.model import instance_geom_name, save_scene_mesh
+from ..store import atomic_write_text
+
+
+@dataclass
+class Box:
+    """An axis-aligned box instance: label, min and max corners (world metres, Z up)."""
+
+    label: str
+    lo: tuple[float, float, float]
+    hi: tuple[float, float, float]
+    kind: str = "structure"  # structure | furniture | ceiling
+
+
+_BOX_FACES = np.array([
+    [0, 2, 1], [0, 3, 2],  # bottom (-z)
+    [4, 5, 6], [4, 6, 7],  # top (+z)
+    [0, 1, 5], [0, 5, 4],  # -y
+    [2, 3, 7], [2, 7, 6],  # +y
+    [1, 2, 6], [1, 6, 5],  # +x
+    [3, 0, 4], [3, 4, 7],  # -x
+], dtype=np.int64)
+
+
+def box_mesh(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Return vertices (8, 3) and outward-wound faces (12, 3) of an axis-aligned box."""
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    v = np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
+                  [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]], dtype=np.float64)
+    return v, _BOX_FACES.copy()
+
+
+def _storey(z: float, size: tuple[float, float], height: float, with_furniture: bool, roof: bool) -> list[Box]:
+    """Boxes of one storey whose floor top is at height z."""
+    sx, sy = size
+    t = 0.1
+    out = [Box("floor", (0.0, 0.0, z - 0.2), (sx, sy, z))]
+    zt = z + height
+    out += [
+        Box("wall", (0.0, 0.0, z), (sx, t, zt)),
+        Box("wall", (0.0, sy - t, z), (sx, sy, zt)),
+        Box("wall", (0.0, 0.0, z), (t, sy, zt)),
+        Box("wall", (sx - t, 0.0, z), (sx, sy, zt)),
+        # inner wall at x = sx/2 with a 1 m door gap (door frame above 2.0 m)
+        Box("wall", (sx / 2 - t / 2, t, z), (sx / 2 + t / 2, sy / 2 - 0.5, zt)),
+        Box("wall", (sx / 2 - t / 2, sy / 2 + 0.5, z), (sx / 2 + t / 2, sy - t, zt)),
+        Box("wall", (sx / 2 - t / 2, sy / 2 - 0.5, z + 2.0), (sx / 2 + t / 2, sy / 2 + 0.5, zt)),
+    ]
+    if with_furniture:
+        # a table with thin legs (0.05 m) and a 1.2 x 0.8 m top at 0.75 m
+        tx, ty = 1.2, 1.2
+        out.append(Box("table", (tx, ty, z + 0.71), (tx + 1.2, ty + 0.8, z + 0.75), "furniture"))
+        for lx, ly in [(tx, ty), (tx + 1.15, ty), (tx, ty + 0.75), (tx + 1.15, ty + 0.75)]:
+            out.append(Box("table", (lx, ly, z), (lx + 0.05, ly + 0.05, z + 0.71), "furniture"))
+        # a bed in the other room
+        out.append(Box("bed", (sx - 2.2, sy - 1.7, z), (sx - 0.2, sy - 0.2, z + 0.5), "furniture"))
+        # a shelf on thin legs, 0.4 m above the floor (a slice at 0.3 m alone would miss it)
+        out.append(Box("shelf", (sx / 2 + 0.6, 0.2, z + 0.4), (sx / 2 + 1.6, 0.6, z + 1.2), "furniture"))
+    out.append(Box("ceiling" if not roof else "roof", (0.0, 0.0, zt), (sx, sy, zt + 0.2), "ceiling"))
+    return out
+
+
+def apartment_boxes(storeys: int = 2, size: tuple[float, float] = (8.0, 6.0), storey_height: float = 2.6) -> list[Box]:
+    """Return the boxes of a synthetic apartment with `storeys` floors (furnished, roofed)."""
+    boxes: list[Box] = []
+    z = 0.0
+    for s in range(storeys):
+        top = s == storeys - 1
+        st = _storey(z, size, storey_height, with_furniture=True, roof=top)
+        if s > 0:  # the ceiling slab below is this storey's floor
+            st = [b for b in st if b.label != "floor"]
+        boxes += st
+        z += storey_height + 0.2
+    return boxes
+
+
+def write_box_scene(boxes: list[Box], out_dir: str | Path, name: str = "synthetic") -> SceneAsset:
+    """Write boxes as a converted-style scene (MJCF + OBJ meshes + mesh sidecar + scene.json)."""
+    out = Path(out_dir)
+    (out / "meshes").mkdir(parents=True, exist_ok=True)
+    verts, faces, face_inst = [], [], []
+    assets, geoms, instances = [], [], []
+    offset = 0
+    rng = np.random.default_rng(0)
+    for k, b in enumerate(boxes):
+        v, f = box_mesh(b.lo, b.hi)
+        obj = "".join(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in v) + "".join(f"f {a + 1} {c + 1} {d + 1}\n" for a, c, d in f)
+        atomic_write_text(out / "meshes" / f"inst_{k}.obj", obj)
+        gname = instance_geom_name(k)
+        group = GROUP_CEILING if b.kind == "ceiling" else GROUP_SCENE
+        rgba = " ".join(f"{c:.3f}" for c in (*rng.uniform(0.3, 0.9, 3), 1.0))
+        assets.append(f'    <mesh name="m_{k}" file="inst_{k}.obj"/>')
+        geoms.append(f'    <geom name="{gname}" type="mesh" mesh="m_{k}" group="{group}" rgba="{rgba}" contype="0" conaffinity="0"/>')
+        # SemanticInstance.kind collides with the record tag 'kind' (records.py): leave it default
+        instances.append(SemanticInstance(id=k, label=b.label, geoms=[gname],
+                                          bounds=np.array([b.lo, b.hi], dtype=np.float64)))
+        verts.append(v)
+        faces.append(f + offset)
+        face_inst.append(np.full(len(f), k))
+        offset += len(v)
+    xml = "\n".join([
+        f'<mujoco model="{name}">',
+        '  <compiler meshdir="meshes"/>',
+        '  <visual><headlight ambient="0.4 0.4 0.4" diffuse="0.5 0.5 0.5"/></visual>',
+        "  <asset>", *assets, "  </asset>",
+        "  <worldbody>", *geoms, "  </worldbody>",
+        "</mujoco>", ""])
+    atomic_write_text(out / f"{name}.xml", xml)
+    V, F = np.concatenate(verts), np.concatenate(faces)
+    save_scene_mesh(out / f"{name}_mesh.npz", V, F, np.concatenate(face_inst))
+    scene = SceneAsset(name=name, mjcf=f"{name}.xml", source="synthetic", instances=instances,
+                       bounds=np.stack([V.min(axis=0), V.max(axis=0)]), mesh=f"{name}_mesh.npz")
+    save_json(scene, out / "scene.json")
+    return scene

@@ -1,0 +1,281 @@
+"""Observe stage: floors, navigable maps, coverage sampling, rendering, shards, CLI (synthetic scenes)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sdovon_mj.config import ObserveConfig
+from sdovon_mj.errors import InputError, SdovonError, StageError
+from sdovon_mj.observe import (OffFloorError, coverage_viewpoints, find_floors, load_shards, locate, navigable_map,
+                               observe_scene, render_observations, uniform_viewpoints)
+from sdovon_mj.observe.synthetic import Box, apartment_boxes, box_mesh, write_box_scene
+from sdovon_mj.records import NavMap, Viewpoint, load_json
+from sdovon_mj.sim.model import load_scene_mesh
+
+
+def _mesh(boxes: list[Box]) -> tuple[np.ndarray, np.ndarray]:
+    vs, fs, off = [], [], 0
+    for b in boxes:
+        v, f = box_mesh(b.lo, b.hi)
+        vs.append(v)
+        fs.append(f + off)
+        off += len(v)
+    return np.concatenate(vs), np.concatenate(fs)
+
+
+@pytest.fixture(scope="module")
+def two_storey(tmp_path_factory):
+    out = tmp_path_factory.mktemp("apt2")
+    scene = write_box_scene(apartment_boxes(2), out)
+    v, f, fi = load_scene_mesh(out / scene.mesh)
+    return scene, out, v, f, fi
+
+
+@pytest.fixture(scope="module")
+def maps(two_storey):
+    _s, _o, v, f, _fi = two_storey
+    cfg = ObserveConfig()
+    return [navigable_map(v, f, fl, cfg) for fl in find_floors(v, f, cfg)]
+
+
+# ---------------------------------------------------------------------------------------------- floors
+
+def test_two_storey_gives_two_floors_and_roof_is_not_a_floor(two_storey):
+    _s, _o, v, f, _fi = two_storey
+    floors = find_floors(v, f, ObserveConfig())
+    # storey 0 at z=0, storey 1 on the 0.2 m slab at 2.8; the roof top at 5.6 carries no walls
+    assert [round(fl.height, 3) for fl in floors] == [0.0, 2.8]
+    assert [fl.index for fl in floors] == [0, 1]
+    assert all(fl.area >= 40.0 for fl in floors)
+
+
+def test_one_storey_and_furniture_is_not_a_floor():
+    v, f = _mesh(apartment_boxes(1, size=(5.0, 4.0)))
+    floors = find_floors(v, f, ObserveConfig())
+    assert [fl.height for fl in floors] == [0.0]  # bed (3 m^2 at 0.5 m) and table top are not floors
+
+
+def test_noisy_scan_floor():
+    rng = np.random.default_rng(3)
+    # a finely tessellated 6x5 m floor with 1 cm height noise, plus walls and a bed (the ScanNet look)
+    n = 60
+    xs, ys = np.meshgrid(np.linspace(0, 6, n), np.linspace(0, 5, n))
+    z = rng.normal(0.02, 0.01, xs.shape)
+    vf = np.stack([xs.ravel(), ys.ravel(), z.ravel()], axis=1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    ff = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    vb, fb = _mesh([Box("wall", (0, 0, 0), (6, 0.1, 2.5)), Box("bed", (0.5, 0.5, 0), (2.5, 2.0, 0.55))])
+    v = np.concatenate([vf, vb])
+    f = np.concatenate([ff, fb + len(vf)])
+    floors = find_floors(v, f, ObserveConfig())
+    assert len(floors) == 1 and abs(floors[0].height - 0.02) < 0.01
+
+
+def test_scene_without_floor_is_a_clear_error():
+    v, f = _mesh([Box("wall", (0, 0, 0), (4, 0.1, 2.5)), Box("cup", (1, 1, 1), (1.1, 1.1, 1.1))])
+    with pytest.raises(StageError, match="no floor found"):
+        find_floors(v, f, ObserveConfig())
+
+
+# ---------------------------------------------------------------------------------------------- navmaps
+
+def test_navmap_excludes_furniture_and_walls(maps):
+    for nm in maps:
+        z = nm.height
+        # thin-legged table: under the top, at a leg, and just beside it
+        blocked = [(1.8, 1.6), (1.22, 1.22), (7.0, 5.0),  # table centre, table leg, bed
+                   (4.0, 1.0), (4.0, 5.0), (0.05, 3.0), (7.95, 3.0), (3.0, 0.05),  # inner and outer walls
+                   (5.1, 0.4)]  # under the shelf hanging at 0.4-1.2 m
+        assert not nm.is_navigable(np.array(blocked)).any(), f"floor {nm.floor} at {z}"
+        assert not nm.free[tuple(nm.world_to_cell(np.array([(1.8, 1.6), (7.0, 5.0), (4.0, 1.0)])).T)].any()
+        open_pts = np.array([(2.0, 4.5), (6.0, 2.5), (4.0, 3.0)])  # two rooms and the door gap
+        assert nm.is_navigable(open_pts).all()
+        # eroded by the agent radius: nothing navigable within 0.18 m of a wall
+        assert not nm.is_navigable(np.array([(0.2, 3.0), (3.0, 0.2)])).any()
+
+
+def test_paper_plane_slice_misses_what_the_band_catches(two_storey):
+    _s, _o, v, f, _fi = two_storey
+    fl = find_floors(v, f, ObserveConfig())[0]
+    plane = navigable_map(v, f, fl, dataclasses.replace(ObserveConfig(), nav_slice="plane"))
+    band = navigable_map(v, f, fl, ObserveConfig())
+    under_table = np.array([(1.8, 1.6)])
+    assert plane.is_navigable(under_table).all() and not band.is_navigable(under_table).any()
+
+
+def test_rooms_connected_through_door_and_small_components_dropped(maps):
+    import cv2
+
+    for nm in maps:
+        n, _lab = cv2.connectedComponents(nm.navigable.astype(np.uint8), connectivity=8)
+        assert n - 1 == 1  # one component: both rooms joined through the 1 m door
+
+
+def test_locate_point_and_off_floor_error(maps):
+    assert locate(maps, np.array([2.0, 4.5, 0.88])).floor == 0
+    assert locate(maps, np.array([2.0, 4.5, 2.8 + 0.88])).floor == 1
+    with pytest.raises(OffFloorError, match="outside the free area of every floor"):
+        locate(maps, np.array([20.0, 4.5, 0.88]))
+    with pytest.raises(OffFloorError):
+        locate(maps, np.array([1.8, 1.6, 0.88]), navigable=True)  # under the table
+    assert isinstance(OffFloorError("x"), SdovonError)
+
+
+def test_navmap_json_round_trip(maps, tmp_path):
+    from sdovon_mj.records import records_equal, save_json
+
+    save_json(maps[0], tmp_path / "m.json")
+    assert records_equal(load_json(tmp_path / "m.json", NavMap), maps[0])
+
+
+# ---------------------------------------------------------------------------------------------- coverage
+
+def test_coverage_sampling_reaches_threshold_and_is_seeded(maps):
+    cfg = ObserveConfig()
+    nm = maps[0]
+    vps, mp, st = coverage_viewpoints(nm, cfg, seed=7)
+    assert st.reached and st.coverage >= cfg.coverage_threshold
+    assert float((mp[nm.navigable] >= cfg.eps_p_obs).mean()) == pytest.approx(st.coverage)
+    assert mp.min() >= 0.0 and mp.max() <= 1.0
+    assert all(nm.is_navigable(vp.position[None, :2])[0] for vp in vps)
+    assert all(abs(vp.position[2] - (nm.height + cfg.agent_height)) < 1e-9 for vp in vps)
+    vps2, mp2, _ = coverage_viewpoints(nm, cfg, seed=7)
+    assert np.array_equal(mp, mp2) and all(np.array_equal(a.position, b.position) for a, b in zip(vps, vps2))
+    # candidates near obstacles are rejected: every viewpoint has clearance
+    from sdovon_mj.observe.navmap import clearance
+
+    cl = clearance(nm.free, nm.resolution)
+    rc = nm.world_to_cell(np.array([vp.position[:2] for vp in vps]))
+    assert (cl[rc[:, 0], rc[:, 1]] >= cfg.min_obstacle_distance).all()
+
+
+def test_coverage_invalid_radius_and_max_iterations(maps):
+    nm = maps[0]
+    cfg = dataclasses.replace(ObserveConfig(), max_iterations=1, min_obstacle_distance=0.0)
+    vps, mp, st = coverage_viewpoints(nm, cfg, seed=1)
+    assert st.iterations == 1 and len(vps) == 1 and not st.reached
+    rc = nm.world_to_cell(vps[0].position[None, :2])[0]
+    assert mp[rc[0], rc[1]] == 0.0  # the invalid observation region r_min gets nothing
+    ring = nm.world_to_cell(vps[0].position[None, :2] + np.array([[cfg.r_min + 0.1, 0.0]]))[0]
+    assert mp[ring[0], ring[1]] > 0.9
+
+
+def test_coverage_needs_fewer_viewpoints_than_uniform(tmp_path):
+    # a wide single storey (16 x 12 m, two rooms): stated margin: >= 15% fewer viewpoints on average
+    scene = write_box_scene(apartment_boxes(1, size=(16.0, 12.0)), tmp_path)
+    v, f, _fi = load_scene_mesh(tmp_path / scene.mesh)
+    cfg = dataclasses.replace(ObserveConfig(), coverage_threshold=0.95, r_max=1.5)
+    nm = navigable_map(v, f, find_floors(v, f, cfg)[0], cfg)
+    seeds = range(8)
+    cov = [coverage_viewpoints(nm, cfg, s) for s in seeds]
+    uni = [uniform_viewpoints(nm, cfg, s) for s in seeds]
+    assert all(c[2].reached for c in cov) and all(u[2].reached for u in uni)
+    n_cov = np.mean([len(c[0]) for c in cov])
+    n_uni = np.mean([len(u[0]) for u in uni])
+    print(f"coverage {n_cov:.2f} vs uniform {n_uni:.2f} viewpoints")
+    assert n_cov <= 0.85 * n_uni, (n_cov, n_uni)
+
+
+# ---------------------------------------------------------------------------------------------- rendering
+
+def _surface_distance(points: np.ndarray, v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    import trimesh
+
+    mesh = trimesh.Trimesh(v, f, process=False)
+    _c, d, _t = trimesh.proximity.closest_point(mesh, points)
+    return d
+
+
+def test_backprojected_depth_lies_on_scene_surfaces(two_storey):
+    from sdovon_mj.sim.camera import backproject
+
+    scene, root, v, f, fi = two_storey
+    cfg = dataclasses.replace(ObserveConfig(), width=160, height=120, yaw_steps=3, pitch_angles=(-30.0, 0.0))
+    vps = [Viewpoint(floor=0, position=np.array([2.0, 4.0, 0.88])), Viewpoint(floor=1, position=np.array([6.0, 2.5, 3.68]))]
+    obs = list(render_observations(scene, vps, cfg, store_root=root))
+    assert len(obs) == 2 * 3 * 2 and [o.view_id for o in obs] == list(range(12))
+    rng = np.random.default_rng(0)
+    seg_ok = seg_n = 0
+    medians: list[float] = []
+    for o in obs:
+        assert o.rgb.shape == (120, 160, 3) and o.depth.dtype == np.float32 and o.segmentation.dtype == np.int32
+        valid = o.depth > 0
+        assert valid.mean() > 0.9
+        assert (o.depth[valid] >= cfg.depth_min).all() and (o.depth[valid] <= cfg.depth_max).all()
+        pts = backproject(o.depth, o.K, o.T_cam)
+        sel = rng.choice(len(pts), size=min(300, len(pts)), replace=False)
+        d = _surface_distance(pts[sel], v, f)
+        assert np.median(d) < 0.01, np.median(d)
+        medians.append(float(np.median(d)))
+        assert np.percentile(d, 90) < 0.03
+        # segmentation: the instance of the nearest face matches the pixel's id
+        import trimesh
+
+        _c, _d, tri = trimesh.proximity.closest_point(trimesh.Trimesh(v, f, process=False), pts[sel])
+        vv, uu = np.nonzero(valid)
+        seg_ok += int((fi[tri] == o.segmentation[vv[sel], uu[sel]]).sum())
+        seg_n += len(sel)
+    print(f"median surface distance {max(medians) * 1000:.2f} mm (worst view), seg agreement {seg_ok / seg_n:.3f}")
+    assert seg_ok / seg_n > 0.9
+
+
+def test_combined_pass_equals_separate_passes(two_storey):
+    from sdovon_mj.observe.render_views import load_model, make_renderer
+    from sdovon_mj.sim.camera import pose_cv
+
+    scene, root, *_ = two_storey
+    r = make_renderer(load_model(scene, root), dataclasses.replace(ObserveConfig(), width=160, height=120))
+    try:
+        T = pose_cv(np.array([2.0, 4.0, 0.88]), 40.0, -20.0)
+        a = r.render(T, rgb=True, depth=True, segmentation=True)
+        b = r._render_passes(True, True, True)
+        assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.segmentation, b.segmentation)
+        assert np.allclose(a.depth, b.depth, rtol=1e-5, atol=1e-5)
+    finally:
+        r.close()
+
+
+# ---------------------------------------------------------------------------------------------- stage + CLI
+
+def test_observe_scene_writes_everything_deterministically(two_storey, tmp_path):
+    scene, root, *_ = two_storey
+    cfg = dataclasses.replace(ObserveConfig(), width=96, height=72, yaw_steps=2, pitch_angles=(0.0,), frames_per_shard=5)
+    s1 = observe_scene(scene, root, "observe", cfg, seed=3, out_root=tmp_path / "a")
+    s2 = observe_scene(scene, root, "observe", cfg, seed=3, out_root=tmp_path / "b")
+    assert [fl["height"] for fl in s1["floors"]] == [0.0, 2.8]
+    assert s1["frames"] == s1["viewpoints"] * 2 and len(s1["shards"]) == -(-s1["frames"] // 5)
+    for rel in s1["outputs"]:
+        assert (tmp_path / "a" / rel).read_bytes() == (tmp_path / "b" / rel).read_bytes(), rel
+    obs = list(load_shards([tmp_path / "a" / p for p in s1["shards"]]))
+    assert len(obs) == s1["frames"] and obs[0].K.shape == (3, 3) and obs[0].T_cam.shape == (4, 4)
+    vps = load_json(tmp_path / "a" / "observe" / "viewpoints.json", Viewpoint)
+    assert {vp.floor for vp in vps} == {0, 1}
+    for k in (0, 1):
+        assert (tmp_path / "a" / "observe" / f"coverage_{k}.png").read_bytes()[:4] == b"\x89PNG"
+        assert load_json(tmp_path / "a" / "observe" / f"navmap_{k}.json", NavMap).floor == k
+
+
+def test_cli_observe_and_bad_input(two_storey, tmp_path, capsys):
+    from sdovon_mj.cli import main
+
+    _scene, root, *_ = two_storey
+    rc = main(["observe", str(root), "--out", str(tmp_path / "o"), "--no-render", "--set", "observe.map_resolution=0.1"])
+    assert rc == 0
+    assert "floor 1 z=2.80" in capsys.readouterr().out
+    assert (tmp_path / "o" / "navmap_1.json").exists() and not list((tmp_path / "o").glob("obs_*.npz"))
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    assert main(["observe", str(bad), "--out", str(tmp_path / "o2")]) == 1
+    assert "bad.json" in capsys.readouterr().err
+
+
+def test_observe_scene_without_floor_names_the_mesh(tmp_path):
+    scene = write_box_scene([Box("wall", (0, 0, 0), (4, 0.1, 2.5))], tmp_path)
+    with pytest.raises(InputError) as e:
+        observe_scene(scene, tmp_path, "observe", ObserveConfig(), render=False)
+    assert scene.mesh in str(e.value) and "no floor found" in str(e.value)
