@@ -86,6 +86,11 @@ class ObserveConfig:
     depth_max: float = _p(10.0, "m", "depth above this is invalid (0)")
     shadows: bool = _p(False, "-", "render shadows (off for data generation: speed)")
     seed: int = _p(0, "-", "coverage sampling seed offset (combined with the scene seed)")
+    nav_slice: str = _p("band", "-", "obstacles: band (all geometry between obstacle_min_height and obstacle_max_height) or plane (the paper's single slice at h_map)")
+    obstacle_min_height: float = _p(0.1, "m", "geometry above floor + this blocks the agent (band mode)")
+    obstacle_max_height: float = _p(0.0, "m", "geometry below floor + this blocks the agent (band mode; 0: agent_height)")
+    coverage_combine: str = _p("add", "-", "how a viewpoint's Gaussian is overlaid on M_P: add (sum, clipped to 1) or max")
+    frames_per_shard: int = _p(24, "-", "observations per compressed npz shard")
 
 
 @dataclass(frozen=True)
