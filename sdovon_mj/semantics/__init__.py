@@ -1,0 +1,44 @@
+"""Semantics stage (paper section 3.4, appendix C): LLM backends, region map, relevance.
+
+Public API:
+- ``get_backend(cfg, cache_dir) -> Backend`` (plugin group ``sdovon_mj.llm_backends``: offline,
+  ollama, openai, or any installed plugin);
+- ``identify_receptacles(labels, backend) -> list[str]`` (prompt C.1);
+- ``region_map(instances, navmap, backend, cfg) -> RegionMap`` (prompt C.2, sliding window);
+- ``relevance(objects, regions, receptacles, backend) -> Relevance`` (prompts C.3, C.4).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+from ..config import SemanticsConfig
+from ..errors import StageError
+from .backends import Backend
+from .regions import region_map, region_picture
+from .relevance import relevance
+
+
+def get_backend(cfg: SemanticsConfig | None = None, cache_dir: str | Path | None = None) -> Backend:
+    """Return the configured LLM backend (cache under `cache_dir` when given and enabled)."""
+    from .. import plugins
+
+    cfg = cfg or SemanticsConfig()
+    cls = plugins.load("llm_backend", cfg.backend)
+    backend = cls(cfg, cache_dir=cache_dir)
+    if not isinstance(backend, Backend):
+        raise StageError(f"llm_backend plugin '{cfg.backend}' did not build a semantics Backend")
+    return backend
+
+
+def identify_receptacles(labels: Sequence[str], backend: Backend) -> list[str]:
+    """Return the labels that name receptacles (furniture daily objects are put on)."""
+    seen: list[str] = []
+    for lab in labels:
+        if lab not in seen:
+            seen.append(lab)
+    return backend.receptacles(seen) if seen else []
+
+
+__all__ = ["Backend", "get_backend", "identify_receptacles", "region_map", "region_picture", "relevance"]

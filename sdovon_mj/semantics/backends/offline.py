@@ -1,0 +1,103 @@
+"""Offline backend: answers the four appendix C questions from the shipped commonsense priors.
+
+No server, no randomness: the same question always gets the same answer.
+- receptacles: labels the table (or its head noun) calls a receptacle;
+- region proposals: naive-Bayes score of each region over the window's distinct labels,
+  sum over labels of log((s + 1) / 11) with s the label's 0-10 region score (labels the table lacks
+  use calibrated embedding similarity at half weight; labels that say nothing about regions --
+  walls, doors -- are skipped); regions most likely first, at least five, none when no label is
+  informative;
+- relevance: table scores (embedding fallback for unknown labels) mixed with a floor, so that
+  no candidate gets zero.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from .. import prompts as P
+from ..priors import Priors, default_priors, with_floor
+from ..validate import normalise
+from . import Backend
+
+UNKNOWN_WEIGHT = 0.5  # weight of a label scored by embeddings in the region-proposal sum
+MIN_PROPOSALS = 5
+
+
+class OfflineBackend(Backend):
+    """Commonsense priors + MiniLM embedding fallback; never calls a server."""
+
+    name = "offline"
+
+    def __init__(self, *args: Any, priors: Priors | None = None, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.cache = None  # answers are computed, not fetched
+        self.model = "priors-v" + (priors or default_priors()).table["version"]
+        self._priors = priors
+
+    @property
+    def priors(self) -> Priors:
+        """Return the priors in use."""
+        if self._priors is None:
+            self._priors = default_priors()
+        return self._priors
+
+    def chat(self, messages: list[dict[str, str]], schema: dict[str, Any]) -> str:  # pragma: no cover
+        """Not used: the offline backend answers in `ask`."""
+        raise NotImplementedError("the offline backend answers questions directly")
+
+    def ask(self, prompt_id: str, payload: dict[str, Any]) -> Any:
+        """Answer one appendix C question from the priors."""
+        if prompt_id == P.RECEPTACLES:
+            seen: set[str] = set()
+            out = []
+            for lab in payload["objects"]:
+                n = normalise(lab)
+                if n and n not in seen and self.priors.is_receptacle(lab):
+                    seen.add(n)
+                    out.append(lab)
+            return out
+        if prompt_id == P.REGION_PROPOSALS:
+            return self._propose(list(payload["objects"]), list(payload.get("_vocabulary") or []))
+        if prompt_id == P.RECEPTACLE_RELEVANCE:
+            raw = self.priors.scores(payload["object"], list(payload["furniture"]), "receptacles")
+            return {k: round(with_floor(v), 4) for k, v in raw.items()}
+        if prompt_id == P.REGION_RELEVANCE:
+            raw = self.priors.scores(payload["object"], list(payload["regions"]), "regions")
+            return {k: round(with_floor(v), 4) for k, v in raw.items()}
+        raise KeyError(f"unknown prompt {prompt_id!r}")
+
+    def region_log_scores(self, labels: list[str]) -> dict[str, float]:
+        """Return the naive-Bayes log score of every canonical region for a set of labels ({} if none informative)."""
+        pri = self.priors
+        total = {r: 0.0 for r in pri.regions}
+        informative = False
+        for lab in sorted({normalise(x) for x in labels if normalise(x)}):
+            prof = pri.region_profile(lab)
+            weight = 1.0
+            if prof is None:
+                if pri.resolve(lab) is not None:
+                    continue  # known but says nothing about regions (wall, door, ...)
+                prof = pri.embedding_scores(lab, pri.regions, "regions")
+                weight = UNKNOWN_WEIGHT
+            informative = True
+            for r in pri.regions:
+                total[r] += weight * math.log((prof[r] + 1.0) / 11.0)
+        return total if informative else {}
+
+    def _propose(self, labels: list[str], vocabulary: list[str]) -> list[str]:
+        """Return region names, most likely first (vocabulary spellings where they match)."""
+        scores = self.region_log_scores(labels)
+        if not scores:
+            return []
+        order = sorted(scores, key=lambda r: (-scores[r], r))
+        spell = {}
+        for v in vocabulary:
+            c = self.priors.resolve_region(v)
+            if c is not None and c not in spell:
+                spell[c] = v
+        best = scores[order[0]]
+        keep = [r for r in order if scores[r] >= best - 6.0]  # drop regions e^6 times less likely
+        keep = order[: max(MIN_PROPOSALS, len(keep))]
+        return [spell.get(r, r) for r in keep]

@@ -1,0 +1,213 @@
+"""Region map (paper section 3.4): sliding-window region proposals over top-down instances.
+
+Fused instances of one floor are projected top-down. A circular window of radius r slides over the
+floor's NavMap grid with step d (centres at integer multiples of d in world XY); the distinct labels
+of the instances with a point inside a window go to the backend's region-proposal question
+(identical label sets are asked once). A window's proposals vote for the cells inside it: the k-th
+proposal (0-based) with weight 1/(k+1), times (1 - (dist/r)^2) so that a window speaks loudest about
+its centre. The per-cell sum is the ``scores`` volume; its argmax the label map. Cells no window
+reached are filled from the nearest labelled cell when they are floor (free) or within r of it.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from ..config import SemanticsConfig
+from ..records import Instance, NavMap, RegionMap
+from ..store import atomic_write_bytes
+from .backends import Backend
+from .priors import default_priors
+from .validate import normalise
+
+MAX_POINTS_PER_INSTANCE = 256
+FLOOR_BAND = (-0.2, 2.6)  # instance z range (relative to the floor height) that belongs to a floor
+
+
+def floor_instances(instances: Sequence[Instance], navmap: NavMap) -> list[Instance]:
+    """Return the instances that stand on the NavMap's floor."""
+    out = []
+    for inst in instances:
+        b = inst.bounds
+        if b[1, 2] > navmap.height + FLOOR_BAND[0] and b[0, 2] < navmap.height + FLOOR_BAND[1]:
+            out.append(inst)
+    return out
+
+
+def _points_xy(instances: Sequence[Instance]) -> tuple[np.ndarray, np.ndarray]:
+    """Return top-down points (M, 2) and their instance index (M,), at most a few hundred per instance."""
+    pts, idx = [], []
+    for k, inst in enumerate(instances):
+        p = inst.world_points[:, :2]
+        if len(p) == 0:
+            continue
+        if len(p) > MAX_POINTS_PER_INSTANCE:
+            p = p[np.linspace(0, len(p) - 1, MAX_POINTS_PER_INSTANCE).astype(int)]
+        pts.append(p)
+        idx.append(np.full(len(p), k))
+    if not pts:
+        return np.zeros((0, 2)), np.zeros(0, dtype=int)
+    return np.concatenate(pts), np.concatenate(idx)
+
+
+def window_centres(navmap: NavMap, step: float) -> np.ndarray:
+    """Return window centres (N, 2): multiples of `step` in world XY covering the map."""
+    h, w = navmap.navigable.shape
+    x0, y0 = float(navmap.origin[0]), float(navmap.origin[1])
+    x1, y1 = x0 + w * navmap.resolution, y0 + h * navmap.resolution
+    xs = np.arange(np.ceil(x0 / step), np.floor(x1 / step) + 1) * step
+    ys = np.arange(np.ceil(y0 / step), np.floor(y1 / step) + 1) * step
+    gx, gy = np.meshgrid(xs, ys)
+    return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+
+def window_labels(instances: Sequence[Instance], centres: np.ndarray, radius: float) -> list[tuple[str, ...]]:
+    """Return, per window, the sorted distinct labels of instances with a point inside it."""
+    pts, idx = _points_xy(instances)
+    if len(pts) == 0:
+        return [() for _ in range(len(centres))]
+    tree = cKDTree(pts)
+    labels = [normalise(inst.label) for inst in instances]
+    out = []
+    for hits in tree.query_ball_point(centres, r=radius):
+        out.append(tuple(sorted({labels[i] for i in idx[hits]} - {""})))
+    return out
+
+
+class _Vocab:
+    """Region label vocabulary: the configured names first, new open-vocabulary names appended."""
+
+    def __init__(self, names: Sequence[str]) -> None:
+        self.names: list[str] = []
+        self.index: dict[str, int] = {}
+        for n in names:
+            self._add(normalise(n))
+        self._canon = {}
+        pri = default_priors()
+        for n in list(self.names):
+            c = pri.resolve_region(n)
+            if c is not None and c not in self._canon:
+                self._canon[c] = self.index[n]
+
+    def _add(self, n: str) -> int:
+        if n not in self.index:
+            self.index[n] = len(self.names)
+            self.names.append(n)
+        return self.index[n]
+
+    def lookup(self, proposal: str) -> int | None:
+        """Return the vocabulary index of a proposal (adding an unknown region name)."""
+        n = normalise(proposal)
+        if not n:
+            return None
+        if n in self.index:
+            return self.index[n]
+        c = default_priors().resolve_region(n)
+        if c is not None:
+            if c in self._canon:
+                return self._canon[c]
+            i = self._add(c)
+            self._canon[c] = i
+            return i
+        return self._add(n)
+
+
+def region_map(instances: Sequence[Instance], navmap: NavMap, backend: Backend,
+               cfg: SemanticsConfig | None = None) -> RegionMap:
+    """Return the dense region map of the NavMap's floor from the instances standing on it."""
+    cfg = cfg or SemanticsConfig()
+    r, d = float(cfg.window_radius), float(cfg.window_step)
+    if r <= 0 or d <= 0:
+        raise ValueError(f"window radius and step must be positive (got r={r}, d={d})")
+    insts = floor_instances(instances, navmap)
+    centres = window_centres(navmap, d)
+    sets = window_labels(insts, centres, r)
+    vocab = _Vocab(cfg.region_labels)
+    n_fb = len(backend.fallbacks)
+    answers: dict[tuple[str, ...], list[int]] = {}
+    for s in sorted(set(sets)):
+        if not s:
+            continue
+        props = backend.propose_regions(list(s), list(cfg.region_labels))
+        idx: list[int] = []
+        for p in props:
+            i = vocab.lookup(p)
+            if i is not None and i not in idx:
+                idx.append(i)
+        answers[s] = idx
+
+    h, w = navmap.navigable.shape
+    res = float(navmap.resolution)
+    n_lab = len(vocab.names)
+    scores = np.zeros((h, w, max(n_lab, 1)), dtype=np.float64)
+    rc = int(np.ceil(r / res))
+    oy, ox = np.mgrid[-rc : rc + 1, -rc : rc + 1]
+    centre_cells = navmap.world_to_cell(centres)
+    for (ci, cj), c_xy, s in zip(centre_cells, centres, sets):
+        idx = answers.get(s) or []
+        if not idx:
+            continue
+        rows, cols = ci + oy, cj + ox
+        cell_xy = navmap.cell_to_world(np.stack([rows.ravel(), cols.ravel()], axis=1))
+        dist2 = np.sum((cell_xy - c_xy) ** 2, axis=1).reshape(rows.shape) / (r * r)
+        ok = (dist2 <= 1.0) & (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
+        wgt = (1.0 - dist2[ok])
+        rr, cc = rows[ok], cols[ok]
+        for k, lab in enumerate(idx):
+            scores[rr, cc, lab] += wgt / (k + 1.0)
+
+    total = scores.sum(axis=2)
+    label_map = np.where(total > 0, np.argmax(scores, axis=2), -1).astype(np.int16)
+    known = label_map >= 0
+    if known.any():
+        free = np.asarray(navmap.free, dtype=bool) | np.asarray(navmap.navigable, dtype=bool)
+        near_free = ndimage.distance_transform_edt(~free) * res <= r
+        todo = ~known & near_free
+        if todo.any():
+            _dist, (ii, jj) = ndimage.distance_transform_edt(~known, return_indices=True)
+            label_map[todo] = label_map[ii[todo], jj[todo]]
+    return RegionMap(
+        floor=int(navmap.floor), origin=np.asarray(navmap.origin, dtype=np.float64).copy(), resolution=res,
+        labels=list(vocab.names), label_map=label_map, scores=scores[:, :, :n_lab].astype(np.float32),
+        backend=backend.label, fallbacks=list(backend.fallbacks[n_fb:]),
+    )
+
+
+PALETTE = np.array([
+    [230, 159, 0], [86, 180, 233], [0, 158, 115], [240, 228, 66], [0, 114, 178], [213, 94, 0], [204, 121, 167],
+    [120, 120, 200], [160, 200, 120], [200, 120, 120], [120, 200, 200], [200, 200, 120],
+], dtype=np.uint8)
+
+
+def region_picture(rmap: RegionMap, path: str | Path, navmap: NavMap | None = None, scale: int = 4) -> Path:
+    """Write a PNG of the region map (colour per label, legend; navigable cells bright) and return its path."""
+    from PIL import Image, ImageDraw
+
+    lm = np.asarray(rmap.label_map)
+    h, w = lm.shape
+    img = np.full((h, w, 3), 40, dtype=np.uint8)
+    for k in range(len(rmap.labels)):
+        img[lm == k] = PALETTE[k % len(PALETTE)]
+    if navmap is not None and navmap.navigable.shape == lm.shape:
+        dim = ~np.asarray(navmap.navigable, dtype=bool) & (lm >= 0)
+        img[dim] = (img[dim].astype(np.float32) * 0.55).astype(np.uint8)
+    img = img[::-1]  # row 0 is the south edge: draw north up
+    pic = Image.fromarray(img).resize((w * scale, h * scale), Image.NEAREST)
+    legend_h = 14 * (len(rmap.labels) + 1)
+    canvas = Image.new("RGB", (max(pic.width, 180), pic.height + legend_h), (255, 255, 255))
+    canvas.paste(pic, (0, 0))
+    draw = ImageDraw.Draw(canvas)
+    for k, name in enumerate(rmap.labels):
+        y = pic.height + 4 + 14 * k
+        draw.rectangle([4, y, 14, y + 10], fill=tuple(int(v) for v in PALETTE[k % len(PALETTE)]))
+        draw.text((20, y - 1), name, fill=(0, 0, 0))
+    buf = io.BytesIO()
+    canvas.save(buf, format="PNG")
+    atomic_write_bytes(Path(path), buf.getvalue())
+    return Path(path)
