@@ -111,6 +111,12 @@ class PerceiveConfig:
     voxel_size: float = _p(0.02, "m", "voxel downsampling of fused instances")
     iou_min: float = _p(0.9, "-", "3D box IoU for fusion error correction", "IoU_min")
     min_points: int = _p(30, "-", "instances with fewer points are dropped")
+    depth_min: float = _p(0.1, "m", "depth below this is not back-projected")
+    depth_max: float = _p(10.0, "m", "depth above this is not back-projected")
+    label_similarity: str = _p("minilm", "-", "label term of fusion: minilm (cosine of all-MiniLM-L6-v2 sentence embeddings, clipped to [0, 1]) or exact (1 if equal else 0)")
+    vocabulary: tuple[str, ...] = _p((), "-", "text prompts of open-vocabulary detectors (empty: the receptacle labels)")
+    owl_weights: str = _p("owlv2", "path", "box model subfolder of detector_weights (OWLv2 or Grounding DINO, transformers format)")
+    sam_weights: str = _p("sam", "path", "mask model subfolder of detector_weights (SAM, transformers format)")
 
 
 @dataclass(frozen=True)
@@ -128,6 +134,10 @@ class ReceptacleConfig:
     max_normal_tilt: float = _p(10.0, "deg", "planes tilted more than this from +Z are rejected")
     min_plane_area: float = _p(0.01, "m^2", "planes smaller than this are rejected")
     merge_height_tol: float = _p(0.02, "m", "planes closer than this in height (and overlapping) are merged")
+    coverage_cell: float = _p(0.05, "m", "XY grid cell for plane connectivity, hull coverage and clearance tests")
+    min_coverage: float = _p(0.5, "-", "planes whose hull cells hold inlier points less often than this are rejected (slabs through legs or walls)")
+    min_clearance: float = _p(0.10, "m", "free height needed above a plane; receptacle points in (eps_t, this] above it count as covering")
+    max_covered: float = _p(0.5, "-", "planes with more than this fraction of their cells covered from just above are rejected (undersides)")
 
 
 @dataclass(frozen=True)
@@ -146,6 +156,9 @@ class SemanticsConfig:
         ("kitchen", "living room", "bedroom", "bathroom", "office", "dining room"),
         "-", "region vocabulary offered to the region-proposal prompt")
     cache: bool = _p(True, "-", "cache LLM replies on disk")
+    backoff_s: float = _p(0.5, "s", "first wait before retrying a failed request (doubles each retry)")
+    temperature: float = _p(0.0, "-", "sampling temperature sent to server backends")
+    seed: int = _p(0, "-", "sampling seed sent to server backends (the cache, not the seed, makes re-runs exact)")
 
 
 @dataclass(frozen=True)
@@ -168,6 +181,13 @@ class PlaceConfig:
     ang_vel_tol: float = _p(0.1, "rad/s", "settled angular speed")
     resample_attempts: int = _p(2, "-", "resampling rounds for failed objects")
     support_thickness: float = _p(0.02, "m", "thickness of support prisms built from receptacle polygons")
+    support_hfield: bool = _p(False, "-", "use a heightfield from ray casts on the scene mesh where a plane's surface is not flat")
+    hfield_resolution: float = _p(0.02, "m", "heightfield raster step")
+    hfield_flatness: float = _p(0.01, "m", "surfaces whose height range is below this keep the flat prism")
+    check_every: int = _p(25, "steps", "settling checks object speeds every this many physics steps")
+    fell_drop: float = _p(0.1, "m", "an object whose centre ends this far below its plane (or on a floor) fell")
+    sleep: bool = _p(True, "-", "let MuJoCo put resting objects to sleep while settling (faster; speeds are still checked)")
+    support_condim: int = _p(6, "-", "contact dimension of support geoms: 6 adds torsional and rolling friction so round objects stop")
 
 
 @dataclass(frozen=True)

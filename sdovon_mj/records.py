@@ -392,6 +392,8 @@ class RegionMap(Record):
     labels: list[str]  # region vocabulary
     label_map: np.ndarray  # (H, W) int16 index into labels, -1 = unknown
     scores: np.ndarray  # (H, W, len(labels)) float32 aggregated proposal scores
+    backend: str = ""  # backend (and model) that proposed the regions
+    fallbacks: list[str] = field(default_factory=list)  # questions answered by the fallback backend, and why
 
     def region_at(self, xy: np.ndarray) -> str:
         """Return the region label at a world XY point ('' if outside or unknown)."""
