@@ -93,24 +93,35 @@ def apartment_boxes(storeys: int = 2, size: tuple[float, float] = (8.0, 6.0), st
 
 def write_box_scene(boxes: list[Box], out_dir: str | Path, name: str = "synthetic") -> SceneAsset:
     """Write boxes as a converted-style scene (MJCF + OBJ meshes + mesh sidecar + scene.json)."""
+    rng = np.random.default_rng(0)
+    parts = []
+    for b in boxes:
+        v, f = box_mesh(b.lo, b.hi)
+        parts.append((b.label, v, f, (*rng.uniform(0.3, 0.9, 3), 1.0), b.kind == "ceiling"))
+    return write_mesh_scene(parts, out_dir, name)
+
+
+def write_mesh_scene(parts: list[tuple[str, np.ndarray, np.ndarray, tuple[float, ...], bool]], out_dir: str | Path,
+                     name: str = "synthetic") -> SceneAsset:
+    """Write (label, vertices, faces, rgba, is_ceiling) parts as instances inst_<k> of a scene."""
     out = Path(out_dir)
     (out / "meshes").mkdir(parents=True, exist_ok=True)
     verts, faces, face_inst = [], [], []
     assets, geoms, instances = [], [], []
     offset = 0
-    rng = np.random.default_rng(0)
-    for k, b in enumerate(boxes):
-        v, f = box_mesh(b.lo, b.hi)
+    for k, (label, v, f, rgba, ceiling) in enumerate(parts):
+        v = np.asarray(v, dtype=np.float64)
+        f = np.asarray(f, dtype=np.int64)
         obj = "".join(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in v) + "".join(f"f {a + 1} {c + 1} {d + 1}\n" for a, c, d in f)
         atomic_write_text(out / "meshes" / f"inst_{k}.obj", obj)
         gname = instance_geom_name(k)
-        group = GROUP_CEILING if b.kind == "ceiling" else GROUP_SCENE
-        rgba = " ".join(f"{c:.3f}" for c in (*rng.uniform(0.3, 0.9, 3), 1.0))
-        assets.append(f'    <mesh name="m_{k}" file="inst_{k}.obj"/>')
-        geoms.append(f'    <geom name="{gname}" type="mesh" mesh="m_{k}" group="{group}" rgba="{rgba}" contype="0" conaffinity="0"/>')
+        group = GROUP_CEILING if ceiling else GROUP_SCENE
+        col = " ".join(f"{c:.3f}" for c in rgba)
+        assets.append(f'    <mesh name="m_{k}" file="inst_{k}.obj" inertia="shell"/>')
+        geoms.append(f'    <geom name="{gname}" type="mesh" mesh="m_{k}" group="{group}" rgba="{col}" contype="0" conaffinity="0"/>')
         # SemanticInstance.kind collides with the record tag 'kind' (records.py): leave it default
-        instances.append(SemanticInstance(id=k, label=b.label, geoms=[gname],
-                                          bounds=np.array([b.lo, b.hi], dtype=np.float64)))
+        instances.append(SemanticInstance(id=k, label=label, geoms=[gname],
+                                          bounds=np.stack([v.min(axis=0), v.max(axis=0)])))
         verts.append(v)
         faces.append(f + offset)
         face_inst.append(np.full(len(f), k))
@@ -129,3 +140,33 @@ def write_box_scene(boxes: list[Box], out_dir: str | Path, name: str = "syntheti
                        bounds=np.stack([V.min(axis=0), V.max(axis=0)]), mesh=f"{name}_mesh.npz")
     save_json(scene, out / "scene.json")
     return scene
+
+
+def living_room_parts(assets_root: str | Path) -> list[tuple[str, np.ndarray, np.ndarray, tuple[float, ...], bool]]:
+    """Return the shared furnished living room (placements.json) as untextured Z-up parts, one per glTF node."""
+    import json
+
+    import trimesh
+    from trimesh.transformations import euler_matrix, rotation_matrix
+
+    root = Path(assets_root)
+    spec = json.loads((root / "scenes" / "furnished_living_room" / "placements.json").read_text(encoding="utf-8"))
+    y_to_z = rotation_matrix(np.pi / 2, [1, 0, 0])  # glTF (x, y, z) -> (x, -z, y)
+    parts = []
+    for inst in spec["instances"]:
+        pose = euler_matrix(*np.radians(inst["rpy_deg"]), axes="sxyz")
+        pose[:3, 3] = inst["translation"]
+        scene = trimesh.load(root / inst["asset"], force="scene")
+        for node in sorted(scene.graph.nodes_geometry):
+            T, gname = scene.graph[node]
+            g = scene.geometry[gname]
+            v = trimesh.transform_points(np.asarray(g.vertices), pose @ y_to_z @ T)
+            rgba = (0.7, 0.7, 0.7, 1.0)
+            try:
+                c = np.asarray(g.visual.material.main_color, dtype=np.float64) / 255.0
+                rgba = tuple(float(x) for x in c[:3]) + (1.0,)
+            except AttributeError:
+                pass
+            label = inst["name"] if inst["name"] not in ("living_room",) else str(node).split("_")[0]
+            parts.append((label, v, np.asarray(g.faces), rgba, False))
+    return parts
