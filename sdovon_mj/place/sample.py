@@ -1,0 +1,219 @@
+"""Semantic sampling of what goes where (paper section 3.4): per receptacle plane in its region, m
+repeatable categories by the joint relevance P(obj|rgn) * P(obj|rec), an instance per category, a
+uniform position in the plane polygon shrunk by the object's footprint, a minimum gap between
+objects, and the spawn pose (the paper's random X/Y/Z rotation from h_spawn, or a stable drop)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..config import PlaceConfig
+from ..records import ObjectAsset, Placement, ReceptaclePlane, Relevance
+from .polygon_sampling import inset_convex_polygon, sample_in_polygon
+
+POSITION_TRIES = 40  # candidate positions per object before giving up on a plane
+_INSET_CACHE: dict[tuple[bytes, float], np.ndarray] = {}
+
+
+def _inset(polygon: np.ndarray, r: float) -> np.ndarray:
+    """Return the polygon shrunk by r (memoised: the same planes and objects come back every variant)."""
+    key = (np.asarray(polygon, dtype=float).tobytes(), round(float(r), 6))
+    hit = _INSET_CACHE.get(key)
+    if hit is None:
+        if len(_INSET_CACHE) > 100_000:
+            _INSET_CACHE.clear()
+        hit = _INSET_CACHE[key] = inset_convex_polygon(polygon, r)
+    return hit
+
+
+@dataclass
+class SampleResult:
+    """Sampled placements (status 'pending') and what could not be placed, in words."""
+
+    placements: list[Placement] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+def object_radius(asset: ObjectAsset, mode: str) -> float:
+    """Return the footprint radius about the bbox centre: XY for stable drops, 3D for tumbling spawns."""
+    lo, hi = np.asarray(asset.bbox[0], float), np.asarray(asset.bbox[1], float)
+    half = (hi - lo) / 2.0
+    return float(np.linalg.norm(half if mode == "paper" else half[:2]))
+
+
+def category_distribution(relevance: Relevance, region: str, receptacle: str, categories: list[str],
+                          temperature: float, top_k: int) -> tuple[list[str], np.ndarray]:
+    """Return the categories to draw from and their probabilities (joint relevance, top-k, temperature)."""
+    known = [c for c in categories if c in relevance.objects]
+    if not known:
+        return [], np.zeros(0)
+    joint = relevance.joint(region, receptacle)
+    scores = np.array([max(float(joint[relevance.objects.index(c)]), 0.0) for c in known])
+    if not np.isfinite(scores).all() or scores.sum() <= 0:
+        scores = np.ones(len(known))
+    order = np.lexsort((np.array(known), -scores))  # descending score, ties by name
+    if top_k > 0:
+        order = order[:top_k]
+    cats = [known[i] for i in order]
+    s = scores[order]
+    s = s / s.max()
+    t = max(float(temperature), 1e-6)
+    with np.errstate(divide="ignore"):
+        logits = np.where(s > 0, np.log(np.maximum(s, 1e-300)) / t, -np.inf)
+    p = np.exp(logits - logits[np.isfinite(logits)].max())
+    p = np.where(np.isfinite(p), p, 0.0)
+    return cats, p / p.sum()
+
+
+def random_rotation_xyz(rng: np.random.Generator) -> np.ndarray:
+    """Return a wxyz quaternion of random rotations about X, Y and Z (the paper's spawn)."""
+    ax, ay, az = rng.uniform(0.0, 2.0 * math.pi, 3)
+    qx = np.array([math.cos(ax / 2), math.sin(ax / 2), 0.0, 0.0])
+    qy = np.array([math.cos(ay / 2), 0.0, math.sin(ay / 2), 0.0])
+    qz = np.array([math.cos(az / 2), 0.0, 0.0, math.sin(az / 2)])
+    return quat_mul(qz, quat_mul(qy, qx))
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Return the wxyz quaternion product a * b."""
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
+def quat_to_mat(q: np.ndarray) -> np.ndarray:
+    """Return the 3x3 rotation matrix of a wxyz quaternion."""
+    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def spawn_pose(asset: ObjectAsset, plane: ReceptaclePlane, xy: np.ndarray, cfg: PlaceConfig,
+               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Return the body position and wxyz quaternion that put the object's bbox centre over `xy`."""
+    lo, hi = np.asarray(asset.bbox[0], float), np.asarray(asset.bbox[1], float)
+    centre = (lo + hi) / 2.0
+    if cfg.spawn_mode == "paper":
+        q = random_rotation_xyz(rng)
+        R = quat_to_mat(q)
+        # Lowest point of the rotated bbox sits h_spawn above the plane.
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        rc = (corners - centre) @ R.T
+        zc = plane.height + cfg.h_spawn - rc[:, 2].min()
+    elif cfg.spawn_mode == "stable":
+        yaw = rng.uniform(0.0, 2.0 * math.pi)
+        q = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+        R = quat_to_mat(q)
+        zc = plane.height + cfg.stable_drop + (centre[2] - lo[2])
+    else:
+        raise ValueError(f"unknown place.spawn_mode {cfg.spawn_mode!r} (paper or stable)")
+    world_centre = np.array([xy[0], xy[1], zc])
+    pos = world_centre - R @ centre
+    return pos, q
+
+
+def _fits(xy: np.ndarray, r: float, taken: list[tuple[np.ndarray, float]], gap: float) -> bool:
+    """Return whether a footprint circle keeps `gap` from every taken one."""
+    return all(float(np.hypot(*(xy - c))) >= r + rc + gap for c, rc in taken)
+
+
+def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
+                      cfg: PlaceConfig, rng: np.random.Generator) -> SampleResult:
+    """Sample categories, instances and spawn poses for every plane; say in notes what was skipped."""
+    res = SampleResult()
+    if not planes:
+        res.notes.append("no receptacle planes in this scene: nothing to place")
+        return res
+    if not objects:
+        res.notes.append("the object library is empty: nothing to place")
+        return res
+    by_cat: dict[str, list[ObjectAsset]] = {}
+    for a in sorted(objects, key=lambda a: (a.category, a.name)):
+        by_cat.setdefault(a.category, []).append(a)
+    categories = sorted(c for c in by_cat if c in relevance.objects)
+    if not categories:
+        res.notes.append("no object category of the library is known to the relevance table "
+                         f"(library: {', '.join(sorted(by_cat))}; relevance: {', '.join(relevance.objects)}): nothing to place")
+        return res
+    unknown = sorted(set(by_cat) - set(categories))
+    if unknown:
+        res.notes.append(f"categories unknown to the relevance table are never placed: {', '.join(unknown)}")
+    min_r = min(object_radius(a, cfg.spawn_mode) for c in categories for a in by_cat[c])
+    taken: dict[int, list[tuple[np.ndarray, float]]] = {}
+    order = sorted(planes, key=lambda p: p.id)
+    order = [order[i] for i in rng.permutation(len(order))]
+    n = 0
+    for plane in order:
+        if n >= cfg.max_objects:
+            res.notes.append(f"max_objects={cfg.max_objects} reached: later planes got nothing")
+            break
+        if len(_inset(plane.polygon, min_r)) < 3:
+            res.notes.append(f"plane {plane.id} ({plane.label}, {abs(plane.area):.3f} m^2) is smaller than every object footprint: nothing placed on it")
+            continue
+        cats, p = category_distribution(relevance, plane.region, plane.label, categories, cfg.temperature, cfg.top_k)
+        for _ in range(cfg.m):
+            if n >= cfg.max_objects:
+                break
+            cat = cats[int(rng.choice(len(cats), p=p))]
+            assets = by_cat[cat]
+            asset = assets[int(rng.integers(len(assets)))]
+            placed = _place_one(asset, plane, taken.setdefault(plane.id, []), cfg, rng)
+            if placed is None:
+                fitting = [a for a in assets if len(_inset(plane.polygon, object_radius(a, cfg.spawn_mode))) >= 3]
+                if fitting and asset not in fitting:
+                    asset = fitting[int(rng.integers(len(fitting)))]
+                    placed = _place_one(asset, plane, taken[plane.id], cfg, rng)
+            if placed is None:
+                res.notes.append(f"plane {plane.id} ({plane.label}): no room for a {cat} ({asset.name})")
+                continue
+            pos, q = placed
+            res.placements.append(Placement(object_id=f"obj_{n:03d}", asset=asset.name, category=cat, plane_id=plane.id,
+                                            receptacle_instance=plane.instance_id, region=plane.region,
+                                            spawn_pos=pos, spawn_quat=q))
+            n += 1
+    if not res.placements:
+        res.notes.append("no object could be placed on any receptacle plane")
+    return res
+
+
+def _place_one(asset: ObjectAsset, plane: ReceptaclePlane, taken: list[tuple[np.ndarray, float]], cfg: PlaceConfig,
+               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
+    """Draw a free position for one object on a plane and its spawn pose, or None."""
+    r = object_radius(asset, cfg.spawn_mode)
+    region = _inset(plane.polygon, r)
+    if len(region) < 3:
+        return None
+    for xy in sample_in_polygon(region, POSITION_TRIES, rng):
+        if _fits(xy, r, taken, cfg.min_distance):
+            taken.append((xy, r))
+            return spawn_pose(asset, plane, xy, cfg, rng)
+    return None
+
+
+def resample_pose(asset: ObjectAsset, plane: ReceptaclePlane, others: list[tuple[np.ndarray, float]], cfg: PlaceConfig,
+                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
+    """Draw a new spawn pose for an object on its plane away from `others` (xy, radius), or None."""
+    return _place_one(asset, plane, list(others), cfg, rng)
+
+
+def top_pair_share(placements: list[Placement], relevance: Relevance, planes: list[ReceptaclePlane],
+                   k: int = 3) -> dict[str, tuple[float, int]]:
+    """Return per category the share of its placements on its k most relevant (region, receptacle) pairs present."""
+    pairs = sorted({(p.region, p.label) for p in planes})
+    plane_pair = {p.id: (p.region, p.label) for p in planes}
+    out: dict[str, tuple[float, int]] = {}
+    for cat in sorted({p.category for p in placements}):
+        if cat not in relevance.objects:
+            continue
+        i = relevance.objects.index(cat)
+        scores = [(-float(relevance.joint(rg, rc)[i]), rg, rc) for rg, rc in pairs]
+        top = {(rg, rc) for _, rg, rc in sorted(scores)[:k]}
+        mine = [p for p in placements if p.category == cat]
+        hits = sum(1 for p in mine if plane_pair.get(p.plane_id) in top)
+        out[cat] = (hits / len(mine), len(mine))
+    return out
