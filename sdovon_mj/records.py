@@ -24,7 +24,7 @@ import json
 import types
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar, TypeVar, Union, get_args, get_origin, get_type_hints
+from typing import Any, TypeVar, Union, get_args, get_origin, get_type_hints
 
 import numpy as np
 
@@ -100,19 +100,24 @@ def _decode(value: Any, typ: Any) -> Any:
     return value
 
 
-class Record:
-    """Base of all records: exact dict/JSON round trips and a `kind` tag."""
+TAG = "__record__"  # the key naming a record's class in its dict form (fields may be called `kind`)
 
-    kind: ClassVar[str] = "record"
+
+class Record:
+    """Base of all records: exact dict/JSON round trips and a class tag."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        cls.kind = cls.__name__
         _REGISTRY[cls.__name__] = cls
+
+    @classmethod
+    def record_type(cls) -> str:
+        """Return the record's type name (its tag in files)."""
+        return cls.__name__
 
     def to_dict(self) -> dict[str, Any]:
         """Return the record as JSON-able data (arrays encoded exactly)."""
-        out: dict[str, Any] = {"kind": self.kind}
+        out: dict[str, Any] = {TAG: type(self).__name__}
         for f in dataclasses.fields(self):  # type: ignore[arg-type]
             out[f.name] = _encode(getattr(self, f.name))
         return out
@@ -122,7 +127,7 @@ class Record:
         """Rebuild a record from `to_dict` data."""
         if not isinstance(data, dict):
             raise RecordError(f"{cls.__name__}: expected a mapping, got {type(data).__name__}")
-        kind = data.get("kind", cls.__name__)
+        kind = data.get(TAG, cls.__name__)
         if kind != cls.__name__:
             raise RecordError(f"expected a {cls.__name__} record, found {kind}")
         hints = get_type_hints(cls)
@@ -151,7 +156,7 @@ def dumps(data: Any) -> str:
 
 def record_from_dict(data: dict[str, Any]) -> Record:
     """Rebuild a record of any registered kind from `to_dict` data."""
-    kind = data.get("kind")
+    kind = data.get(TAG) if isinstance(data, dict) else None
     if kind not in _REGISTRY:
         raise RecordError(f"unknown record kind {kind!r}")
     return _REGISTRY[kind].from_dict(data)
@@ -550,7 +555,7 @@ def save_npz(records: list[Record], path: str | Path) -> None:
     arrays: dict[str, np.ndarray] = {}
     meta = []
     for i, rec in enumerate(records):
-        d = {"kind": rec.kind}
+        d = {TAG: type(rec).__name__}
         for f in dataclasses.fields(rec):  # type: ignore[arg-type]
             v = getattr(rec, f.name)
             if isinstance(v, np.ndarray):
@@ -587,7 +592,7 @@ def load_npz(path: str | Path) -> list[Record]:
             meta = json.loads(bytes(z["__meta__"]).decode("utf-8"))
             out = []
             for d in meta:
-                cls = _REGISTRY[d["kind"]]
+                cls = _REGISTRY[d[TAG]]
                 for k, v in list(d.items()):
                     if isinstance(v, dict) and "__npz__" in v:
                         d[k] = {"__ndarray__": None, "_arr": z[v["__npz__"]]}

@@ -20,6 +20,7 @@ from typing import Any, Iterable
 from . import __version__
 
 DONE = ".done.json"
+TIMING = ".timing.json"  # wall seconds of a stage: kept apart so outputs compare byte for byte
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
@@ -150,15 +151,17 @@ class Store:
             return None
         try:
             d = json.loads(p.read_text(encoding="utf-8"))
-            return StageMark(d["fingerprint"], list(d["outputs"]), float(d.get("seconds", 0.0)))
+            t = self.path(stage) / TIMING
+            seconds = float(json.loads(t.read_text(encoding="utf-8"))["seconds"]) if t.exists() else 0.0
+            return StageMark(d["fingerprint"], list(d["outputs"]), seconds)
         except (json.JSONDecodeError, KeyError, TypeError, ValueError):
             return None
 
     def mark_done(self, stage: str, fp: str, outputs: Iterable[str | Path], seconds: float = 0.0) -> None:
         """Record that `stage` finished with fingerprint `fp` (written after its outputs)."""
         outs = sorted(o if isinstance(o, str) else self.rel(o) for o in outputs)
-        # Timing lives in the marker (a bookkeeping file), never in the stage's outputs.
-        self.write_json(Path(stage) / DONE, {"fingerprint": fp, "outputs": outs, "seconds": round(seconds, 4)})
+        self.write_json(Path(stage) / TIMING, {"seconds": round(seconds, 4)})
+        self.write_json(Path(stage) / DONE, {"fingerprint": fp, "outputs": outs})
 
     def invalidate(self, stage: str) -> None:
         """Forget that `stage` finished (its outputs stay until overwritten)."""

@@ -68,7 +68,7 @@ def _examples() -> list[R.Record]:
     poly = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
     return [
         R.SceneAsset("apt", "scene/apt.xml", floors=[R.Floor(0, 0.0, 30.5)],
-                     instances=[R.SemanticInstance(3, "table", ["inst_3"], room=1, bounds=rng.random((2, 3)))],
+                     instances=[R.SemanticInstance(3, "table", ["inst_3"], room=1, kind="receptacle", bounds=rng.random((2, 3)))],
                      bounds=rng.random((2, 3)), rooms=[R.Room(1, "kitchen", 0, poly)],
                      support_surfaces=[R.SupportSurface(3, 0.75, poly)]),
         R.ObjectAsset("mug_0", "mug", "objects/mug_0/model.xml", rng.random((2, 3)), 0.3, 4),
@@ -89,7 +89,7 @@ def _examples() -> list[R.Record]:
     ]
 
 
-@pytest.mark.parametrize("rec", _examples(), ids=lambda r: r.kind)
+@pytest.mark.parametrize("rec", _examples(), ids=lambda r: r.record_type())
 def test_records_round_trip_json_exactly(rec, tmp_path):
     back = type(rec).from_json(rec.to_json())
     assert R.records_equal(rec, back)
@@ -104,7 +104,7 @@ def test_records_round_trip_npz_exactly(tmp_path):
     back = R.load_npz(tmp_path / "s.npz")
     assert len(back) == len(recs)
     for a, b in zip(recs, back):
-        assert R.records_equal(a, b), a.kind
+        assert R.records_equal(a, b), a.record_type()
     b1 = (tmp_path / "s.npz").read_bytes()
     R.save_npz(recs, tmp_path / "s2.npz")
     assert (tmp_path / "s2.npz").read_bytes() == b1, "npz shards are deterministic"
@@ -115,7 +115,7 @@ def test_corrupt_record_file_is_a_clear_error(tmp_path):
     p.write_text("{not json")
     with pytest.raises(R.RecordError, match="x.json"):
         R.load_json(p)
-    p.write_text('{"kind": "Nope"}')
+    p.write_text('{"__record__": "Nope"}')
     with pytest.raises(R.RecordError, match="Nope"):
         R.load_json(p)
 
