@@ -54,5 +54,5 @@ def load_shards(paths: Iterable[str | Path]) -> Iterator[Observation]:
             raise InputError(p, f"not an observation shard ({e})") from None
         for r in recs:
             if not isinstance(r, Observation):
-                raise InputError(p, f"shard holds a {r.kind}, not Observation records")
+                raise InputError(p, f"shard holds a {type(r).__name__}, not Observation records")
             yield r
