@@ -119,7 +119,6 @@ def write_mesh_scene(parts: list[tuple[str, np.ndarray, np.ndarray, tuple[float,
         col = " ".join(f"{c:.3f}" for c in rgba)
         assets.append(f'    <mesh name="m_{k}" file="inst_{k}.obj" inertia="shell"/>')
         geoms.append(f'    <geom name="{gname}" type="mesh" mesh="m_{k}" group="{group}" rgba="{col}" contype="0" conaffinity="0"/>')
-        # SemanticInstance.kind collides with the record tag 'kind' (records.py): leave it default
         instances.append(SemanticInstance(id=k, label=label, geoms=[gname],
                                           bounds=np.stack([v.min(axis=0), v.max(axis=0)])))
         verts.append(v)
