@@ -110,11 +110,11 @@ def test_deterministic_bytes_and_model_loads_from_anywhere(flat, tmp_path):
     cfg = PlaceConfig(m=2)
     a = place_variant(scene, planes, hand_relevance(), lib, root, cfg, 11, 40)
     xml_a = (root / a.mjcf).read_bytes()
-    json_a = (root / "place" / scene.name / a.name / "variant.json").read_bytes()
+    json_a = (root / "scenes" / scene.name / "variants" / a.name / "variant.json").read_bytes()
     b = place_variant(scene, planes, hand_relevance(), lib, root, cfg, 11, 40)
     assert (root / b.mjcf).read_bytes() == xml_a
-    assert (root / "place" / scene.name / b.name / "variant.json").read_bytes() == json_a
-    assert load_json(root / "place" / scene.name / b.name / "variant.json", SceneVariant).to_json() == a.to_json()
+    assert (root / "scenes" / scene.name / "variants" / b.name / "variant.json").read_bytes() == json_a
+    assert load_json(root / "scenes" / scene.name / "variants" / b.name / "variant.json", SceneVariant).to_json() == a.to_json()
     c = place_variant(scene, planes, hand_relevance(), lib, root, cfg, 12, 41)
     assert not np.array_equal(c.qpos, a.qpos)
     # The composed model loads from another cwd and after moving the whole store.

@@ -46,13 +46,13 @@ def variant_seed(scene_seed: int, index: int) -> int:
 def variant_paths(scene_name: str, index: int) -> tuple[str, str]:
     """Return the store-relative paths of a variant's composed MJCF and its record."""
     name = f"{scene_name}_v{index:03d}"
-    return f"place/{scene_name}/{name}/model.xml", f"place/{scene_name}/{name}/variant.json"
+    return f"scenes/{scene_name}/variants/{name}/variant.xml", f"scenes/{scene_name}/variants/{name}/variant.json"
 
 
 def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
-                store_root: str | Path, cfg: PlaceConfig, seed: int, index: int,
-                write: bool = True) -> tuple[SceneVariant, VariantStats]:
-    """Place and settle one variant; return it with its timing (writes model + record when `write`)."""
+                store_root: str | Path, cfg: PlaceConfig, seed: int, index: int, write: bool = True,
+                out_root: str | Path | None = None) -> tuple[SceneVariant, VariantStats]:
+    """Place and settle one variant; return it with its timing (writes model + record under out_root when `write`)."""
     stats = VariantStats()
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -121,8 +121,9 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
     variant.qpos = np.concatenate([np.concatenate([p.settled_pos, p.settled_quat]) for p in kept]).astype(np.float64) if kept else np.zeros(0)
     if write:
         t3 = time.perf_counter()
-        write_variant_model(variant, scene, planes, objects, store_root, cfg)
-        save_json(variant, Path(store_root) / variant_paths(scene.name, index)[1])
+        out = Path(out_root) if out_root is not None else Path(store_root)
+        write_variant_model(variant, scene, planes, objects, store_root, cfg, out)
+        save_json(variant, out / variant_paths(scene.name, index)[1])
         stats.write_s = time.perf_counter() - t3
     return variant, stats
 
@@ -140,13 +141,13 @@ def _occupied(settler: Settler, placements: list[Placement], assets: dict[str, O
 
 
 def write_variant_model(variant: SceneVariant, scene: SceneAsset, planes: list[ReceptaclePlane], objects: list[ObjectAsset],
-                        store_root: str | Path, cfg: PlaceConfig) -> Path:
+                        store_root: str | Path, cfg: PlaceConfig, out_root: str | Path | None = None) -> Path:
     """Write the composed MJCF (scene + support + resting objects at their settled poses); set variant.mjcf."""
     kept = [p for p in variant.placements if p.status == RESTING]
     assets = {a.name: a for a in objects}
     composed = compose(kept, assets, planes, scene, store_root, cfg, with_scene=True, visual=True)
     rel = variant_paths(scene.name, variant.index)[0]
-    path = write_mjcf(composed.spec, Path(store_root) / rel)
+    path = write_mjcf(composed.spec, Path(out_root if out_root is not None else store_root) / rel)
     variant.mjcf = rel
     return path
 
