@@ -159,6 +159,7 @@ class SemanticsConfig:
     backoff_s: float = _p(0.5, "s", "first wait before retrying a failed request (doubles each retry)")
     temperature: float = _p(0.0, "-", "sampling temperature sent to server backends")
     seed: int = _p(0, "-", "sampling seed sent to server backends (the cache, not the seed, makes re-runs exact)")
+    window_walls: bool = _p(True, "-", "walls cut windows: a window covers only the floor space connected to its centre (False: the paper's plain disc)")
 
 
 @dataclass(frozen=True)

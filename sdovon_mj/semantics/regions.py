@@ -30,6 +30,11 @@ MAX_POINTS_PER_INSTANCE = 256
 FLOOR_BAND = (-0.2, 2.6)  # instance z range (relative to the floor height) that belongs to a floor
 
 
+def RANK_WEIGHTS(k: int) -> float:  # noqa: N802 - a table, written as a function
+    """Return the vote of the k-th (0-based) region proposal of a window."""
+    return 1.0 / (k + 1.0) ** 2
+
+
 def floor_instances(instances: Sequence[Instance], navmap: NavMap) -> list[Instance]:
     """Return the instances that stand on the NavMap's floor."""
     out = []
@@ -68,7 +73,7 @@ def window_centres(navmap: NavMap, step: float) -> np.ndarray:
 
 
 def window_labels(instances: Sequence[Instance], centres: np.ndarray, radius: float) -> list[tuple[str, ...]]:
-    """Return, per window, the sorted distinct labels of instances with a point inside it."""
+    """Return, per window (plain disc), the sorted distinct labels of instances with a point inside it."""
     pts, idx = _points_xy(instances)
     if len(pts) == 0:
         return [() for _ in range(len(centres))]
@@ -77,6 +82,53 @@ def window_labels(instances: Sequence[Instance], centres: np.ndarray, radius: fl
     out = []
     for hits in tree.query_ball_point(centres, r=radius):
         out.append(tuple(sorted({labels[i] for i in idx[hits]} - {""})))
+    return out
+
+
+def _is_structure(label: str) -> bool:
+    """Return whether a label names building structure (wall, floor, ceiling, window, door)."""
+    pri = default_priors()
+    key = pri.resolve(label, embed=False)
+    if key is None:
+        key = pri.resolve(normalise(label).split(" ")[-1], embed=False)
+    return key is not None and pri.labels[key].get("kind") == "structure"
+
+
+def _windows(insts: Sequence[Instance], navmap: NavMap, r: float, d: float, walls: bool
+             ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]]:
+    """Return per window: covered rows, cols, centre weights (1 - (dist/r)^2) and its distinct labels."""
+    h, w = navmap.navigable.shape
+    res = float(navmap.resolution)
+    pts, idx = _points_xy(insts)
+    pc = navmap.world_to_cell(pts) if len(pts) else np.zeros((0, 2), dtype=int)
+    ok = (pc[:, 0] >= 0) & (pc[:, 0] < h) & (pc[:, 1] >= 0) & (pc[:, 1] < w)
+    pc, idx = pc[ok], idx[ok]
+    pflat = pc[:, 0] * w + pc[:, 1]
+    labels = np.array([normalise(i.label) for i in insts] + [""], dtype=object)
+    space = np.asarray(navmap.free, dtype=bool) | np.asarray(navmap.navigable, dtype=bool)
+    space[pc[:, 0], pc[:, 1]] = True  # furniture stands in the room: its cells join the room's space
+    rc = int(np.ceil(r / res))
+    oy, ox = np.mgrid[-rc : rc + 1, -rc : rc + 1]
+    out = []
+    centres = window_centres(navmap, d)
+    for (ci, cj), c_xy in zip(navmap.world_to_cell(centres), centres):
+        rows, cols = ci + oy, cj + ox
+        cell_xy = navmap.cell_to_world(np.stack([rows.ravel(), cols.ravel()], axis=1))
+        dist2 = (np.sum((cell_xy - c_xy) ** 2, axis=1) / (r * r)).reshape(rows.shape)
+        inside = (dist2 <= 1.0) & (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
+        if walls:
+            if not (0 <= ci < h and 0 <= cj < w) or not space[ci, cj]:
+                continue  # centred on a wall or outside: no window
+            m = inside.copy()
+            m[inside] = space[rows[inside], cols[inside]]
+            comp, _n = ndimage.label(m)
+            inside = comp == comp[rc, rc]
+        rr, cc = rows[inside], cols[inside]
+        if len(rr) == 0:
+            continue
+        hit = np.isin(pflat, rr * w + cc)
+        labs = tuple(sorted(set(labels[idx[hit]]) - {""}))
+        out.append((rr, cc, 1.0 - dist2[inside], labs))
     return out
 
 
@@ -125,13 +177,12 @@ def region_map(instances: Sequence[Instance], navmap: NavMap, backend: Backend,
     r, d = float(cfg.window_radius), float(cfg.window_step)
     if r <= 0 or d <= 0:
         raise ValueError(f"window radius and step must be positive (got r={r}, d={d})")
-    insts = floor_instances(instances, navmap)
-    centres = window_centres(navmap, d)
-    sets = window_labels(insts, centres, r)
+    insts = [i for i in floor_instances(instances, navmap) if not _is_structure(i.label)]
+    windows = _windows(insts, navmap, r, d, bool(cfg.window_walls))
     vocab = _Vocab(cfg.region_labels)
     n_fb = len(backend.fallbacks)
     answers: dict[tuple[str, ...], list[int]] = {}
-    for s in sorted(set(sets)):
+    for s in sorted({win[3] for win in windows}):
         if not s:
             continue
         props = backend.propose_regions(list(s), list(cfg.region_labels))
@@ -146,21 +197,9 @@ def region_map(instances: Sequence[Instance], navmap: NavMap, backend: Backend,
     res = float(navmap.resolution)
     n_lab = len(vocab.names)
     scores = np.zeros((h, w, max(n_lab, 1)), dtype=np.float64)
-    rc = int(np.ceil(r / res))
-    oy, ox = np.mgrid[-rc : rc + 1, -rc : rc + 1]
-    centre_cells = navmap.world_to_cell(centres)
-    for (ci, cj), c_xy, s in zip(centre_cells, centres, sets):
-        idx = answers.get(s) or []
-        if not idx:
-            continue
-        rows, cols = ci + oy, cj + ox
-        cell_xy = navmap.cell_to_world(np.stack([rows.ravel(), cols.ravel()], axis=1))
-        dist2 = np.sum((cell_xy - c_xy) ** 2, axis=1).reshape(rows.shape) / (r * r)
-        ok = (dist2 <= 1.0) & (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
-        wgt = (1.0 - dist2[ok])
-        rr, cc = rows[ok], cols[ok]
-        for k, lab in enumerate(idx):
-            scores[rr, cc, lab] += wgt / (k + 1.0)
+    for rr, cc, wgt, s in windows:
+        for k, lab in enumerate(answers.get(s) or []):
+            scores[rr, cc, lab] += wgt * RANK_WEIGHTS(k)
 
     total = scores.sum(axis=2)
     label_map = np.where(total > 0, np.argmax(scores, axis=2), -1).astype(np.int16)
