@@ -1,0 +1,493 @@
+"""Dataset statistics of a run folder: tables like the paper's tables 1-2 and category charts like its figures 4-7.
+
+Reads only the run folder's records (layout: ``exporters/base.py`` and ``pipeline.py`` docstrings)::
+
+    scenes/<scene>/scene.json                              SceneAsset
+    scenes/<scene>/observe/navmap_<floor>.json             NavMap
+    scenes/<scene>/perceive/planes.json                    list[ReceptaclePlane]   (optional)
+    scenes/<scene>/semantics/regions_<floor>.json          RegionMap               (optional)
+    scenes/<scene>/variants/<variant>/variant.json         SceneVariant
+    scenes/<scene>/variants/<variant>/episodes.json        list[Episode]
+    objects/<name>/object.json or objects/objects.json     ObjectAsset(s)
+    config.yaml                                            the run's config        (optional)
+
+Any of these may be missing (a partial run): missing parts count as zero. A file that exists but
+cannot be read raises ``InputError`` naming it.
+
+Writes ``<run>/stats/``: ``statistics.json`` (sorted keys, floats rounded), ``statistics.md``
+(markdown tables) and four PNG bar charts; the same records give the same bytes.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import re
+from collections import Counter
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from .errors import InputError
+from .records import (
+    Episode,
+    NavMap,
+    ObjectAsset,
+    Placement,
+    ReceptaclePlane,
+    RecordError,
+    RegionMap,
+    SceneAsset,
+    SceneVariant,
+    dumps,
+    load_json,
+)
+from .store import atomic_write_bytes, atomic_write_text
+
+DIGITS = 4  # decimals kept for floats in statistics.json
+UNKNOWN = "unknown"
+CHARTS = {
+    "placed_categories": ("category_frequency_placed.png", "Object category frequency of placed objects", "object category", "placed instances"),
+    "goal_categories": ("category_frequency_goals.png", "Goal object category frequency of episodes", "goal category", "episodes"),
+    "receptacle_categories": ("receptacle_frequency.png", "Receptacle category frequency of placed objects", "receptacle category", "placed instances"),
+    "placement_regions": ("region_frequency.png", "Region frequency of placed objects", "region", "placed instances"),
+}
+
+
+# ----------------------------------------------------------------------------------------------
+# Reading
+
+
+def _read(path: Path, cls: type) -> Any:
+    """Load a record file, or raise InputError naming it."""
+    try:
+        return load_json(path, cls)
+    except RecordError as e:
+        raise InputError(path, str(e)) from None
+    except OSError as e:
+        raise InputError(path, f"cannot read ({e.strerror or e})") from None
+
+
+def _read_list(path: Path, cls: type) -> list[Any]:
+    """Load a list-of-records file ([] if missing)."""
+    if not path.is_file():
+        return []
+    data = _read(path, cls)
+    return data if isinstance(data, list) else [data]
+
+
+def _floor_of(path: Path) -> int:
+    """Return the floor index in a name like navmap_<floor>.json (-1 if none)."""
+    m = re.search(r"_(-?\d+)$", path.stem)
+    return int(m.group(1)) if m else -1
+
+
+def _objects(root: Path) -> list[ObjectAsset]:
+    """Return the run's object library (deduplicated by name, sorted)."""
+    found: dict[str, ObjectAsset] = {}
+    for obj in _read_list(root / "objects" / "objects.json", ObjectAsset):
+        found.setdefault(obj.name, obj)
+    for p in sorted((root / "objects").glob("*/object.json")):
+        obj = _read(p, ObjectAsset)
+        found.setdefault(obj.name, obj)
+    return [found[k] for k in sorted(found)]
+
+
+def _config_info(root: Path) -> dict[str, Any]:
+    """Return the dataset name and k_e/k_v from the run's config.yaml (empty if absent)."""
+    path = root / "config.yaml"
+    if not path.is_file():
+        return {}
+    from .config import load_config  # local: config is only needed when the run has one
+
+    try:
+        cfg = load_config(path)
+    except Exception as e:  # noqa: BLE001 - any config error becomes an InputError naming the file
+        raise InputError(path, f"not a readable run config ({e})") from None
+    return {"name": cfg.name, "k_e": int(cfg.episodes.k_e), "k_v": int(getattr(cfg.place, "k_v", 0) or 0)}
+
+
+# ----------------------------------------------------------------------------------------------
+# Helpers
+
+
+def rejection_key(p: Placement) -> str:
+    """Return a placement's rejection reason without numbers and object names ('' if it rests)."""
+    if p.status == "resting":
+        return ""
+    text = (p.reason or "").strip()
+    verdict = p.status
+    m = re.match(r"^(\w+) \(", text)
+    if m:  # "fell (rests on the floor) after 2 attempts": the verdict and what is inside its brackets
+        verdict, depth, start = m.group(1), 0, m.end() - 1
+        end = len(text)
+        for i in range(start, len(text)):
+            depth += {"(": 1, ")": -1}.get(text[i], 0)
+            if depth == 0:
+                end = i
+                break
+        text = text[start + 1:end]
+    cause = re.split(r" \(|;|, touching| touching ", text)[0].strip()
+    cause = re.sub(r"-?\d+(\.\d+)?", "#", cause)
+    if p.status == "dropped" and verdict != "dropped":
+        return f"{verdict}: {cause}" if cause else verdict
+    return f"{p.status}: {cause}" if cause else p.status
+
+
+def _summary(values: Iterable[float]) -> dict[str, float]:
+    """Return mean/min/max of values (zeros if empty)."""
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+    if v.size == 0:
+        return {"mean": 0.0, "min": 0.0, "max": 0.0}
+    return {"mean": float(v.mean()), "min": float(v.min()), "max": float(v.max())}
+
+
+def _sorted_counts(counter: Counter) -> dict[str, int]:
+    """Return a Counter as a plain dict (keys sorted)."""
+    return {str(k): int(counter[k]) for k in sorted(counter)}
+
+
+def _round(data: Any) -> Any:
+    """Round every float in nested data to DIGITS decimals (non-finite -> 0.0)."""
+    if isinstance(data, float):
+        return round(data, DIGITS) if math.isfinite(data) else 0.0
+    if isinstance(data, dict):
+        return {str(k): _round(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [_round(v) for v in data]
+    return data
+
+
+def _ratio(a: float, b: float) -> float:
+    """Return a / b, 0 when b is 0."""
+    return float(a) / float(b) if b else 0.0
+
+
+# ----------------------------------------------------------------------------------------------
+# Statistics
+
+
+def _scene_stats(root: Path, scene_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Return one scene's statistics and the raw data the run totals need."""
+    scene: SceneAsset | None = _read(scene_dir / "scene.json", SceneAsset) if (scene_dir / "scene.json").is_file() else None
+    name = scene.name if scene is not None else scene_dir.name
+    navmaps = [_read(p, NavMap) for p in sorted((scene_dir / "observe").glob("navmap_*.json"), key=_floor_of)]
+    nav_area = sum(float(np.count_nonzero(m.navigable)) * float(m.resolution) ** 2 for m in navmaps)
+    free_area = sum(float(np.count_nonzero(m.free)) * float(m.resolution) ** 2 for m in navmaps)
+    inst_label = {i.id: i.label for i in scene.instances} if scene is not None else {}
+
+    planes_path = scene_dir / "perceive" / "planes.json"
+    if planes_path.is_file():
+        planes_src = "perceive"
+        planes = [(p.id, p.label or inst_label.get(p.instance_id, UNKNOWN), float(abs(p.area))) for p in _read_list(planes_path, ReceptaclePlane)]
+    elif scene is not None and scene.support_surfaces:
+        planes_src = "ground_truth"
+        planes = []
+        for k, s in enumerate(scene.support_surfaces):
+            poly = np.asarray(s.polygon, dtype=float)
+            area = 0.5 * abs(float(np.dot(poly[:, 0], np.roll(poly[:, 1], -1)) - np.dot(poly[:, 1], np.roll(poly[:, 0], -1)))) if len(poly) >= 3 else 0.0
+            planes.append((k, inst_label.get(s.instance_id, UNKNOWN), area))
+    else:
+        planes_src, planes = "none", []
+    plane_label = {pid: label for pid, label, _ in planes}
+
+    region_labels: set[str] = set()
+    region_backends: set[str] = set()
+    for p in sorted((scene_dir / "semantics").glob("regions_*.json"), key=_floor_of):
+        rm = _read(p, RegionMap)
+        present = np.unique(np.asarray(rm.label_map))
+        region_labels.update(rm.labels[int(i)] for i in present if 0 <= int(i) < len(rm.labels))
+        if rm.backend:
+            region_backends.add(rm.backend)
+
+    variants: list[dict[str, Any]] = []
+    vroot = scene_dir / "variants"
+    vdirs = sorted({p.parent for p in vroot.glob("*/variant.json")} | {p.parent for p in vroot.glob("*/episodes.json")})
+    for vdir in vdirs:
+        variant = _read(vdir / "variant.json", SceneVariant) if (vdir / "variant.json").is_file() else None
+        episodes: list[Episode] = _read_list(vdir / "episodes.json", Episode)
+        placements = variant.placements if variant is not None else []
+        variants.append({
+            "name": variant.name if variant is not None else vdir.name,
+            "has_variant": variant is not None,
+            "placements": placements,
+            "receptacles": [plane_label.get(pl.plane_id) or inst_label.get(pl.receptacle_instance) or UNKNOWN for pl in placements],
+            "episodes": episodes,
+            "has_episodes": (vdir / "episodes.json").is_file(),
+        })
+
+    n_eps = sum(len(v["episodes"]) for v in variants)
+    stats = {
+        "name": name,
+        "floors": len(scene.floors) if scene is not None else len(navmaps),
+        "navmaps": len(navmaps),
+        "navigable_area_m2": nav_area,
+        "free_area_m2": free_area,
+        "instances": len(scene.instances) if scene is not None else 0,
+        "rooms": len(scene.rooms) if scene is not None else 0,
+        "receptacle_planes": len(planes),
+        "receptacle_planes_source": planes_src,
+        "receptacle_plane_area_m2": sum(a for _, _, a in planes),
+        "regions": len(region_labels),
+        "region_labels": sorted(region_labels),
+        "region_backends": sorted(region_backends),
+        "variants": sum(1 for v in variants if v["has_variant"]),
+        "placed_objects": sum(1 for v in variants for p in v["placements"] if p.status == "resting"),
+        "episodes": n_eps,
+    }
+    raw = {"planes": planes, "variants": variants, "regions": region_labels}
+    return stats, raw
+
+
+def dataset_statistics(run_root: Path) -> dict:
+    """Return the run folder's dataset statistics (counts, distances, frequencies, placement outcomes)."""
+    root = Path(run_root)
+    scene_dirs = sorted(p for p in (root / "scenes").glob("*") if p.is_dir()) if (root / "scenes").is_dir() else []
+    scenes, raws = [], []
+    for d in scene_dirs:
+        s, r = _scene_stats(root, d)
+        scenes.append(s)
+        raws.append(r)
+    objects = _objects(root)
+    cfg = _config_info(root)
+
+    placed_cat, placed_var, goal_cat, rec_place, rec_planes, regions_place = Counter(), Counter(), Counter(), Counter(), Counter(), Counter()
+    by_status, rejected = Counter(), Counter()
+    placed_assets: set[str] = set()
+    region_labels: set[str] = set()
+    geo, euc, ratio, goals_per_ep, vps_per_goal = [], [], [], [], []
+    eps_per_variant: list[int] = []
+    cats_per_variant: list[int] = []
+    objs_per_variant: list[int] = []
+    n_variants = n_variants_with_eps = 0
+    for raw in raws:
+        rec_planes.update(label for _, label, _ in raw["planes"])
+        region_labels |= raw["regions"]
+        for v in raw["variants"]:
+            if v["has_variant"]:
+                n_variants += 1
+                resting = [p for p in v["placements"] if p.status == "resting"]
+                objs_per_variant.append(len(resting))
+                placed_var.update({p.category for p in resting})
+            for p, rec in zip(v["placements"], v["receptacles"]):
+                by_status[p.status] += 1
+                if p.status == "resting":
+                    placed_cat[p.category] += 1
+                    placed_assets.add(p.asset)
+                    rec_place[rec] += 1
+                    regions_place[p.region or UNKNOWN] += 1
+                else:
+                    rejected[rejection_key(p)] += 1
+            if v["has_episodes"]:
+                n_variants_with_eps += 1
+                eps_per_variant.append(len(v["episodes"]))
+                cats_per_variant.append(len({e.object_category for e in v["episodes"]}))
+            for e in v["episodes"]:
+                goal_cat[e.object_category] += 1
+                geo.append(float(e.geodesic_distance))
+                euc.append(float(e.euclidean_distance))
+                if e.geodesic_distance > 0:
+                    ratio.append(float(e.euclidean_distance) / float(e.geodesic_distance))
+                goals_per_ep.append(len(e.goals))
+                vps_per_goal.extend(len(g.view_points) for g in e.goals)
+
+    n_eps = len(geo)
+    n_scenes = len(scenes)
+    scenes_with_variants = sum(1 for s in scenes if s["variants"] > 0)
+    # N = k_s * k_v * n_c * k_e with measured factors: k_s scenes with variants, k_v variants per such scene,
+    # n_c mean goal categories per variant, k_e episodes per (variant, category); their product is N.
+    cat_slots = sum(cats_per_variant)
+    k_s = scenes_with_variants
+    k_v = _ratio(n_variants, k_s)
+    n_c = _ratio(cat_slots, n_variants)
+    k_e = _ratio(n_eps, cat_slots)
+    lib_sources: dict[str, dict[str, Any]] = {}
+    for o in objects:
+        src = o.source or UNKNOWN
+        entry = lib_sources.setdefault(src, {"instances": 0, "categories": set()})
+        entry["instances"] += 1
+        entry["categories"].add(o.category)
+
+    stats = {
+        "dataset": cfg.get("name", "sdovon"),
+        "totals": {
+            "scenes": n_scenes,
+            "scenes_with_variants": scenes_with_variants,
+            "floors": sum(s["floors"] for s in scenes),
+            "navigable_area_m2": sum(s["navigable_area_m2"] for s in scenes),
+            "free_area_m2": sum(s["free_area_m2"] for s in scenes),
+            "receptacle_planes": sum(rec_planes.values()),
+            "receptacle_categories": len(rec_planes),
+            "regions": sum(s["regions"] for s in scenes),
+            "region_labels": len(region_labels),
+            "variants": n_variants,
+            "variants_with_episodes": n_variants_with_eps,
+            "placements": sum(by_status.values()),
+            "placed_objects": sum(placed_cat.values()),
+            "placed_object_assets": len(placed_assets),
+            "placed_categories": len(placed_cat),
+            "objects_rejected": sum(rejected.values()),
+            "object_assets": len(objects),
+            "object_categories": len({o.category for o in objects}),
+            "episodes": n_eps,
+            "goal_categories": len(goal_cat),
+            "mean_episodes_per_variant": _ratio(n_eps, n_variants_with_eps),
+            "mean_placed_objects_per_variant": _ratio(sum(objs_per_variant), len(objs_per_variant)),
+        },
+        "episodes": {
+            "geodesic_distance_m": _summary(geo),
+            "euclidean_distance_m": _summary(euc),
+            "euclidean_geodesic_ratio": _summary(ratio),
+            "goals_per_episode": _summary(goals_per_ep),
+            "view_points_per_goal": _summary(vps_per_goal),
+        },
+        "episode_count_formula": {
+            "k_s": k_s, "k_v": k_v, "n_c": n_c, "k_e": k_e, "N": k_s * k_v * n_c * k_e,
+            "k_e_config": cfg.get("k_e", 0), "k_v_config": cfg.get("k_v", 0),
+        },
+        "placements": {"by_status": _sorted_counts(by_status), "rejected_by_reason": _sorted_counts(rejected)},
+        "objects": {
+            "by_source": {src: {"instances": e["instances"], "categories": len(e["categories"])} for src, e in sorted(lib_sources.items())},
+            "library_categories": _sorted_counts(Counter(o.category for o in objects)),
+        },
+        "frequency": {
+            "placed_categories": _sorted_counts(placed_cat),
+            "variants_with_category": _sorted_counts(placed_var),
+            "goal_categories": _sorted_counts(goal_cat),
+            "receptacle_categories": _sorted_counts(rec_place),
+            "receptacle_planes": _sorted_counts(rec_planes),
+            "placement_regions": _sorted_counts(regions_place),
+        },
+        "scenes": scenes,
+    }
+    return _round(stats)
+
+
+# ----------------------------------------------------------------------------------------------
+# Rendering
+
+
+def _table(headers: list[str], rows: list[list[Any]]) -> str:
+    """Return a markdown table."""
+    out = ["| " + " | ".join(headers) + " |", "|" + "|".join(" --- " for _ in headers) + "|"]
+    out += ["| " + " | ".join(_fmt(c) for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def _fmt(v: Any) -> str:
+    """Format a table cell."""
+    if isinstance(v, float):
+        return f"{v:.2f}"
+    return str(v).replace("|", "\\|")
+
+
+def _by_count(freq: dict[str, int]) -> list[tuple[str, int]]:
+    """Return (key, count) pairs by decreasing count, then name."""
+    return sorted(freq.items(), key=lambda kv: (-kv[1], kv[0]))
+
+
+def statistics_markdown(stats: dict) -> str:
+    """Return the statistics as markdown tables (like the paper's tables 1-2 plus details)."""
+    t, ep, f, fr = stats["totals"], stats["episodes"], stats["episode_count_formula"], stats["frequency"]
+    parts = [f"# Dataset statistics: {stats['dataset']}", ""]
+    parts += ["## ObjectNav task dataset (paper table 2)", "",
+              _table(["Dataset", "# of Categories", "Scenes", "Scene Variants", "# of Episodes"],
+                     [[stats["dataset"], t["goal_categories"], t["scenes"], t["variants"], t["episodes"]]]), ""]
+    src_rows = [[src, e["instances"], e["categories"]] for src, e in stats["objects"]["by_source"].items()]
+    src_rows.append(["Library (all sources)", t["object_assets"], t["object_categories"]])
+    src_rows.append(["Placed (resting)", t["placed_object_assets"], t["placed_categories"]])
+    parts += ["## Objects (paper table 1)", "", _table(["Source", "# of Instances", "# of Categories"], src_rows), ""]
+    parts += ["## Totals", "", _table(["Quantity", "Value"], [
+        ["scenes", t["scenes"]], ["floors", t["floors"]], ["navigable area (m^2)", t["navigable_area_m2"]],
+        ["receptacle planes", t["receptacle_planes"]], ["receptacle categories", t["receptacle_categories"]],
+        ["regions (per scene, summed)", t["regions"]], ["region labels", t["region_labels"]],
+        ["scene variants", t["variants"]], ["object placements", t["placements"]], ["placed objects (resting)", t["placed_objects"]],
+        ["objects rejected", t["objects_rejected"]], ["mean placed objects per variant", t["mean_placed_objects_per_variant"]],
+        ["episodes", t["episodes"]], ["mean episodes per variant", t["mean_episodes_per_variant"]]]), ""]
+    parts += ["## Episodes", "", _table(["Quantity", "Mean", "Min", "Max"], [
+        [name, ep[k]["mean"], ep[k]["min"], ep[k]["max"]] for name, k in [
+            ("geodesic distance (m)", "geodesic_distance_m"), ("euclidean distance (m)", "euclidean_distance_m"),
+            ("euclidean / geodesic", "euclidean_geodesic_ratio"), ("goals per episode", "goals_per_episode"),
+            ("view points per goal", "view_points_per_goal")]]), ""]
+    parts += ["## Episode count N = k_s x k_v x n_c x k_e (measured)", "",
+              _table(["k_s", "k_v", "n_c", "k_e", "N", "k_e (config)"],
+                     [[f["k_s"], f["k_v"], f["n_c"], f["k_e"], f["N"], f["k_e_config"]]]), ""]
+    pl = stats["placements"]
+    parts += ["## Placement outcomes", "", _table(["Status", "Objects"], [[k, v] for k, v in _by_count(pl["by_status"])] or [["(none)", 0]]), ""]
+    parts += ["## Objects rejected by reason", "", _table(["Reason", "Objects"], [[k, v] for k, v in _by_count(pl["rejected_by_reason"])] or [["(none)", 0]]), ""]
+    cats = sorted(set(fr["placed_categories"]) | set(fr["goal_categories"]), key=lambda c: (-fr["placed_categories"].get(c, 0), -fr["goal_categories"].get(c, 0), c))
+    parts += ["## Object category frequency (paper figures 4-7)", "", _table(
+        ["Category", "Placed instances", "Variants", "Episodes (goal)"],
+        [[c, fr["placed_categories"].get(c, 0), fr["variants_with_category"].get(c, 0), fr["goal_categories"].get(c, 0)] for c in cats] or [["(none)", 0, 0, 0]]), ""]
+    recs = sorted(set(fr["receptacle_planes"]) | set(fr["receptacle_categories"]), key=lambda c: (-fr["receptacle_categories"].get(c, 0), -fr["receptacle_planes"].get(c, 0), c))
+    parts += ["## Receptacle category frequency", "", _table(
+        ["Receptacle", "Planes", "Placed instances"],
+        [[c, fr["receptacle_planes"].get(c, 0), fr["receptacle_categories"].get(c, 0)] for c in recs] or [["(none)", 0, 0]]), ""]
+    parts += ["## Region frequency of placed objects", "", _table(
+        ["Region", "Placed instances"], [[k, v] for k, v in _by_count(fr["placement_regions"])] or [["(none)", 0]]), ""]
+    parts += ["## Scenes", "", _table(
+        ["Scene", "Floors", "Navigable area (m^2)", "Receptacle planes", "Regions", "Variants", "Placed objects", "Episodes"],
+        [[s["name"], s["floors"], s["navigable_area_m2"], f"{s['receptacle_planes']} ({s['receptacle_planes_source']})", s["regions"],
+          s["variants"], s["placed_objects"], s["episodes"]] for s in stats["scenes"]] or [["(none)", 0, 0.0, 0, 0, 0, 0, 0]]), ""]
+    return "\n".join(parts)
+
+
+def summary_table(stats: dict) -> str:
+    """Return a plain-text table for the terminal: scenes, variants, categories, episodes, rejections by reason."""
+    t = stats["totals"]
+    rows = [("scenes", t["scenes"]), ("variants", t["variants"]), ("object categories (placed)", t["placed_categories"]),
+            ("goal categories", t["goal_categories"]), ("placed objects", t["placed_objects"]), ("episodes", t["episodes"]),
+            ("objects rejected", t["objects_rejected"])]
+    rows += [(f"  {k}", v) for k, v in _by_count(stats["placements"]["rejected_by_reason"])]
+    width = max(len(k) for k, _ in rows)
+    vwidth = max(len(str(v)) for _, v in rows)
+    line = "-" * (width + vwidth + 3)
+    return "\n".join([line] + [f"{k:<{width}}   {v:>{vwidth}}" for k, v in rows] + [line])
+
+
+def bar_chart_png(freq: dict[str, int], title: str, xlabel: str, ylabel: str) -> bytes:
+    """Return a deterministic PNG bar chart of a frequency table (largest first)."""
+    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    items = _by_count(freq)
+    with matplotlib.rc_context({"svg.hashsalt": "sdovon-mj", "font.family": "DejaVu Sans", "font.size": 9,
+                                "path.simplify": True, "figure.dpi": 100}):
+        fig = Figure(figsize=(max(6.0, 0.28 * len(items) + 1.5), 4.5))
+        FigureCanvasAgg(fig)
+        ax = fig.add_subplot(1, 1, 1)
+        if items:
+            x = np.arange(len(items))
+            ax.bar(x, [c for _, c in items], color="#4c72b0")
+            ax.set_xticks(x)
+            ax.set_xticklabels([k for k, _ in items], rotation=70, ha="right")
+            ax.set_xlim(-0.6, len(items) - 0.4)
+        else:
+            ax.text(0.5, 0.5, "no data", ha="center", va="center", transform=ax.transAxes)
+            ax.set_xticks([])
+        ax.set_title(f"{title} (total {sum(freq.values())})")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.yaxis.get_major_locator().set_params(integer=True)
+        fig.tight_layout()
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", metadata={"Software": None})
+    return buf.getvalue()
+
+
+def write_statistics(run_root: Path, out_rel: str = "stats") -> list[Path]:
+    """Write statistics.json, statistics.md and the category charts into <run>/<out_rel>/ and return their paths."""
+    root = Path(run_root)
+    stats = dataset_statistics(root)
+    out = root / out_rel
+    written: list[Path] = []
+    atomic_write_text(out / "statistics.json", dumps(stats))
+    written.append(out / "statistics.json")
+    atomic_write_text(out / "statistics.md", statistics_markdown(stats))
+    written.append(out / "statistics.md")
+    for key, (fname, title, xlabel, ylabel) in CHARTS.items():
+        atomic_write_bytes(out / fname, bar_chart_png(stats["frequency"][key], title, xlabel, ylabel))
+        written.append(out / fname)
+    return written
