@@ -1,0 +1,85 @@
+"""Region map on default-world apartments: agreement with true room types per room type, and timing.
+
+    python bench/bench_regions.py [--seeds 5] [--radius 1.5] [--step 0.5] [--plain-disc]
+
+Ground-truth instances (one per furniture instance, from the apartment mesh), a NavMap rasterised
+from the room polygons, the offline backend. Prints, per room type, the share of navigable cells the
+region map labels with the true type; the number of distinct window label sets (= region-proposal
+questions an LLM backend would get); and seconds per map.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+import time
+
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=5, help="apartments 0..N-1")
+    ap.add_argument("--radius", type=float, default=None, help="window radius r (default: config)")
+    ap.add_argument("--step", type=float, default=None, help="window step d (default: config)")
+    ap.add_argument("--plain-disc", action="store_true", help="the paper's plain disc windows (walls do not cut)")
+    args = ap.parse_args(argv)
+
+    from sdovon_mj.config import SemanticsConfig
+    from sdovon_mj.semantics import get_backend, region_map
+    from sdovon_mj.semantics.groundtruth import apartment_instances, apartment_navmap, region_accuracy
+    from sdovon_mj.semantics.regions import _windows, floor_instances
+
+    try:
+        from sdovon_mj.world import generate_apartment  # type: ignore[attr-defined]
+    except ImportError:
+        from sdovon_mj.world.apartment import generate_apartment
+
+    cfg = SemanticsConfig()
+    if args.radius is not None:
+        cfg = dataclasses.replace(cfg, window_radius=args.radius)
+    if args.step is not None:
+        cfg = dataclasses.replace(cfg, window_step=args.step)
+    if args.plain_disc:
+        cfg = dataclasses.replace(cfg, window_walls=False)
+    backend = get_backend(cfg)
+    backend.priors.resolve("bed")
+    print(f"r={cfg.window_radius} m, d={cfg.window_step} m, walls cut windows: {cfg.window_walls}, backend {backend.label}")
+    per_type: dict[str, list[int]] = {}
+    secs, questions, maps = 0.0, 0, 0
+    for seed in range(args.seeds):
+        apt = generate_apartment(seed)
+        insts = apartment_instances(apt)
+        for fl in apt.floors:
+            nav = apartment_navmap(apt, fl.index)
+            t0 = time.perf_counter()
+            rm = region_map(insts, nav, backend, cfg)
+            dt = time.perf_counter() - t0
+            secs += dt
+            maps += 1
+            n_sets = len({w[3] for w in _windows(floor_instances(insts, nav), nav, cfg.window_radius, cfg.window_step,
+                                                  cfg.window_walls) if w[3]})
+            questions += n_sets
+            acc = region_accuracy(rm, apt, nav)
+            hit, tot = sum(a for a, _ in acc.values()), sum(n for _, n in acc.values())
+            print(f"seed {seed} floor {fl.index}: {hit / max(tot, 1):.3f} of {tot} navigable cells; "
+                  + ", ".join(f"{k} {a / max(n, 1):.2f}" for k, (a, n) in sorted(acc.items()))
+                  + f"; {n_sets} label sets; {dt:.2f} s")
+            for k, (a, n) in acc.items():
+                v = per_type.setdefault(k, [0, 0])
+                v[0] += a
+                v[1] += n
+    print("\nper room type (navigable cells labelled with the true type):")
+    for k, (a, n) in sorted(per_type.items()):
+        print(f"  {k:<12} {a / max(n, 1):.3f}  ({n} cells)")
+    hit = sum(a for a, _ in per_type.values())
+    tot = sum(n for _, n in per_type.values())
+    print(f"  {'all':<12} {hit / max(tot, 1):.3f}  ({tot} cells)")
+    print(f"{maps} maps, {secs / max(maps, 1):.2f} s per map, {questions / max(maps, 1):.1f} region questions per map")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
