@@ -220,6 +220,8 @@ def build_fixture(out_dir: str | Path, variants: int = 2, seed: int = 0, episode
                     dg = geo.distance(s)
                     if 1.0 <= dg < math.inf:
                         break
+                else:
+                    continue
                 eu = min(float(np.linalg.norm(g.position[:2] - s)) for g in goals)
                 closest = min(goals, key=lambda g: float(np.linalg.norm(g.position[:2] - s))).object_id
                 episodes.append(Episode(f"{name}_{cat}_{k}", "fixture_apartment", name, cat, np.array([s[0], s[1], 0.0]),

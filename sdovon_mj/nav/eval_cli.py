@@ -1,0 +1,209 @@
+"""`sdovon-mj eval DATASET --agent ...`: run agents over MJCF bundles, write per-episode JSON, print tables."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from .. import metrics as M
+from ..config import NavConfig
+from ..errors import InputError
+from ..plugins import PluginError
+from ..progress import Progress
+from ..store import atomic_write_bytes, atomic_write_text
+from .agents import AGENTS, Agent, ReceptacleAStar
+
+PAPER = {  # SD-OVON tables 4 and 5 (ground-truth detector), for the closing comparison
+    "random-astar": {"success": 0.7503, "spl": 0.3494, "soft_spl": 0.3931, "distance_to_goal": 1.5437},
+    "random-astar no-FN": {"success": 0.3041, "spl": 0.1471, "soft_spl": 0.3748, "distance_to_goal": 2.1105},
+    "semantic-astar": {"success": 0.8081, "spl": 0.4270, "soft_spl": 0.4700, "distance_to_goal": 1.0989},
+    "semantic-astar no-FN": {"success": 0.3752, "spl": 0.2111, "soft_spl": 0.4742, "distance_to_goal": 1.5230},
+}
+
+
+def make_agent(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True) -> Agent:
+    """Return a built-in agent by name, or a plugin agent from the `sdovon_mj.agents` entry points."""
+    if name in AGENTS:
+        cls = AGENTS[name]
+        if issubclass(cls, ReceptacleAStar):
+            return cls(nav, seed=seed, final_nav=final_nav)
+        return cls(nav, seed=seed)
+    from importlib.metadata import entry_points
+
+    eps = [ep for ep in entry_points(group="sdovon_mj.agents") if ep.name == name]
+    if not eps:
+        raise PluginError(f"no agent named '{name}' (built in: {', '.join(AGENTS)}; plugins: entry point group sdovon_mj.agents)")
+    return eps[0].load()(nav=nav, seed=seed)
+
+
+def run_agent(dataset: str | Path, agent: Agent, nav: NavConfig | None = None, episodes: int | None = None,
+              out: Path | None = None, label: str | None = None, progress: bool = True) -> list[dict]:
+    """Run an agent over a dataset's episodes; return (and optionally write) one result dict per episode."""
+    from ..suite import find_bundles, load_bundle, make_environment
+
+    nav = nav or agent.nav
+    bundles = [load_bundle(p) for p in find_bundles(dataset)]
+    total = sum(len(b.episodes) for b in bundles)
+    limit = total if episodes is None else min(int(episodes), total)
+    label = label or agent.name
+    results: list[dict] = []
+    with Progress(limit, f"eval {label}", enabled=progress) as bar:
+        for b in bundles:
+            if len(results) >= limit:
+                break
+            agent.prepare(b, make_environment)
+            env = make_environment(b, nav=nav, semantic=agent.needs_semantic)
+            try:
+                for i in range(len(b.episodes)):
+                    if len(results) >= limit:
+                        break
+                    env.task.set_next_episode(i)
+                    ts = env.reset()
+                    agent.reset(env, ts)
+                    while not ts.last():
+                        a = agent.act(ts)
+                        env.task.render_frames = bool(getattr(agent, "wants_frame", True))
+                        ts = env.step(a)
+                    m = env.task.metrics()
+                    ep = env.task.episode
+                    r = {"agent": label, "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene,
+                         "category": ep.object_category, **m.to_dict(), "collisions": env.task.collisions,
+                         "info": agent.info, "trajectory": np.round(np.array(env.task.trajectory)[:, :2], 4).tolist()}
+                    results.append(r)
+                    if out is not None:
+                        atomic_write_text(out / "episodes" / label.replace(" ", "_") / f"{ep.episode_id}.json",
+                                          json.dumps(_finite(r), sort_keys=True) + "\n")
+                    bar.update(1, ep.episode_id)
+            finally:
+                env.task.close()
+    return results
+
+
+def _finite(x):
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_finite(v) for v in x]
+    return x
+
+
+def summarize(results: list[dict]) -> dict[str, float]:
+    """Return SR, SPL, Soft SPL and mean DTG over result dicts."""
+    ms = [M.EpisodeMetrics(r["success"], r["spl"], r["soft_spl"], r["distance_to_goal"], r["shortest"], r["path_length"])
+          for r in results]
+    return M.aggregate(ms)
+
+
+def overall_table(rows: dict[str, dict[str, float]], paper: bool = True) -> str:
+    """Return the overall markdown table (ours, and the paper's GT-detector numbers next to them)."""
+    lines = ["| Baseline | Episodes | Success Rate | SPL | Soft SPL | Dist2Goal |", "|---|---|---|---|---|---|"]
+    for name, s in rows.items():
+        lines.append(f"| {name} | {s['episodes']} | {s['success']:.4f} | {s['spl']:.4f} | {s['soft_spl']:.4f} | {s['distance_to_goal']:.4f} |")
+        if paper and name in PAPER:
+            p = PAPER[name]
+            lines.append(f"| paper: {name} GT | 3k | {p['success']:.4f} | {p['spl']:.4f} | {p['soft_spl']:.4f} | {p['distance_to_goal']:.4f} |")
+    return "\n".join(lines)
+
+
+def category_table(per_agent: dict[str, list[dict]], k: int = 5, min_successes: int = 2) -> str:
+    """Return the top-k categories by success rate (with at least `min_successes` successes) per agent."""
+    tops = {}
+    for name, res in per_agent.items():
+        cats: dict[str, list[float]] = {}
+        for r in res:
+            cats.setdefault(r["category"], []).append(r["success"])
+        ok = [(c, float(np.mean(v))) for c, v in cats.items() if sum(v) >= min_successes]
+        tops[name] = sorted(ok, key=lambda t: (-t[1], t[0]))[:k]
+    names = list(per_agent)
+    lines = ["| Top-k / Cat. (SR) | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
+    for i in range(k):
+        cells = [f"{tops[n][i][0]} ({tops[n][i][1]:.4f})" if i < len(tops[n]) else "-" for n in names]
+        lines.append(f"| Top-{i + 1} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def trajectory_picture(dataset: str | Path, result: dict, path: Path, scale: int = 4) -> None:
+    """Draw an episode's trajectory, start and goal view points on the top-down navigable map (PNG)."""
+    import cv2
+
+    from ..suite import load_bundle
+
+    b = load_bundle(Path(dataset) / result["variant"]) if (Path(dataset) / result["variant"]).exists() else load_bundle(dataset)
+    ep = next(e for e in b.episodes if e.episode_id == result["episode_id"])
+    nm = b.navmap(ep.floor)
+    img = np.full(nm.navigable.shape + (3,), 40, np.uint8)
+    img[nm.free] = (150, 150, 150)
+    img[nm.navigable] = (220, 220, 220)
+    img = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
+
+    def px(xy):
+        rc = (np.asarray(xy, float)[:2] - nm.origin) / nm.resolution * scale
+        return int(rc[0]), int(rc[1])
+
+    for g in ep.goals:
+        for vp in g.view_points:
+            cv2.circle(img, px(vp.position), 1, (80, 200, 80), -1)
+        cv2.circle(img, px(g.position), 4, (0, 140, 0), -1)
+    traj = result["trajectory"]
+    for a, c in zip(traj[:-1], traj[1:]):
+        cv2.line(img, px(a), px(c), (40, 40, 230), 2)
+    cv2.circle(img, px(traj[0]), 5, (230, 120, 20), -1)
+    cv2.circle(img, px(traj[-1]), 4, (0, 0, 255) if not result["success"] else (0, 200, 0), 2)
+    img = img[::-1].copy()  # north (+Y) up
+    cv2.putText(img, f"{result['agent']} {result['category']} S={result['success']:.0f} SPL={result['spl']:.2f}",
+                (5, 15), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1)
+    ok, buf = cv2.imencode(".png", img)
+    atomic_write_bytes(path, buf.tobytes())
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Register the eval options."""
+    parser.add_argument("dataset", help="MJCF bundle dataset folder (variant folders with episodes.json)")
+    parser.add_argument("--agent", action="append", default=None,
+                        help="random-astar | semantic-astar | oracle | random | <plugin> (repeatable; default both A* agents)")
+    parser.add_argument("--episodes", type=int, default=None, help="evaluate at most N episodes")
+    parser.add_argument("--no-fn", action="store_true", help="A* agents without final point-goal navigation")
+    parser.add_argument("--fn-ablation", action="store_true", help="run A* agents with and without FN (paper table 5)")
+    parser.add_argument("--width", type=int, default=None, help="camera width (default NavConfig: 640)")
+    parser.add_argument("--height", type=int, default=None, help="camera height (default NavConfig: 480)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--pictures", type=int, default=5, help="trajectory pictures per agent")
+    parser.add_argument("--out", required=True, help="output folder")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Evaluate the agents and print the tables."""
+    out = Path(args.out)
+    if not Path(args.dataset).is_dir():
+        raise InputError(args.dataset, "dataset folder not found")
+    nav = NavConfig()
+    upd = {k: v for k, v in (("obs_width", args.width), ("obs_height", args.height)) if v}
+    nav = replace(nav, **upd) if upd else nav
+    names = args.agent or ["random-astar", "semantic-astar"]
+    runs: list[tuple[str, str, bool]] = []
+    for n in names:
+        astar = n in ("random-astar", "semantic-astar")
+        if astar and args.fn_ablation:
+            runs += [(n, n, True), (n, f"{n} no-FN", False)]
+        else:
+            runs.append((n, f"{n} no-FN" if (astar and args.no_fn) else n, not args.no_fn))
+    per_agent: dict[str, list[dict]] = {}
+    for name, label, fn in runs:
+        agent = make_agent(name, nav, args.seed, final_nav=fn)
+        res = run_agent(args.dataset, agent, nav, args.episodes, out, label)
+        per_agent[label] = res
+        for r in res[: max(0, args.pictures)]:
+            trajectory_picture(args.dataset, r, out / "pictures" / label.replace(" ", "_") / f"{r['episode_id']}.png")
+    rows = {label: summarize(res) for label, res in per_agent.items()}
+    md = "## Overall\n\n" + overall_table(rows) + "\n\n## Per category (top-5, >= 2 successes)\n\n" + category_table(per_agent) + "\n"
+    atomic_write_text(out / "tables.md", md)
+    atomic_write_text(out / "summary.json", json.dumps(_finite(rows), indent=1, sort_keys=True) + "\n")
+    print(md)
+    return 0

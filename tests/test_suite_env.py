@@ -1,0 +1,141 @@
+"""The dm_control ObjectNav suite: dm_env contract, specs, actions, collisions, registry, bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import unittest
+
+import numpy as np
+import pytest
+from dm_env import StepType, test_utils
+
+from sdovon_mj import suite
+from sdovon_mj.errors import InputError
+
+
+@pytest.fixture(scope="module")
+def fixture_root(tmp_path_factory):
+    """The fixture apartment dataset (2 variants) written once per module."""
+    return suite.fixture_bundle(tmp_path_factory.mktemp("fx"), variants=2, seed=3)
+
+
+def _env(root, **kw):
+    kw.setdefault("width", 64)
+    kw.setdefault("height", 48)
+    return suite.load("objectnav", task_kwargs={"bundle": root / "fixture_apartment_v000", **kw})
+
+
+def test_dm_env_conformance(fixture_root):
+    """dm_env's own EnvironmentTestMixin checks (specs vs observations, reset/step contract) pass."""
+
+    class _T(test_utils.EnvironmentTestMixin, unittest.TestCase):
+        def make_object_under_test(self):
+            return _env(fixture_root, semantic=True)
+
+        def make_action_sequence(self):
+            rng = np.random.default_rng(0)
+            for _ in range(60):
+                yield int(rng.integers(0, 6))
+
+    suite_ = unittest.defaultTestLoader.loadTestsFromTestCase(_T)
+    result = unittest.TextTestRunner(verbosity=0).run(suite_)
+    assert result.wasSuccessful(), [str(f[1]) for f in result.failures + result.errors]
+
+
+def test_specs_match_observations_and_random_policy_1000_steps(fixture_root):
+    """A random policy runs 1,000 steps across episode boundaries; every observation matches its spec."""
+    env = _env(fixture_root, semantic=True, max_steps=120)
+    spec = env.observation_spec()
+    assert env.action_spec().num_values == 6
+    rng = np.random.default_rng(1)
+    ts = env.reset()
+    episodes, lasts = 0, 0
+    for i in range(1000):
+        if ts.last():
+            lasts += 1
+            assert ts.discount in (0.0, 1.0)
+        ts = env.step(int(rng.integers(0, 6)) if i % 7 else 1)
+        if ts.first():
+            episodes += 1
+        for k, s in spec.items():
+            s.validate(ts.observation[k])
+    assert episodes >= 2 and lasts >= 2
+    d = ts.observation["depth"]
+    assert d.min() >= 0.5 and d.max() <= 5.0
+
+
+def test_stop_is_terminal_and_step_limit_truncates(fixture_root):
+    """STOP ends the episode with discount 0; the step limit ends it with discount 1."""
+    env = _env(fixture_root, max_steps=5)
+    env.reset()
+    ts = env.step(suite.STOP)
+    assert ts.step_type == StepType.LAST and ts.discount == 0.0
+    assert env.task.metrics().stop_called
+    ts = env.reset()
+    for _ in range(5):
+        ts = env.step(suite.TURN_LEFT)
+    assert ts.last() and ts.discount == 1.0
+    m = env.task.metrics()
+    assert m.success == 0.0 and m.steps == 5 and m.path_length == 0.0
+
+
+def test_actions_move_turn_look_and_gps_compass(fixture_root):
+    """MOVE_FORWARD moves 0.25 m along the heading; turns are 30 deg; gps/compass are in the start frame."""
+    env = _env(fixture_root)
+    for i in range(env.task.num_episodes):  # find an episode with free space ahead
+        env.task.set_next_episode(i)
+        ts = env.reset()
+        p0 = np.array(ts.observation["position"], float)
+        ts = env.step(suite.MOVE_FORWARD)
+        if np.linalg.norm(ts.observation["position"] - p0) > 0.2:
+            break
+    assert np.linalg.norm(ts.observation["position"] - p0) == pytest.approx(0.25, abs=1e-5)
+    assert ts.observation["gps"] == pytest.approx([0.25, 0.0], abs=1e-5)
+    ts = env.step(suite.TURN_LEFT)
+    assert float(ts.observation["compass"][0]) == pytest.approx(math.radians(30), abs=1e-5)
+    ts = env.step(suite.LOOK_DOWN)
+    assert float(ts.observation["pitch"][0]) == pytest.approx(math.radians(-30), abs=1e-5)
+    assert env.task.metrics().path_length == pytest.approx(0.25, abs=1e-6)
+
+
+def test_walls_block_the_agent(fixture_root):
+    """Walking into a wall leaves the agent on navigable cells and counts collisions."""
+    env = _env(fixture_root)
+    env.reset()
+    for _ in range(60):
+        env.step(suite.MOVE_FORWARD)
+        assert env.task.can_stand(env.task.state.position[:2])
+    assert env.task.collisions > 0
+
+
+def test_semantic_observation_sees_instances(fixture_root):
+    """The semantic observation holds scene instance ids (walls/floor) and -1 elsewhere."""
+    env = _env(fixture_root, semantic=True)
+    ts = env.reset()
+    ids = set(np.unique(ts.observation["semantic"]).tolist())
+    assert 1 in ids or any(2 <= i <= 7 for i in ids)
+
+
+def test_registry_and_load():
+    """Tasks are registered with tags; unknown names fail clearly."""
+    assert {"objectnav", "objectnav_semantic", "objectnav_small", "fixture"} <= set(suite.ALL_TASKS)
+    assert "objectnav" in suite.BENCHMARKING
+    with pytest.raises(ValueError, match="unknown task"):
+        suite.load("nope")
+
+
+def test_bad_bundles_name_the_file(tmp_path, fixture_root):
+    """A missing or corrupt episodes file raises InputError naming the path."""
+    with pytest.raises(InputError, match="no episodes.json"):
+        suite.find_bundles(tmp_path)
+    bad = tmp_path / "v"
+    shutil.copytree(fixture_root / "fixture_apartment_v000", bad)
+    (bad / "episodes.json").write_text("{not json")
+    with pytest.raises(InputError, match="episodes.json"):
+        suite.load_bundle(bad)
+    (bad / "episodes.json").write_text(json.dumps([]))
+    (bad / "fixture_apartment_v000.xml").write_text("<mujoco><worldbody><geom type='nope'/></worldbody></mujoco>")
+    with pytest.raises(InputError):
+        suite.make_environment(bad)
