@@ -1,0 +1,55 @@
+"""Perceive stage: detect 2D instances, back-project them, fuse across views, correct fusion errors.
+
+Public API (plain functions over records):
+    detect(observations, detector, score_threshold) -> list[Detection]
+    backproject_detections(obs, detections, cfg) -> list[Instance]
+    fuse_instances(instances, cfg) -> list[Instance]
+    correct_fusion(instances, cfg) -> list[Instance]
+    perceive_scene(observations, scene, cfg, seed) -> list[Instance]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Iterable
+
+from ..config import PerceiveConfig
+from ..records import Instance, Observation, SceneAsset
+from .backproject import backproject_detections, voxel_downsample
+from .correction import box_iou_3d, correct_fusion
+from .detectors import BaseDetector, Detector, detect, make_detector
+from .fusion import InstanceFuser, fuse_instances, label_similarity
+
+__all__ = [
+    "BaseDetector", "Detector", "InstanceFuser", "backproject_detections", "box_iou_3d", "correct_fusion",
+    "detect", "fuse_instances", "label_similarity", "make_detector", "perceive_scene", "voxel_downsample",
+]
+
+
+def _perceive_cfg(cfg: Any) -> PerceiveConfig:
+    """Accept a PerceiveConfig or a RunConfig."""
+    return cfg.perceive if hasattr(cfg, "perceive") else cfg
+
+
+def perceive_scene(observations: Iterable[Observation], scene: SceneAsset | None, cfg: Any, seed: int = 0,
+                   detector: Detector | None = None, batch_size: int = 8) -> list[Instance]:
+    """Return the fused, error-corrected 3D instances seen in a stream of observations (ids 0..n-1)."""
+    pcfg = _perceive_cfg(cfg)
+    det = detector if detector is not None else make_detector(pcfg, scene, seed)
+    fuser = InstanceFuser(pcfg)
+    batch: list[Observation] = []
+
+    def flush() -> None:
+        for obs, dets in zip(batch, det.detect_batch(batch)):
+            keep = [d for d in dets if d.score >= pcfg.score_threshold]
+            fuser.add_view(backproject_detections(obs, keep, pcfg, seed))
+        batch.clear()
+
+    for obs in observations:
+        batch.append(obs)
+        if len(batch) >= batch_size:
+            flush()
+    if batch:
+        flush()
+    kept = correct_fusion(fuser.instances(), pcfg)
+    return [dataclasses.replace(inst, id=k) for k, inst in enumerate(kept)]

