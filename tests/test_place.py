@@ -218,3 +218,37 @@ def test_semantics_share_beats_random_placement():
     print(f"mean         {mean_sem:>8.1%} {mean_rnd:>8.1%}")
     # Stated threshold: at least 3x the random share and at least 40 points above it.
     assert mean_sem >= 3 * mean_rnd and mean_sem - mean_rnd >= 0.40
+
+
+def test_heightfield_support_on_a_cushion(flat, tmp_path):
+    """A bumpy cushion in the scene mesh gets a heightfield from ray casts; objects rest on it."""
+    from sdovon_mj.records import SceneAsset
+    from sdovon_mj.sim.model import save_scene_mesh
+
+    root, scene, planes, lib = flat
+    # A 1.0 x 0.6 m cushion at 0.45 m with 1.5 cm bumps, as a triangle grid.
+    nx, ny = 41, 25
+    xs, ys = np.linspace(4.5, 5.5, nx), np.linspace(1.2, 1.8, ny)
+    gx, gy = np.meshgrid(xs, ys)
+    gz = 0.45 + 0.0075 * np.sin(gx * 12.0) * np.cos(gy * 12.0)
+    verts = np.column_stack([gx.ravel(), gy.ravel(), gz.ravel()])
+    faces = []
+    for j in range(ny - 1):
+        for i in range(nx - 1):
+            a = j * nx + i
+            faces += [[a, a + 1, a + nx + 1], [a, a + nx + 1, a + nx]]
+    save_scene_mesh(root / "scene" / "cushion.npz", verts, np.array(faces), np.full(len(faces), 3))
+    sc = SceneAsset.from_dict(scene.to_dict())
+    sc.mesh = "scene/cushion.npz"
+    cushion = ReceptaclePlane(id=5, instance_id=3, label="coffee table", height=0.45, region="living room",
+                              normal=np.array([0, 0, 1.0]), polygon=np.array([[4.5, 1.2], [5.5, 1.2], [5.5, 1.8], [4.5, 1.8]]))
+    cfg = PlaceConfig(m=4, spawn_mode="stable", support_hfield=True)
+    flat_based = [a for a in lib if a.category in ("box", "mug")]  # balls roll down the bumps, as they should
+    v, _ = run_variant(sc, [cushion], hand_relevance(), flat_based, root, cfg, 4, 70)
+    xml = (root / v.mjcf).read_text()
+    assert "hfield" in xml and 'name="support_plane_5"' in xml
+    c = check_variant(v, [cushion], root)
+    assert c.ok_count >= 3, [o.reason for o in c.objects]
+    # Resting heights follow the bumps (not one flat plane): the object bases differ by more than 1 mm.
+    zs = [p.settled_pos[2] for p in v.resting]
+    assert len(zs) >= 3 and np.ptp(zs) > 0.001

@@ -1,7 +1,8 @@
 """Support collision for settling: the scene is visual-only, so objects land on geometry built here.
 
 - Each receptacle plane becomes a thin convex prism (a mesh of its polygon at the plane height and
-  `support_thickness` below), so its top face is exactly at the detected height.
+  `support_thickness` below; a box when the polygon is a rectangle, since analytic box contacts are
+  far cheaper than mesh ones), so its top face is exactly at the detected height.
 - Each floor becomes a box whose top is the floor height, covering the scene's extent.
 - Optionally, where a plane is not flat in the scene mesh (cushions, scans), a heightfield from
   vertical ray casts on the scene mesh sidecar replaces the prism (`PlaceConfig.support_hfield`).
@@ -54,6 +55,23 @@ def prism_vertices(polygon: np.ndarray, top: float, thickness: float) -> np.ndar
     upper = np.column_stack([p, np.full(len(p), top)])
     lower = np.column_stack([p, np.full(len(p), top - thickness)])
     return np.vstack([upper, lower])
+
+
+def rectangle_box(polygon: np.ndarray, tol: float = 1e-4) -> tuple[tuple[float, float], tuple[float, float], float] | None:
+    """Return (centre, half sizes, yaw) when a polygon is a rectangle (within tol metres), else None."""
+    p = convex_hull_ccw(np.asarray(polygon, dtype=float))
+    if len(p) != 4:
+        return None
+    e = np.roll(p, -1, axis=0) - p
+    lengths = np.linalg.norm(e, axis=1)
+    if lengths.min() <= tol:
+        return None
+    for i in range(4):
+        if abs(float(np.dot(e[i], e[(i + 1) % 4]))) / lengths[(i + 1) % 4] > tol:
+            return None
+    c = p.mean(axis=0)
+    yaw = float(np.arctan2(e[0][1], e[0][0]))
+    return (float(c[0]), float(c[1])), (float(lengths[0] / 2), float(lengths[1] / 2)), yaw
 
 
 def _support_geom(body: mujoco.MjsBody, name: str, condim: int = SUPPORT_CONDIM) -> mujoco.MjsGeom:
@@ -112,12 +130,21 @@ def add_support(spec: mujoco.MjSpec, planes: list[ReceptaclePlane], scene: Scene
                 info.planes[plane.id] = name
                 info.hfields.append(plane.id)
                 continue
-        m = spec.add_mesh()
-        m.name = f"{name}_mesh"
-        m.uservert = prism_vertices(plane.polygon, plane.height, cfg.support_thickness).ravel().tolist()
+        rect = rectangle_box(plane.polygon)
         g = _support_geom(wb, name, cfg.support_condim)
-        g.type = mujoco.mjtGeom.mjGEOM_MESH
-        g.meshname = m.name
+        if rect is not None:
+            # A rectangle becomes a box: analytic box collisions are much cheaper than mesh (CCD) ones.
+            (cx, cy), (hx, hy), yaw = rect
+            g.type = mujoco.mjtGeom.mjGEOM_BOX
+            g.size = [hx, hy, cfg.support_thickness / 2]
+            g.pos = [cx, cy, plane.height - cfg.support_thickness / 2]
+            g.quat = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+        else:
+            m = spec.add_mesh()
+            m.name = f"{name}_mesh"
+            m.uservert = prism_vertices(plane.polygon, plane.height, cfg.support_thickness).ravel().tolist()
+            g.type = mujoco.mjtGeom.mjGEOM_MESH
+            g.meshname = m.name
         info.planes[plane.id] = name
     return info
 
@@ -151,13 +178,14 @@ def _add_hfield(spec: mujoco.MjSpec, plane: ReceptaclePlane, mesh: tuple[np.ndar
     z = np.clip(z, plane.height - 0.15, plane.height + 0.15)
     if float(np.ptp(z[idx])) < cfg.hfield_flatness if len(idx) else True:
         return False
-    base = plane.height - 0.15
-    zmax = float(z.max() - base)
+    # MuJoCo normalises elevation data to [0, 1]: anchor the geom at the lowest sample, scale by the range.
+    base = float(z.min())
+    zrange = max(float(z.max()) - base, 1e-4)
     h = spec.add_hfield()
     h.name = f"{name}_hfield"
-    h.nrow, h.ncol = ny, nx
-    h.size = [(hi[0] - lo[0]) / 2, (hi[1] - lo[1]) / 2, max(zmax, 1e-3), cfg.support_thickness]
-    h.userdata = ((z - base) / max(zmax, 1e-3)).tolist()
+    h.nrow, h.ncol = ny, nx  # rows run along +Y, columns along +X
+    h.size = [(hi[0] - lo[0]) / 2, (hi[1] - lo[1]) / 2, zrange, cfg.support_thickness]
+    h.userdata = ((z - base) / zrange).tolist()
     g = _support_geom(spec.worldbody, name, cfg.support_condim)
     g.type = mujoco.mjtGeom.mjGEOM_HFIELD
     g.hfieldname = h.name

@@ -28,7 +28,7 @@ _HEAD = """<mujoco model="{name}">
   </default>
 """
 
-KINDS = ("box", "mug", "ball", "can")
+KINDS = ("box", "mug", "ball", "can")  # also "cube": an 8 cm cube (bench: the same boxes as scene-synthesizer's)
 
 
 def write_primitive_object(out_dir: str | Path, store_root: str | Path, kind: str, name: str,
@@ -39,8 +39,8 @@ def write_primitive_object(out_dir: str | Path, store_root: str | Path, kind: st
     s = float(scale)
     body: list[str] = []
     assets = ""
-    if kind == "box":
-        hx, hy, hz = 0.04 * s, 0.025 * s, 0.06 * s
+    if kind in ("box", "cube"):
+        hx, hy, hz = (0.04 * s, 0.025 * s, 0.06 * s) if kind == "box" else (0.04 * s, 0.04 * s, 0.04 * s)
         mass = 0.2 * s**3
         inertia = mass / 3.0 * np.array([hy**2 + hz**2, hx**2 + hz**2, hx**2 + hy**2])
         body.append(f'<geom class="visual" type="box" size="{hx} {hy} {hz}" pos="0 0 {hz}" rgba="0.8 0.3 0.2 1"/>')
@@ -123,14 +123,20 @@ _FURNITURE = (
 _ROOMS = ((0, "kitchen", (0.0, 0.0, 4.0, 4.0)), (1, "living room", (4.0, 0.0, 8.0, 4.0)))
 
 
-def write_table_scene(out_dir: str | Path, store_root: str | Path, name: str = "flat") -> tuple[SceneAsset, list[ReceptaclePlane]]:
-    """Write a visual-only two-room scene with four receptacles; return it and its receptacle planes."""
+def write_table_scene(out_dir: str | Path, store_root: str | Path, name: str = "flat", furniture: tuple = _FURNITURE,
+                      rooms_spec: tuple = _ROOMS) -> tuple[SceneAsset, list[ReceptaclePlane]]:
+    """Write a visual-only scene of box-top receptacles (default: two rooms, four receptacles); return it and its planes."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    geoms = ['    <geom name="inst_0" type="box" size="4 2 0.05" pos="4 2 -0.05" rgba="0.75 0.7 0.6 1"/>']
+    x0 = min(r[2][0] for r in rooms_spec)
+    y0 = min(r[2][1] for r in rooms_spec)
+    x1 = max(r[2][2] for r in rooms_spec)
+    y1 = max(r[2][3] for r in rooms_spec)
+    geoms = [f'    <geom name="inst_0" type="box" size="{(x1 - x0) / 2} {(y1 - y0) / 2} 0.05" pos="{(x0 + x1) / 2} {(y0 + y1) / 2} -0.05" '
+             'rgba="0.75 0.7 0.6 1"/>']
     instances = [SemanticInstance(id=0, label="floor", geoms=["inst_0"], room=-1, floor=0, kind="structure")]
     planes, surfaces = [], []
-    for k, (label, room, (cx, cy), (hx, hy), top) in enumerate(_FURNITURE, start=1):
+    for k, (label, room, (cx, cy), (hx, hy), top) in enumerate(furniture, start=1):
         parts = [f'    <geom name="inst_{k}_0" type="box" size="{hx} {hy} 0.02" pos="{cx} {cy} {top - 0.02}" rgba="0.55 0.35 0.2 1"/>']
         for j, (sx, sy) in enumerate(((-1, -1), (1, -1), (1, 1), (-1, 1)), start=1):
             lh = (top - 0.04) / 2
@@ -142,15 +148,16 @@ def write_table_scene(out_dir: str | Path, store_root: str | Path, name: str = "
                                           kind="receptacle", bounds=np.array([[cx - hx, cy - hy, 0.0], [cx + hx, cy + hy, top]])))
         surfaces.append(SupportSurface(instance_id=k, height=float(top), polygon=poly))
         planes.append(ReceptaclePlane(id=k - 1, instance_id=k, label=label, height=float(top), polygon=poly,
-                                      normal=np.array([0.0, 0.0, 1.0]), region=_ROOMS[room][1], floor=0))
+                                      normal=np.array([0.0, 0.0, 1.0]), region=rooms_spec[room][1], floor=0))
     xml = ("<mujoco model=\"%s\">\n  <default>\n    <geom contype=\"0\" conaffinity=\"0\" group=\"0\"/>\n  </default>\n"
-           "  <worldbody>\n    <light pos=\"4 2 3\" dir=\"0 0 -1\" directional=\"true\"/>\n%s\n  </worldbody>\n</mujoco>\n") % (name, "\n".join(geoms))
+           "  <worldbody>\n    <light pos=\"%g %g 3\" dir=\"0 0 -1\" directional=\"true\"/>\n%s\n  </worldbody>\n</mujoco>\n") % (
+        name, (x0 + x1) / 2, (y0 + y1) / 2, "\n".join(geoms))
     atomic_write_text(out / f"{name}.xml", xml)
     rel = (out / f"{name}.xml").resolve().relative_to(Path(store_root).resolve()).as_posix()
     rooms = [Room(id=i, type=t, floor=0, polygon=np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float))
-             for i, t, (x0, y0, x1, y1) in _ROOMS]
-    scene = SceneAsset(name=name, mjcf=rel, source="synthetic", floors=[Floor(index=0, height=0.0, area=32.0)],
-                       instances=instances, bounds=np.array([[0.0, 0.0, -0.1], [8.0, 4.0, 2.5]]), rooms=rooms,
+             for i, t, (x0, y0, x1, y1) in rooms_spec]
+    scene = SceneAsset(name=name, mjcf=rel, source="synthetic", floors=[Floor(index=0, height=0.0, area=float((x1 - x0) * (y1 - y0)))],
+                       instances=instances, bounds=np.array([[x0, y0, -0.1], [x1, y1, 2.5]]), rooms=rooms,
                        support_surfaces=surfaces)
     return scene, planes
 

@@ -29,6 +29,7 @@ class VariantStats:
     sim_time: float = 0.0
     steps: int = 0
     rounds: int = 0
+    cpu_s: float = 0.0  # process CPU seconds of sampling + composing + settling (robust to a loaded machine)
     settled: bool = True
     counts: dict[str, int] = field(default_factory=dict)
 
@@ -54,6 +55,7 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
                 out_root: str | Path | None = None) -> tuple[SceneVariant, VariantStats]:
     """Place and settle one variant; return it with its timing (writes model + record under out_root when `write`)."""
     stats = VariantStats()
+    c0 = time.process_time()
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     sampled = sample_placements(planes, relevance, objects, cfg, rng)
@@ -113,6 +115,7 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
         if dropped:
             notes.append(f"dropped {len(dropped)} of {len(placements)} objects that did not come to rest on their plane: "
                          + "; ".join(f"{p.object_id} {p.category}: {p.reason}" for p in dropped))
+    stats.cpu_s = time.process_time() - c0
     for p in placements:
         stats.counts[p.status] = stats.counts.get(p.status, 0) + 1
     if placements and not kept:
