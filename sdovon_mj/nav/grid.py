@@ -166,7 +166,7 @@ class GeodesicField:
         for k in np.argsort(eu)[:8]:
             if eu[k] >= best:
                 break
-            if eu[k] < 2.0 and segment_free(self.mask, self.frame, p, self.targets[k]):
+            if segment_free(self.mask, self.frame, p, self.targets[k]):
                 best = float(eu[k])
                 break
         rc = self.frame.to_cell(p[None])[0]

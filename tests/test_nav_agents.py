@@ -1,0 +1,133 @@
+"""Metrics on scripted walks, grid/A* helpers, the oracle, and the A* baselines on the fixture."""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sdovon_mj import suite
+from sdovon_mj.config import NavConfig
+from sdovon_mj.nav.agents import OracleAgent, RandomAStar, SemanticAStar
+from sdovon_mj.nav.astar import astar, plan
+from sdovon_mj.nav.eval_cli import run_agent, summarize
+from sdovon_mj.nav.grid import GeodesicField, GridFrame
+from sdovon_mj.records import Episode, Goal, ViewPoint, load_json, save_json
+from sdovon_mj.sim.camera import yaw_quat
+
+SMALL = NavConfig(obs_width=96, obs_height=72)
+
+
+@pytest.fixture(scope="module")
+def fixture_root(tmp_path_factory):
+    """The fixture apartment dataset (1 variant)."""
+    return suite.fixture_bundle(tmp_path_factory.mktemp("fx"), variants=1, seed=5)
+
+
+@pytest.fixture(scope="module")
+def straight_bundle(fixture_root, tmp_path_factory):
+    """A bundle with one episode: start at (4.6, 3.6) facing +X, one view point exactly 2.0 m ahead."""
+    dst = tmp_path_factory.mktemp("straight") / "v"
+    shutil.copytree(fixture_root / "fixture_apartment_v000", dst)
+    eps = load_json(dst / "episodes.json", Episode)
+    g = eps[0].goals[0]
+    goal = Goal(g.object_id, g.category, g.position, [ViewPoint(np.array([6.6, 3.6, 0.0]), yaw_quat(0.0))], g.bounds)
+    ep = Episode("straight", eps[0].scene, eps[0].variant, g.category, np.array([4.6, 3.6, 0.0]), yaw_quat(0.0), [goal], 2.0, 2.0)
+    save_json([ep], dst / "episodes.json")
+    return dst
+
+
+def _walk(bundle, actions, max_steps=500):
+    env = suite.make_environment(bundle, width=32, height=24, max_steps=max_steps)
+    ts = env.reset()
+    for a in actions:
+        ts = env.step(a)
+    while not ts.last():
+        ts = env.step(suite.TURN_LEFT)
+    return env.task.metrics()
+
+
+def test_straight_walk_to_view_point_scores_one(straight_bundle):
+    """Walking straight 2.0 m onto the view point and stopping: SR = SPL = Soft SPL = 1."""
+    m = _walk(straight_bundle, [suite.MOVE_FORWARD] * 8 + [suite.STOP])
+    assert m.shortest == pytest.approx(2.0, abs=1e-6)
+    assert m.path_length == pytest.approx(2.0, abs=1e-9)
+    assert (m.success, m.spl, m.soft_spl) == (1.0, pytest.approx(1.0), pytest.approx(1.0))
+    assert m.distance_to_goal < 1e-6
+
+
+def test_never_stopping_agent_scores_zero_success_and_right_soft_spl(straight_bundle):
+    """No STOP: success 0, SPL 0; Soft SPL = max(0, 1 - d_T / l) * l / max(l, p)."""
+    m = _walk(straight_bundle, [suite.MOVE_FORWARD] * 8, max_steps=40)
+    assert m.success == 0.0 and m.spl == 0.0 and not m.stop_called
+    assert m.soft_spl == pytest.approx(1.0)
+    m = _walk(straight_bundle, [suite.MOVE_FORWARD] * 4, max_steps=40)
+    assert m.distance_to_goal == pytest.approx(1.0, abs=1e-6)
+    assert m.soft_spl == pytest.approx(0.5, abs=1e-6)
+    # overshoot by 0.5 m, come back: p = 3.0, d_T = 0
+    m = _walk(straight_bundle, [suite.MOVE_FORWARD] * 10 + [suite.TURN_LEFT] * 6 + [suite.MOVE_FORWARD] * 2 + [suite.STOP])
+    assert m.success == 1.0 and m.spl == pytest.approx(2.0 / 3.0, abs=1e-6)
+    # stop 0.25 m short: outside the 0.1 m success radius
+    m = _walk(straight_bundle, [suite.MOVE_FORWARD] * 7 + [suite.STOP])
+    assert m.success == 0.0 and m.soft_spl == pytest.approx(1 - 0.25 / 2.0, abs=1e-6)
+
+
+def test_astar_and_geodesic_on_a_wall_grid():
+    """A* goes around a wall; the geodesic field is exact on open floor and longer around walls."""
+    mask = np.ones((40, 40), bool)
+    mask[0:30, 20] = False
+    frame = GridFrame(np.zeros(2), 0.1, mask.shape)
+    path = astar(mask, (5, 5), (5, 35))
+    assert path is not None and path[0] == (5, 5) and path[-1] == (5, 35)
+    assert all(mask[r, c] for r, c in path) and max(r for r, _ in path) >= 30
+    assert astar(mask, (5, 5), (5, 35), tolerance_cells=3.0)[-1] != (5, 35)
+    wp = plan(mask, frame, np.array([0.55, 0.55]), np.array([3.55, 0.55]))
+    assert wp is not None and len(wp) >= 3
+    g = GeodesicField(mask, frame, np.array([[1.55, 3.55]]))
+    assert g.distance(np.array([0.55, 0.55])) == pytest.approx(math.hypot(1.0, 3.0), abs=1e-9)
+    around = g.distance(np.array([3.55, 0.55]))
+    corner = math.hypot(1.5, 2.5) + math.hypot(0.5, 0.5)  # around the wall's end at (2.05, 3.05)
+    assert corner - 0.05 <= around <= corner * 1.09  # 8-connected grid paths are at most ~8 % longer
+    blocked = mask.copy()
+    blocked[:, 20] = False
+    assert math.isinf(GeodesicField(blocked, frame, np.array([[1.55, 3.55]])).distance(np.array([3.55, 0.55])))
+
+
+def test_oracle_agent_succeeds(fixture_root):
+    """The oracle walks to the nearest view point and stops: SR = 1 and SPL close to 1."""
+    res = run_agent(fixture_root, OracleAgent(SMALL), SMALL, episodes=6, progress=False)
+    s = summarize(res)
+    assert s["success"] == 1.0 and s["spl"] > 0.8
+
+
+@pytest.mark.slow
+def test_semantic_beats_random_and_fn_helps_on_fixture(tmp_path):
+    """On the fixture (3 variants, 63 episodes): Semantic A* > Random A* by >= 0.05 SR and SPL; FN adds >= 0.2 SR."""
+    root = suite.fixture_bundle(tmp_path / "fx", variants=3, seed=1)
+    _check_baselines(root, None, sr_margin=0.05, spl_margin=0.05, fn_margin=0.2)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.environ.get("SDOVON_EVAL_DATASET"), reason="set SDOVON_EVAL_DATASET to an MJCF bundle dataset")
+def test_semantic_beats_random_on_given_dataset():
+    """On a pipeline dataset (>= 200 episodes): Semantic A* > Random A* on SR and SPL by >= 0.02; FN adds >= 0.1 SR."""
+    root = Path(os.environ["SDOVON_EVAL_DATASET"])
+    _check_baselines(root, int(os.environ.get("SDOVON_EVAL_EPISODES", "0")) or None, sr_margin=0.02, spl_margin=0.02, fn_margin=0.1)
+
+
+def _check_baselines(root, episodes, sr_margin, spl_margin, fn_margin):
+    nav = NavConfig(obs_width=160, obs_height=120)
+    out = {}
+    for cls in (RandomAStar, SemanticAStar):
+        for fn in (True, False):
+            out[(cls.name, fn)] = summarize(run_agent(root, cls(nav, seed=0, final_nav=fn), nav, episodes, progress=False))
+    print(out)
+    r, s = out[("random-astar", True)], out[("semantic-astar", True)]
+    assert s["success"] >= r["success"] + sr_margin
+    assert s["spl"] >= r["spl"] + spl_margin
+    for name in ("random-astar", "semantic-astar"):
+        assert out[(name, True)]["success"] >= out[(name, False)]["success"] + fn_margin
