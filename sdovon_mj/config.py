@@ -161,7 +161,7 @@ class SemanticsConfig:
     timeout_s: float = _p(60.0, "s", "per-request timeout")
     retries: int = _p(3, "-", "re-asks after an invalid reply / retries after a transport error")
     fallback: str = _p("offline", "-", "backend to fall back to after the retries ('' = fail)")
-    window_radius: float = _p(1.5, "m", "sliding window radius", "r")
+    window_radius: float = _p(2.5, "m", "sliding window radius (walls cut windows, so a window may span a room; bench/bench_regions.py)", "r")
     window_step: float = _p(0.5, "m", "sliding window step", "Delta d")
     region_labels: tuple[str, ...] = _p(
         ("kitchen", "living room", "bedroom", "bathroom", "office", "dining room"),
