@@ -257,12 +257,12 @@ def test_slow_reply_times_out(serve, protocol):
     t0 = time.perf_counter()
     with pytest.raises(StageError, match="timed out"):
         b.score_regions("mug", ["kitchen", "bedroom"])
-    assert time.perf_counter() - t0 < 3.0
+    assert time.perf_counter() - t0 < 6.0
     # with the default fallback: recorded, and the server is marked down (no second wait)
     b = get_backend(cfg_for(protocol, fake.url, timeout_s=0.2, retries=1))
     t0 = time.perf_counter()
     rel = relevance(["mug", "pillow"], ["kitchen", "bedroom"], ["table", "bed"], b)
-    assert time.perf_counter() - t0 < 3.0
+    assert time.perf_counter() - t0 < 6.0
     assert len(rel.fallbacks) == 4 and "timed out" in rel.fallbacks[0] and "marked down" in rel.fallbacks[1]
     assert rel.objects == ["mug", "pillow"] and rel.p_obj_region.shape == (2, 2)
 
