@@ -1,0 +1,29 @@
+"""The embedded default world: seeded procedural apartments and household objects (no downloads).
+
+>>> from sdovon_mj.world import generate_apartment, write_apartment
+>>> apt = generate_apartment(0)                      # Z-up metres, labelled instances, support surfaces
+>>> write_apartment(apt, "out", mode="clean")        # out/apartment_0000.glb (+Y up) + .semantics.json
+>>> write_apartment(apt, "out", mode="scan")         # out/apartment_0000_vh_clean.ply (+Z up) + ScanNet labels
+"""
+
+from .apartment import (
+    MATERIALS,
+    STRUCTURE_LABELS,
+    Apartment,
+    Door,
+    Floor,
+    Instance,
+    Room,
+    SupportSurface,
+    WorldMesh,
+    generate_apartment,
+)
+from .furniture import FURNITURE_LABELS, RECEPTACLE_LABELS
+from .io import default_apartment_path, default_name, write_apartment
+from .layout import ROOM_TYPES
+
+__all__ = [
+    "MATERIALS", "STRUCTURE_LABELS", "FURNITURE_LABELS", "RECEPTACLE_LABELS", "ROOM_TYPES",
+    "Apartment", "Door", "Floor", "Instance", "Room", "SupportSurface", "WorldMesh",
+    "generate_apartment", "write_apartment", "default_apartment_path", "default_name",
+]
