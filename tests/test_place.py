@@ -158,21 +158,24 @@ def test_plane_smaller_than_every_object_and_no_receptacles(flat):
 
 def test_failures_are_resampled_then_dropped_with_a_reason(flat, tmp_path):
     root, scene, planes, lib = flat
-    # A narrow ledge 10 cm wide: mugs tumbling down from 0.3 m sometimes fall off; each fall is retried, then dropped.
+    # A narrow ledge 10 cm wide: mugs tumbling down from 0.3 m sometimes do not land well and are retried.
     ledge = ReceptaclePlane(id=0, instance_id=4, label="shelf", height=1.2, region="living room", normal=np.array([0, 0, 1.0]),
                             polygon=np.array([[6.0, 3.6], [7.0, 3.6], [7.0, 3.7], [6.0, 3.7]]))
-    balls = [write_primitive_object(root / "objects", root, "mug", "small_mug", scale=0.6)]
+    mugs = [write_primitive_object(root / "objects", root, "mug", "small_mug", scale=0.6)]
     rel = hand_relevance()
     seen = []
-    for s in range(4):
-        v, _ = run_variant(scene, [ledge], rel, balls, root, PlaceConfig(m=4, resample_attempts=1), s, 60 + s)
+    for s in range(6):
+        v, _ = run_variant(scene, [ledge], rel, mugs, root, PlaceConfig(m=4, resample_attempts=1), s, 60 + s)
         seen += v.placements
     assert any(p.attempts > 1 for p in seen)
-    dropped = [p for p in seen if p.status == "dropped"]
-    assert dropped and all(p.attempts == 2 or "no free spot" in p.reason for p in dropped)
-    for p in dropped:
-        assert p.reason and ("fell" in p.reason or "resting_elsewhere" in p.reason or "unstable" in p.reason)
     assert all(p.status in ("resting", "dropped") for p in seen)
+    assert sum(p.status == "resting" for p in seen) >= 0.9 * len(seen)
+    # A settle cap too short for anything to come to rest: every object is retried, then dropped with the reason.
+    v, _ = run_variant(scene, planes, rel, lib, root, PlaceConfig(m=1, resample_attempts=2, max_settle_time=0.05), 1, 66)
+    assert v.placements and all(p.status == "dropped" for p in v.placements)
+    assert all(p.attempts == 3 and "unstable" in p.reason and "after 3 attempts" in p.reason for p in v.placements)
+    assert any("dropped 4 of 4" in n for n in v.notes) and any("no object came to rest" in n for n in v.notes)
+    assert np.asarray(v.qpos).size == 0 and check_variant(v, planes, root).ok_count == 0
 
 
 def test_semantics_share_beats_random_placement():
