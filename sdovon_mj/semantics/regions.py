@@ -1,12 +1,16 @@
 """Region map (paper section 3.4): sliding-window region proposals over top-down instances.
 
 Fused instances of one floor are projected top-down. A circular window of radius r slides over the
-floor's NavMap grid with step d (centres at integer multiples of d in world XY); the distinct labels
-of the instances with a point inside a window go to the backend's region-proposal question
-(identical label sets are asked once). A window's proposals vote for the cells inside it: the k-th
-proposal (0-based) with weight 1/(k+1), times (1 - (dist/r)^2) so that a window speaks loudest about
-its centre. The per-cell sum is the ``scores`` volume; its argmax the label map. Cells no window
-reached are filled from the nearest labelled cell when they are floor (free) or within r of it.
+floor's NavMap grid with step d (centres at integer multiples of d in world XY). With
+``window_walls`` (default) walls cut a window: it covers only the cells connected to its centre
+through floor space (free/navigable cells plus the cells under instances), so a window never
+mixes two rooms except through a doorway; without it, the window is the paper's plain disc. The
+distinct labels of the instances with a point in the window go to the backend's region-proposal
+question (identical label sets are asked once; structure labels such as wall/floor are left out).
+The k-th proposal (0-based) of a window votes 1/(k+1)^2 for the window's cells, times
+(1 - (dist/r)^2) so that a window speaks loudest about its centre. The per-cell sum is the
+``scores`` volume; its argmax the label map. Cells no window reached are filled from the nearest
+labelled cell when they are floor (free) or within r of it.
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ MAX_POINTS_PER_INSTANCE = 256
 FLOOR_BAND = (-0.2, 2.6)  # instance z range (relative to the floor height) that belongs to a floor
 
 
-def RANK_WEIGHTS(k: int) -> float:  # noqa: N802 - a table, written as a function
+def rank_weight(k: int) -> float:
     """Return the vote of the k-th (0-based) region proposal of a window."""
     return 1.0 / (k + 1.0) ** 2
 
@@ -199,7 +203,7 @@ def region_map(instances: Sequence[Instance], navmap: NavMap, backend: Backend,
     scores = np.zeros((h, w, max(n_lab, 1)), dtype=np.float64)
     for rr, cc, wgt, s in windows:
         for k, lab in enumerate(answers.get(s) or []):
-            scores[rr, cc, lab] += wgt * RANK_WEIGHTS(k)
+            scores[rr, cc, lab] += wgt * rank_weight(k)
 
     total = scores.sum(axis=2)
     label_map = np.where(total > 0, np.argmax(scores, axis=2), -1).astype(np.int16)
