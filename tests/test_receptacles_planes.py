@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from perceive_scenes import fused_room, match_surfaces, rendered_room
+from test_perceive_scenes import fused_room, match_surfaces, rendered_room
 from sdovon_mj.config import ReceptacleConfig
 from sdovon_mj.perceive.backproject import make_instance
 from sdovon_mj.receptacles import detect_planes, find_receptacle_planes, polygon_iou, receptacle_instances

@@ -97,7 +97,11 @@ class OpenVocabDetector(BaseDetector):
 
         prompts = list(self.vocabulary)
         if self.box_type in ("owlv2", "owlvit"):
-            inputs = self.box_processor(text=[[f"a photo of a {p}" for p in prompts]], images=image, return_tensors="pt")
+            # Text is tokenized to the model's text length (OWL: 16 tokens), padded and truncated.
+            max_len = int(self.box_model.config.text_config.max_position_embeddings)
+            inputs = dict(self.box_processor.tokenizer([f"a photo of a {p}" for p in prompts], padding="max_length",
+                                                       truncation=True, max_length=max_len, return_tensors="pt"))
+            inputs["pixel_values"] = self.box_processor.image_processor(images=image, return_tensors="pt")["pixel_values"]
             with torch.no_grad():
                 out = self.box_model(**{k: v.to(self.device) for k, v in inputs.items()})
             # OWLv2 pads images to a square at the bottom/right: boxes are relative to that square.
