@@ -255,3 +255,28 @@ def test_heightfield_support_on_a_cushion(flat, tmp_path):
     # Resting heights follow the bumps (not one flat plane): the object bases differ by more than 1 mm.
     zs = [p.settled_pos[2] for p in v.resting]
     assert len(zs) >= 3 and np.ptp(zs) > 0.001
+
+
+def test_spawn_respects_the_shelf_board_above(flat):
+    """On a shelf level, the paper's 0.3 m drop is lowered so objects spawn under the board above."""
+    from sdovon_mj.place.sample import plane_headroom, quat_to_mat
+
+    root, scene, planes, lib = flat
+    poly = np.array([[6.0, 3.45], [7.0, 3.45], [7.0, 3.75], [6.0, 3.75]])
+    levels = [ReceptaclePlane(id=k, instance_id=4, label="shelf", height=h, region="living room", normal=np.array([0, 0, 1.0]),
+                              polygon=poly) for k, h in enumerate((0.4, 0.65, 0.9))]
+    assert np.isclose(plane_headroom(levels[0], levels, 0.02), 0.23) and np.isinf(plane_headroom(levels[2], levels, 0.02))
+    small = [a for a in lib if a.category in ("box", "ball", "can")]
+    v, _ = run_variant(scene, levels, hand_relevance(), small, root, PlaceConfig(m=3), 8, 80)
+    assert len(v.placements) >= 6
+    assets = {a.name: a for a in small}
+    for p in v.placements:
+        if p.plane_id == 2:
+            continue
+        a = assets[p.asset]
+        lo, hi = a.bbox
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        top = (corners @ quat_to_mat(p.spawn_quat).T + p.spawn_pos)[:, 2].max()
+        assert top <= levels[p.plane_id + 1].height - 0.02 - 0.02 + 1e-9
+    c = check_variant(v, levels, root)
+    assert c.ok_count >= 0.95 * len(c.objects), [o.reason for o in c.objects if not o.ok]

@@ -9,6 +9,10 @@ Public API:
 - `top_down_picture` / `view_picture` (pictures.py)
 """
 
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen pictures; must be set before mujoco picks a GL backend
+
 from .check import VariantCheck, check_variant, format_report, per_category
 from .variants import VariantStats, place_variant, place_variants, planes_from_scene, run_variant, variant_seed
 

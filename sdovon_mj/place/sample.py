@@ -93,28 +93,63 @@ def quat_to_mat(q: np.ndarray) -> np.ndarray:
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
+HEADROOM_MARGIN = 0.02  # m kept free between a spawned object's top and the surface above its plane
+
+
 def spawn_pose(asset: ObjectAsset, plane: ReceptaclePlane, xy: np.ndarray, cfg: PlaceConfig,
-               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Return the body position and wxyz quaternion that put the object's bbox centre over `xy`."""
+               rng: np.random.Generator, headroom: float = math.inf) -> tuple[np.ndarray, np.ndarray] | None:
+    """Return the body position and wxyz quaternion that put the object's bbox centre over `xy`.
+
+    `headroom` is the free height above the plane (a shelf board above, say): the spawn is lowered
+    so the object's top stays under it; None when the object cannot fit at all.
+    """
     lo, hi = np.asarray(asset.bbox[0], float), np.asarray(asset.bbox[1], float)
     centre = (lo + hi) / 2.0
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - centre
+    top_limit = plane.height + headroom - HEADROOM_MARGIN
     if cfg.spawn_mode == "paper":
-        q = random_rotation_xyz(rng)
-        R = quat_to_mat(q)
-        # Lowest point of the rotated bbox sits h_spawn above the plane.
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        rc = (corners - centre) @ R.T
-        zc = plane.height + cfg.h_spawn - rc[:, 2].min()
+        for _ in range(8):
+            q = random_rotation_xyz(rng)
+            R = quat_to_mat(q)
+            rz = corners @ R.T
+            zc = plane.height + cfg.h_spawn - rz[:, 2].min()  # lowest point h_spawn above the plane
+            zc = min(zc, top_limit - rz[:, 2].max())  # ... unless that would hit the surface above
+            if zc + rz[:, 2].min() >= plane.height + 0.005:
+                break
+        else:
+            return None
     elif cfg.spawn_mode == "stable":
         yaw = rng.uniform(0.0, 2.0 * math.pi)
         q = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
         R = quat_to_mat(q)
         zc = plane.height + cfg.stable_drop + (centre[2] - lo[2])
+        if zc + (hi[2] - centre[2]) > top_limit:
+            return None
     else:
         raise ValueError(f"unknown place.spawn_mode {cfg.spawn_mode!r} (paper or stable)")
     world_centre = np.array([xy[0], xy[1], zc])
     pos = world_centre - R @ centre
     return pos, q
+
+
+def plane_headroom(plane: ReceptaclePlane, planes: list[ReceptaclePlane], thickness: float) -> float:
+    """Return the free height above a plane up to the lowest other plane's support overlapping it (inf if none)."""
+    from shapely.geometry import Polygon
+
+    mine = None
+    best = math.inf
+    for q in planes:
+        if q.id == plane.id or q.floor != plane.floor or q.height <= plane.height + 1e-3:
+            continue
+        gap = q.height - thickness - plane.height
+        if gap >= best:
+            continue
+        if mine is None:
+            mine = Polygon(np.asarray(plane.polygon, float)).buffer(0)
+        other = Polygon(np.asarray(q.polygon, float)).buffer(0)
+        if mine.intersection(other).area > 1e-4:
+            best = gap
+    return best
 
 
 def _fits(xy: np.ndarray, r: float, taken: list[tuple[np.ndarray, float]], gap: float) -> bool:
@@ -145,6 +180,7 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
         res.notes.append(f"categories unknown to the relevance table are never placed: {', '.join(unknown)}")
     min_r = min(object_radius(a, cfg.spawn_mode) for c in categories for a in by_cat[c])
     taken: dict[int, list[tuple[np.ndarray, float]]] = {}
+    headroom = {p.id: plane_headroom(p, planes, cfg.support_thickness) for p in planes}
     order = sorted(planes, key=lambda p: p.id)
     order = [order[i] for i in rng.permutation(len(order))]
     n = 0
@@ -162,14 +198,15 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
             cat = cats[int(rng.choice(len(cats), p=p))]
             assets = by_cat[cat]
             asset = assets[int(rng.integers(len(assets)))]
-            placed = _place_one(asset, plane, taken.setdefault(plane.id, []), cfg, rng)
+            placed = _place_one(asset, plane, taken.setdefault(plane.id, []), cfg, rng, headroom[plane.id])
             if placed is None:
                 fitting = [a for a in assets if len(_inset(plane.polygon, object_radius(a, cfg.spawn_mode))) >= 3]
                 if fitting and asset not in fitting:
                     asset = fitting[int(rng.integers(len(fitting)))]
-                    placed = _place_one(asset, plane, taken[plane.id], cfg, rng)
+                    placed = _place_one(asset, plane, taken[plane.id], cfg, rng, headroom[plane.id])
             if placed is None:
-                res.notes.append(f"plane {plane.id} ({plane.label}): no room for a {cat} ({asset.name})")
+                room = f" under {headroom[plane.id]:.2f} m headroom" if math.isfinite(headroom[plane.id]) else ""
+                res.notes.append(f"plane {plane.id} ({plane.label}): no room for a {cat} ({asset.name}){room}")
                 continue
             pos, q = placed
             res.placements.append(Placement(object_id=f"obj_{n:03d}", asset=asset.name, category=cat, plane_id=plane.id,
@@ -182,7 +219,7 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
 
 
 def _place_one(asset: ObjectAsset, plane: ReceptaclePlane, taken: list[tuple[np.ndarray, float]], cfg: PlaceConfig,
-               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
+               rng: np.random.Generator, headroom: float = math.inf) -> tuple[np.ndarray, np.ndarray] | None:
     """Draw a free position for one object on a plane and its spawn pose, or None."""
     r = object_radius(asset, cfg.spawn_mode)
     region = _inset(plane.polygon, r)
@@ -190,15 +227,18 @@ def _place_one(asset: ObjectAsset, plane: ReceptaclePlane, taken: list[tuple[np.
         return None
     for xy in sample_in_polygon(region, POSITION_TRIES, rng):
         if _fits(xy, r, taken, cfg.min_distance):
+            pose = spawn_pose(asset, plane, xy, cfg, rng, headroom)
+            if pose is None:
+                return None
             taken.append((xy, r))
-            return spawn_pose(asset, plane, xy, cfg, rng)
+            return pose
     return None
 
 
 def resample_pose(asset: ObjectAsset, plane: ReceptaclePlane, others: list[tuple[np.ndarray, float]], cfg: PlaceConfig,
-                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
+                  rng: np.random.Generator, headroom: float = math.inf) -> tuple[np.ndarray, np.ndarray] | None:
     """Draw a new spawn pose for an object on its plane away from `others` (xy, radius), or None."""
-    return _place_one(asset, plane, list(others), cfg, rng)
+    return _place_one(asset, plane, list(others), cfg, rng, headroom)
 
 
 def top_pair_share(placements: list[Placement], relevance: Relevance, planes: list[ReceptaclePlane],

@@ -14,7 +14,7 @@ import numpy as np
 from ..config import PlaceConfig
 from ..records import ObjectAsset, Placement, ReceptaclePlane, Relevance, SceneAsset, SceneVariant, save_json
 from .compose import compose, write_mjcf
-from .sample import object_radius, resample_pose, sample_placements
+from .sample import object_radius, plane_headroom, resample_pose, sample_placements
 from .settle import FELL, RESTING, Settler
 
 
@@ -89,7 +89,8 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
                     continue
                 if p.attempts <= cfg.resample_attempts:
                     others = _occupied(settler, placements, assets, cfg, p.plane_id, exclude=i)
-                    pose = resample_pose(assets[p.asset], plane_by_id[p.plane_id], others, cfg, rng)
+                    plane = plane_by_id[p.plane_id]
+                    pose = resample_pose(assets[p.asset], plane, others, cfg, rng, plane_headroom(plane, planes, cfg.support_thickness))
                     if pose is not None:
                         settler.unpark(i)
                         settler.set_pose(i, *pose)
