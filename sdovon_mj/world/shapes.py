@@ -165,6 +165,9 @@ def _grid_surface(rings: np.ndarray, first_pole: bool, last_pole: bool, loop: bo
 def revolve(profile: list[tuple[float, float]] | np.ndarray, segments: int = 24, closed: bool = False) -> Mesh:
     """Revolve an (r, z) profile about the Z axis; an open profile must start and end on the axis."""
     p = np.asarray(profile, dtype=np.float64)
+    keep = np.ones(len(p), dtype=bool)
+    keep[1:] = np.any(np.abs(np.diff(p, axis=0)) > 1e-12, axis=1)
+    p = p[keep]
     ang = 2.0 * np.pi * np.arange(segments) / segments
     x = p[:, 0:1] * np.cos(ang)[None, :]
     y = p[:, 0:1] * np.sin(ang)[None, :]
