@@ -1,0 +1,132 @@
+"""Perceive + receptacle planes on default-world apartments (gt detector, observe-stage views). Slow."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sdovon_mj.config import ObserveConfig, PerceiveConfig, ReceptacleConfig
+from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, SupportSurface
+from sdovon_mj.store import atomic_write_text
+
+world = pytest.importorskip("sdovon_mj.world")
+
+
+def scene_from_apartment(seed: int, root: Path) -> SceneAsset:
+    """Write an apartment as a visual-only MJCF (one mesh geom per instance) + mesh sidecar; return its SceneAsset."""
+    import trimesh
+
+    from sdovon_mj.sim.model import save_scene_mesh
+
+    apt = world.generate_apartment(seed)
+    name = f"apartment_{seed:04d}"
+    d = root / "scenes" / name
+    (d / "meshes").mkdir(parents=True, exist_ok=True)
+    m = apt.mesh
+    geoms, assets, instances = [], [], []
+    for inst in apt.instances:
+        sel = np.nonzero(m.face_instance == inst.id)[0]
+        if len(sel) == 0:
+            continue
+        tm = trimesh.Trimesh(m.vertices, m.faces[sel], process=False)
+        tm.remove_unreferenced_vertices()
+        atomic_write_text(d / "meshes" / f"inst_{inst.id}.obj", tm.export(file_type="obj"))
+        rgba = np.asarray(m.face_color[sel[0]], float) / 255.0
+        group = 1 if inst.label == "ceiling" else 0
+        assets.append(f'    <mesh name="inst_{inst.id}" file="inst_{inst.id}.obj" inertia="shell"/>')
+        geoms.append(f'    <geom name="inst_{inst.id}" type="mesh" mesh="inst_{inst.id}" group="{group}" contype="0" '
+                     f'conaffinity="0" rgba="{rgba[0]:.3f} {rgba[1]:.3f} {rgba[2]:.3f} 1"/>')
+        lo, hi = tm.vertices.min(axis=0), tm.vertices.max(axis=0)
+        instances.append(SemanticInstance(id=inst.id, label=inst.label, geoms=[f"inst_{inst.id}"], room=inst.room,
+                                          floor=inst.floor, kind=inst.kind, bounds=np.stack([lo, hi])))
+    xml = (f'<mujoco model="{name}">\n  <compiler meshdir="meshes"/>\n  <asset>\n' + "\n".join(assets) + "\n  </asset>\n"
+           "  <worldbody>\n    <light pos=\"0 0 6\" dir=\"0 0 -1\" directional=\"true\"/>\n" + "\n".join(geoms) +
+           "\n  </worldbody>\n</mujoco>\n")
+    atomic_write_text(d / "scene.xml", xml)
+    save_scene_mesh(d / "mesh.npz", m.vertices, m.faces, m.face_instance)
+    surfaces = [SupportSurface(instance_id=i.id, height=float(s.height), polygon=np.asarray(s.polygon, float))
+                for i in apt.instances for s in i.support_surfaces]
+    lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
+    return SceneAsset(name=name, mjcf=f"scenes/{name}/scene.xml", mesh=f"scenes/{name}/mesh.npz",
+                      source=f"default world seed {seed}",
+                      floors=[Floor(index=f.index, height=float(f.height)) for f in apt.floors],
+                      instances=instances, bounds=np.stack([lo, hi]),
+                      rooms=[Room(id=r.id, type=r.type, floor=r.floor, polygon=np.asarray(r.polygon, float)) for r in apt.rooms],
+                      support_surfaces=surfaces)
+
+
+@functools.lru_cache(maxsize=None)
+def world_observations(seed: int, root: str) -> tuple[SceneAsset, list]:
+    """Observe-stage views (320x240) of one default-world apartment (cached per process)."""
+    from sdovon_mj.observe import load_shards, observe_scene
+
+    r = Path(root) / f"w{seed}"
+    scene = scene_from_apartment(seed, r)
+    cfg = ObserveConfig(width=320, height=240)
+    s = observe_scene(scene, r, "observe", cfg, seed=seed)
+    return scene, list(load_shards([r / p for p in s["shards"]]))
+
+
+@functools.lru_cache(maxsize=None)
+def world_result(seed: int, root: str, sigma: float) -> tuple[SceneAsset, list, list]:
+    from sdovon_mj.perceive import perceive_scene
+    from sdovon_mj.receptacles import find_receptacle_planes
+
+    scene, obs = world_observations(seed, root)
+    fused = perceive_scene(obs, scene, PerceiveConfig(depth_noise_sigma=sigma), seed=seed)
+    return scene, fused, find_receptacle_planes(fused, ReceptacleConfig())
+
+
+def instance_scores(scene: SceneAsset, fused: list, labels) -> tuple[float, float]:
+    """Precision / recall of fused receptacle instances vs the scene's receptacles at 3D box IoU >= 0.5."""
+    from sdovon_mj.perceive.correction import box_iou_3d
+    from sdovon_mj.receptacles import receptacle_instances
+
+    pred = receptacle_instances(fused, labels)
+    truth = [i for i in scene.instances if i.kind == "receptacle"]
+    used, tp = set(), 0
+    for t in truth:
+        best = max(((box_iou_3d(p.bounds, t.bounds), k) for k, p in enumerate(pred) if k not in used), default=(0.0, -1))
+        if best[0] >= 0.5:
+            tp += 1
+            used.add(best[1])
+    return tp / max(len(pred), 1), tp / max(len(truth), 1)
+
+
+def surface_scores(scene: SceneAsset, planes: list, tol: float) -> list[tuple[int, str, float, float, float]]:
+    """Per true surface (same-height faces of one instance united, e.g. sofa cushions): (instance, label, height, height error, best IoU)."""
+    from shapely.ops import unary_union
+
+    from sdovon_mj.receptacles import polygon_iou
+    from sdovon_mj.receptacles.polygon import _shapely
+
+    groups: dict[tuple[int, float], list] = {}
+    for s in scene.support_surfaces:
+        groups.setdefault((s.instance_id, round(float(s.height), 3)), []).append(_shapely(s.polygon))
+    out = []
+    for (iid, h), polys in sorted(groups.items()):
+        u = unary_union(polys).convex_hull
+        truth = np.asarray(u.exterior.coords)[:-1]
+        cands = [(polygon_iou(p.polygon, truth), abs(p.height - h)) for p in planes
+                 if p.instance_id >= 0 and abs(p.height - h) <= tol]
+        iou, err = max(cands, default=(0.0, float("inf")))
+        out.append((iid, scene.instance(iid).label, h, float(err), float(iou)))
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=False, reason="open gap (see issue 5 report): wall shelves/counters above the 0.88 m camera are never "
+                   "seen from above, some bookshelf levels are missed, receptacle P/R 0.82 on apartment 0")
+@pytest.mark.parametrize("sigma,tol", [(0.0, 0.02), (0.005, 0.03)])
+def test_default_world_receptacles_and_planes(tmp_path_factory, sigma: float, tol: float) -> None:
+    root = str(tmp_path_factory.getbasetemp() / "perceive_world")
+    scene, fused, planes = world_result(0, root, sigma)
+    p, r = instance_scores(scene, fused, ReceptacleConfig().labels)
+    assert p >= 0.9 and r >= 0.9, (p, r)
+    res = surface_scores(scene, planes, tol)
+    bad = [x for x in res if x[3] > tol or x[4] < 0.8]
+    assert len(bad) <= 0.1 * len(res), bad
