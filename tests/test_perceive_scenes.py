@@ -20,7 +20,7 @@ class BoxPart:
 
 
 @dataclass
-class TestInstance:
+class RoomInstance:
     """A labelled instance made of boxes, with its ground-truth support surfaces."""
 
     id: int
@@ -39,17 +39,17 @@ def _rect(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
 
 
-def table(iid: int, cx: float, cy: float, w: float = 1.2, d: float = 0.8, h: float = 0.75, t: float = 0.04) -> TestInstance:
+def table(iid: int, cx: float, cy: float, w: float = 1.2, d: float = 0.8, h: float = 0.75, t: float = 0.04) -> RoomInstance:
     """A table: a top of thickness t with its upper face at h, and four legs."""
     parts = [BoxPart((cx, cy, h - t / 2), (w / 2, d / 2, t / 2))]
     for sx in (-1, 1):
         for sy in (-1, 1):
             parts.append(BoxPart((cx + sx * (w / 2 - 0.05), cy + sy * (d / 2 - 0.05), (h - t) / 2), (0.025, 0.025, (h - t) / 2)))
-    return TestInstance(iid, "table", parts, [(h, _rect(cx - w / 2, cy - d / 2, cx + w / 2, cy + d / 2))])
+    return RoomInstance(iid, "table", parts, [(h, _rect(cx - w / 2, cy - d / 2, cx + w / 2, cy + d / 2))])
 
 
 def bookshelf(iid: int, cx: float, cy: float, w: float = 0.8, d: float = 0.32, levels: tuple[float, ...] = (0.06, 0.38, 0.70, 1.02),
-              t: float = 0.02) -> TestInstance:
+              t: float = 0.02) -> RoomInstance:
     """A bookshelf open towards -Y: side panels, back panel, boards whose upper faces are at `levels`."""
     top = levels[-1]
     parts = [
@@ -66,10 +66,10 @@ def bookshelf(iid: int, cx: float, cy: float, w: float = 0.8, d: float = 0.32, l
             supports.append((z, _rect(cx - w / 2 + t, cy - d / 2, cx + w / 2 - t, cy + d / 2 - t)))
     # The top board spans the whole footprint.
     parts[-1] = BoxPart((cx, cy, top - t / 2), (w / 2, d / 2, t / 2))
-    return TestInstance(iid, "bookshelf", parts, supports)
+    return RoomInstance(iid, "bookshelf", parts, supports)
 
 
-def sofa(iid: int, cx: float, cy: float, w: float = 1.8, d: float = 0.85, seat: float = 0.42) -> TestInstance:
+def sofa(iid: int, cx: float, cy: float, w: float = 1.8, d: float = 0.85, seat: float = 0.42) -> RoomInstance:
     """A sofa facing -Y: seat block, backrest, two armrests; the support surface is the seat."""
     arm, back = 0.15, 0.2
     parts = [
@@ -79,20 +79,20 @@ def sofa(iid: int, cx: float, cy: float, w: float = 1.8, d: float = 0.85, seat: 
         BoxPart((cx + w / 2 - arm / 2, cy - back / 2, 0.3), (arm / 2, (d - back) / 2, 0.3)),
     ]
     poly = _rect(cx - w / 2 + arm, cy - d / 2, cx + w / 2 - arm, cy + d / 2 - back)
-    return TestInstance(iid, "sofa", parts, [(seat, poly)])
+    return RoomInstance(iid, "sofa", parts, [(seat, poly)])
 
 
-def chair(iid: int, cx: float, cy: float) -> TestInstance:
+def chair(iid: int, cx: float, cy: float) -> RoomInstance:
     """A plain chair block (not a receptacle)."""
-    return TestInstance(iid, "chair", [BoxPart((cx, cy, 0.23), (0.22, 0.22, 0.23)), BoxPart((cx, cy + 0.2, 0.65), (0.22, 0.02, 0.2))])
+    return RoomInstance(iid, "chair", [BoxPart((cx, cy, 0.23), (0.22, 0.22, 0.23)), BoxPart((cx, cy + 0.2, 0.65), (0.22, 0.02, 0.2))])
 
 
-def default_instances() -> list[TestInstance]:
+def default_instances() -> list[RoomInstance]:
     """The test room: a table, a bookshelf, a sofa and a chair around the origin."""
     return [table(1, 0.0, 0.0), bookshelf(2, -1.6, 1.6), sofa(3, 1.4, 1.7), chair(4, 0.0, -0.9)]
 
 
-def mjcf(instances: list[TestInstance], room: float = 3.0) -> str:
+def mjcf(instances: list[RoomInstance], room: float = 3.0) -> str:
     """Return an MJCF string: a floor (inst_0) and the instances' boxes named inst_<k>_<j>."""
     rgba = ["0.6 0.4 0.2 1", "0.3 0.5 0.7 1", "0.7 0.2 0.2 1", "0.2 0.6 0.3 1", "0.5 0.5 0.5 1"]
     geoms = [f'<geom name="inst_0" type="plane" size="{room} {room} 0.1" rgba="0.8 0.8 0.8 1"/>']
@@ -111,7 +111,7 @@ def mjcf(instances: list[TestInstance], room: float = 3.0) -> str:
 </mujoco>"""
 
 
-def scene_asset(instances: list[TestInstance]) -> SceneAsset:
+def scene_asset(instances: list[RoomInstance]) -> SceneAsset:
     """Return a SceneAsset naming the instances, with their ground-truth support surfaces."""
     sem = [SemanticInstance(id=0, label="floor", geoms=["inst_0"])]
     sups = []
@@ -122,7 +122,7 @@ def scene_asset(instances: list[TestInstance]) -> SceneAsset:
     return SceneAsset(name="perceive_test", mjcf="", instances=sem, support_surfaces=sups)
 
 
-def camera_poses(instances: list[TestInstance]) -> list[np.ndarray]:
+def camera_poses(instances: list[RoomInstance]) -> list[np.ndarray]:
     """Return OpenCV poses looking at every instance from several sides and heights."""
     from sdovon_mj.sim.camera import pose_cv
 
@@ -160,7 +160,7 @@ def render_observations(xml: str, poses: list[np.ndarray], width: int = 320, hei
 
 
 @functools.lru_cache(maxsize=None)
-def rendered_room() -> tuple[list[TestInstance], SceneAsset, list[Observation]]:
+def rendered_room() -> tuple[list[RoomInstance], SceneAsset, list[Observation]]:
     """The default test room and its rendered observations (cached per process)."""
     insts = default_instances()
     obs = render_observations(mjcf(insts), camera_poses(insts))
@@ -177,7 +177,7 @@ def fused_room(depth_noise_sigma: float = 0.0, seed: int = 0) -> list:
     return perceive_scene(obs, scene, PerceiveConfig(depth_noise_sigma=depth_noise_sigma), seed=seed)
 
 
-def match_instances(fused: list, truth: list[TestInstance], labels: tuple[str, ...], iou_min: float = 0.5) -> tuple[float, float]:
+def match_instances(fused: list, truth: list[RoomInstance], labels: tuple[str, ...], iou_min: float = 0.5) -> tuple[float, float]:
     """Precision and recall of fused receptacle instances vs ground truth at 3D box IoU >= iou_min."""
     from sdovon_mj.perceive.correction import box_iou_3d
     from sdovon_mj.receptacles.identify import receptacle_instances
