@@ -1,6 +1,6 @@
 """Region map on default-world apartments: agreement with true room types per room type, and timing.
 
-    python bench/bench_regions.py [--seeds 5] [--radius 1.5] [--step 0.5] [--plain-disc]
+    python bench/bench_regions.py [--seeds 5] [--radius R] [--step D] [--plain-disc] [--embeddings]
 
 Ground-truth instances (one per furniture instance, from the apartment mesh), a NavMap rasterised
 from the room polygons, the offline backend. Prints, per room type, the share of navigable cells the
@@ -25,6 +25,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--radius", type=float, default=None, help="window radius r (default: config)")
     ap.add_argument("--step", type=float, default=None, help="window step d (default: config)")
     ap.add_argument("--plain-disc", action="store_true", help="the paper's plain disc windows (walls do not cut)")
+    ap.add_argument("--embeddings", action="store_true", help="also score the embedding fallback against the table")
     args = ap.parse_args(argv)
 
     from sdovon_mj.config import SemanticsConfig
@@ -78,7 +79,41 @@ def main(argv: list[str] | None = None) -> int:
     tot = sum(n for _, n in per_type.values())
     print(f"  {'all':<12} {hit / max(tot, 1):.3f}  ({tot} cells)")
     print(f"{maps} maps, {secs / max(maps, 1):.2f} s per map, {questions / max(maps, 1):.1f} region questions per map")
+    if args.embeddings:
+        embedding_agreement(backend.priors)
     return 0
+
+
+def embedding_agreement(pri) -> None:  # noqa: ANN001 - a semantics.priors.Priors
+    """Print how well the embedding fallbacks reproduce the table's best candidates (leave-one-out)."""
+    import numpy as np
+
+    from sdovon_mj.semantics.priors import KNN_K, KNN_T, _softmax
+
+    t0 = time.perf_counter()
+    objs = sorted(k for k, v in pri.labels.items() if v.get("kind") == "object" and v.get("receptacles"))
+    vecs = pri.embedder.encode(objs)
+    sims = vecs @ vecs.T
+    for kind, cands in (("regions", pri.regions), ("receptacles", pri.receptacles)):
+        rows = np.array([[pri.labels[o][kind].get(c, 0.0) for c in cands] for o in objs])
+        res = {"direct": [0, 0], "knn": [0, 0]}
+        for i, o in enumerate(objs):
+            best = set(np.flatnonzero(rows[i] == rows[i].max()).tolist())
+            s = pri.embedding_scores(o, list(cands), kind)
+            direct = np.array([s[c] for c in cands])
+            sim = sims[i].copy()
+            sim[[j for j in range(len(objs)) if j == i or np.array_equal(rows[j], rows[i])]] = -9.0  # leave it out
+            nn = np.argsort(-sim, kind="stable")[:KNN_K]
+            knn = _softmax(sim[nn][None, :].astype(np.float64), KNN_T)[0] @ rows[nn]
+            for name, pred in (("direct", direct), ("knn", knn)):
+                order = np.argsort(-pred, kind="stable")
+                res[name][0] += int(order[0] in best)
+                res[name][1] += int(bool(set(order[:2].tolist()) & best))
+        n = len(objs)
+        print(f"{kind}: direct similarity top-1 {res['direct'][0] / n:.2f} top-2 {res['direct'][1] / n:.2f} "
+              f"(temperature {pri._temperature(kind)}); table kNN (leave-one-out, k={KNN_K}) "
+              f"top-1 {res['knn'][0] / n:.2f} top-2 {res['knn'][1] / n:.2f}  [{n} objects]")
+    print(f"({time.perf_counter() - t0:.1f} s incl. model load)")
 
 
 if __name__ == "__main__":

@@ -4,10 +4,10 @@ No server, no randomness: the same question always gets the same answer.
 - receptacles: labels the table (or its head noun) calls a receptacle;
 - region proposals: naive-Bayes score of each region over the window's distinct labels,
   sum over labels of log((s + 1) / 11) with s the label's 0-10 region score (labels the table lacks
-  use calibrated embedding similarity at half weight; labels that say nothing about regions --
+  use the embedding nearest-neighbour row at half weight; labels that say nothing about regions --
   walls, doors -- are skipped); regions most likely first, at least five, none when no label is
   informative;
-- relevance: table scores (embedding fallback for unknown labels) mixed with a floor, so that
+- relevance: table scores (embedding fallbacks for unknown labels) mixed with a floor, so that
   no candidate gets zero.
 """
 
@@ -79,7 +79,7 @@ class OfflineBackend(Backend):
             if prof is None:
                 if pri.resolve(lab) is not None:
                     continue  # known but says nothing about regions (wall, door, ...)
-                prof = pri.embedding_scores(lab, pri.regions, "regions")
+                prof = pri.knn_row(lab, "regions")
                 weight = UNKNOWN_WEIGHT
             informative = True
             for r in pri.regions:
