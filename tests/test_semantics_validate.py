@@ -158,3 +158,16 @@ def test_cli_scene_folder(tmp_path):
     assert main(["semantics", str(tmp_path / "missing"), "--out", str(out)]) == 1
     (scene / "perceive" / "instances.npz").unlink()
     assert main(["semantics", str(scene), "--out", str(out)]) == 1
+
+
+def test_default_world_labels_are_all_in_the_table():
+    """Every default-world object category and furniture label has table rows (no embedding fallback needed)."""
+    world = pytest.importorskip("sdovon_mj.world")
+    pri = default_priors()
+    for cat in world.OBJECT_CATEGORIES:
+        key = pri.resolve(cat, embed=False)
+        assert key is not None and pri.labels[key]["regions"] and pri.labels[key]["receptacles"], cat
+    labels = {i.label for s in range(3) for i in world.generate_apartment(s).instances if i.kind != "structure"}
+    for lab in sorted(labels):
+        key = pri.resolve(lab, embed=False)
+        assert key is not None and pri.labels[key]["regions"], lab
