@@ -149,13 +149,13 @@ def test_cli_writes_instances_and_planes(tmp_path) -> None:
     insts, scene, obs = rendered_room()
     obs_dir = tmp_path / "obs"
     obs_dir.mkdir()
-    save_npz(obs[:12], obs_dir / "obs_00000.npz")
-    save_npz(obs[12:24], obs_dir / "obs_00001.npz")
+    save_npz(obs[:4], obs_dir / "obs_00000.npz")
+    save_npz(obs[4:8], obs_dir / "obs_00001.npz")
     save_json(scene, tmp_path / "scene.json")
     out = tmp_path / "perceive"
     assert main(["perceive", str(obs_dir), "--scene", str(tmp_path / "scene.json"), "--out", str(out)]) == 0
     got = load_npz(out / "instances.npz")
     planes = load_json(out / "planes.json", ReceptaclePlane)
-    assert {i.label for i in got} >= {"table", "sofa"} and planes
+    assert "table" in {i.label for i in got} and any(p.label == "table" for p in planes)
     assert main(["perceive", str(tmp_path / "missing"), "--scene", str(tmp_path / "scene.json"), "--out", str(out)]) == 1
     assert main(["perceive", str(obs_dir), "--out", str(out)]) == 1  # gt detector without labels
