@@ -126,6 +126,27 @@ def test_rooms_are_ccw_and_furniture_inside_its_room() -> None:
             assert v[:, 2].min() >= z0 - 1e-6 and v[:, 2].max() <= z0 + apt.wall_height
 
 
+def test_furniture_does_not_overlap() -> None:
+    """3D boxes of furniture pieces are disjoint, except pieces designed to nest (a chair pushed under
+    its table, a sink or hob in its counter, a TV on its stand)."""
+    nested = {frozenset(p) for p in (("chair", "table"), ("chair", "desk"), ("sink", "counter"), ("stove", "counter"),
+                                     ("tv", "tv stand"))}
+    for s in SEEDS:
+        apt = apartment(s)
+        m = apt.mesh
+        items = [i for i in apt.instances if i.kind != "structure"]
+        boxes = {}
+        for inst in items:
+            v = m.vertices[m.faces[m.face_instance == inst.id]].reshape(-1, 3)
+            boxes[inst.id] = (v.min(0), v.max(0))
+        for k, a in enumerate(items):
+            for b in items[k + 1:]:
+                (alo, ahi), (blo, bhi) = boxes[a.id], boxes[b.id]
+                overlap = np.minimum(ahi, bhi) - np.maximum(alo, blo)
+                if np.all(overlap > 1e-3):
+                    assert frozenset((a.label, b.label)) in nested, (s, a.label, b.label, overlap)
+
+
 def _polygon_samples(poly: np.ndarray) -> np.ndarray:
     """The centroid and the vertices pulled 60 % towards it (inside a convex polygon)."""
     c = poly.mean(axis=0)

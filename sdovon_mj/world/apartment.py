@@ -10,7 +10,7 @@ with the apartment seed: the same seed gives the same apartment bit for bit.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from scipy import ndimage
@@ -19,6 +19,9 @@ from . import furniture as FU
 from . import layout as LA
 from . import shapes as S
 from .furniture import Model, u
+
+if TYPE_CHECKING:
+    import trimesh
 
 MATERIALS: tuple[str, ...] = (
     "plain", "wood", "fabric", "metal", "ceramic", "floor_wood", "floor_tile", "wall", "ceiling", "glass",
@@ -93,7 +96,7 @@ class WorldMesh:
     face_color: np.ndarray  # (M, 4) uint8 RGBA
     face_material: np.ndarray  # (M,) uint8 index into MATERIALS
 
-    def to_trimesh(self):  # -> trimesh.Trimesh
+    def to_trimesh(self) -> "trimesh.Trimesh":
         """Return a trimesh.Trimesh (unprocessed, face colours attached)."""
         import trimesh
 
@@ -758,10 +761,11 @@ def _windows(r: LA.PlanRoom, ext: dict[str, bool], wall_h: float, rng: np.random
 
 def generate_apartment(seed: int, floors: int | None = None, ceilings: bool = True) -> Apartment:
     """Generate the apartment for `seed` (floors: 1, 2 or None for the seeded choice, ~30% two storeys)."""
-    if floors not in (None, 1, 2):
-        raise ValueError("floors must be 1, 2 or None")
+    if floors not in (None, 0, 1, 2):
+        raise ValueError("floors must be 1, 2 or None (0 also means the seeded choice)")
     rng = np.random.default_rng([int(seed), 0])
-    nfl = floors if floors is not None else (2 if rng.random() < 0.3 else 1)
+    two = rng.random() < 0.3
+    nfl = int(floors) if floors else (2 if two else 1)
     wall_h = LA.snap(rng.uniform(2.5, 2.8))
     types = LA.choose_room_types(rng, int(seed), nfl)
     width, depth, prooms, pdoors = LA.plan(rng, types)

@@ -14,11 +14,14 @@ import os
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from . import shapes as S
+
+if TYPE_CHECKING:
+    import trimesh
 
 LICENSE = "CC0-1.0 (procedural, sdovon-mj)"
 
@@ -60,7 +63,7 @@ class HouseholdObject:
         v = self.vertices
         return v.max(0) - v.min(0)
 
-    def to_trimesh(self):  # -> trimesh.Trimesh
+    def to_trimesh(self) -> "trimesh.Trimesh":
         """Return the object as one trimesh.Trimesh with face colours."""
         import trimesh
 

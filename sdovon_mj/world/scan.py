@@ -205,7 +205,7 @@ def visible_faces(apartment: Apartment) -> np.ndarray:
 
 
 def make_scan(apartment: Apartment, noise_sigma: float = 0.003, max_faces: int = 300_000, hole_fraction: float = 0.01,
-              hole_rings: int = 2, segment_size: float = 0.5) -> ScanMesh:
+              hole_rings: int = 3, segment_size: float = 0.5) -> ScanMesh:
     """Return the scan-like version of an apartment's mesh (deterministic for its seed)."""
     rng = np.random.default_rng([apartment.seed, 7])
     m = apartment.mesh
@@ -232,15 +232,21 @@ def make_scan(apartment: Apartment, noise_sigma: float = 0.003, max_faces: int =
     # holes: small patches grown from random seed faces
     nf = len(faces)
     inc = sparse.csr_matrix((np.ones(3 * nf), (np.repeat(np.arange(nf), 3), faces.ravel())), shape=(nf, len(verts)))
-    per_patch = 1 + 12 * hole_rings
-    n_seeds = int(round(hole_fraction * nf / per_patch))
+    # patch sizes vary: each seed grows 1..hole_rings rings (about 13, 37, 73 faces on a regular grid)
+    sizes = np.array([1 + 6 * k * (k + 1) for k in range(1, hole_rings + 1)], dtype=np.float64)
+    n_seeds = int(round(hole_fraction * nf / sizes.mean()))
     if hole_fraction > 0:
         n_seeds = max(1, n_seeds)
+    seeds = rng.choice(nf, size=n_seeds, replace=False)
+    rings = rng.integers(1, hole_rings + 1, n_seeds)
     mask = np.zeros(nf, dtype=bool)
-    mask[rng.choice(nf, size=n_seeds, replace=False)] = True
-    for _ in range(hole_rings):
-        vm = (inc.T @ mask.astype(np.float64)) > 0
-        mask = (inc @ vm.astype(np.float64)) > 0
+    for k in range(1, hole_rings + 1):
+        grow = np.zeros(nf, dtype=bool)
+        grow[seeds[rings == k]] = True
+        for _ in range(k):
+            vm = (inc.T @ grow.astype(np.float64)) > 0
+            grow = (inc @ vm.astype(np.float64)) > 0
+        mask |= grow
     finst = vinst[faces[:, 0]]
     total = np.bincount(finst, minlength=len(apartment.instances))
     lost = np.bincount(finst[mask], minlength=len(apartment.instances))
