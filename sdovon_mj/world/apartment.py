@@ -32,6 +32,7 @@ WALL_T = 0.1  # wall thickness (two 5 cm room-side slabs back to back)
 STOREY_HEIGHT = 3.0  # floor-to-floor height of a two-storey apartment
 AGENT_RADIUS = 0.18
 NAV_IGNORE_ABOVE = 0.9  # furniture whose bottom is higher than this does not block walking
+FLAT = 0.02  # furniture lower than this (rugs) does not block walking
 OBJECT_CLEARANCE = 0.3  # free height kept above receptacle tops when placing furniture
 DOOR_KEEPOUT = 0.85  # depth kept free in front of a doorway
 
@@ -250,7 +251,7 @@ class _RoomState:
             for o in self.bodies:
                 if _overlap2(b, o, 0.02) and b[4] < o[5] and o[4] < b[5]:
                     return False
-            if b[4] < NAV_IGNORE_ABOVE:
+            if b[4] < NAV_IGNORE_ABOVE and b[5] > FLAT:
                 for c in self.clear:
                     if _overlap2(b, c):
                         return False
@@ -259,7 +260,7 @@ class _RoomState:
             if clear[0] < ix[0] - 1e-6 or clear[1] < ix[1] - 1e-6 or clear[2] > ix[2] + 1e-6 or clear[3] > ix[3] + 1e-6:
                 return False
             for o in self.bodies:
-                if o[4] < NAV_IGNORE_ABOVE and _overlap2(clear, o):
+                if o[4] < NAV_IGNORE_ABOVE and o[5] > FLAT and _overlap2(clear, o):
                     return False
         return True
 
@@ -337,7 +338,7 @@ def _place_centre(state: _RoomState, g: Group, rng: np.random.Generator, margin:
         boxes = [_item_box(*it) for it in items]
         zone = np.array([min(b[0] for b in boxes) - margin, min(b[1] for b in boxes) - margin,
                          max(b[2] for b in boxes) + margin, max(b[3] for b in boxes) + margin])
-        if any(o[4] < NAV_IGNORE_ABOVE and _overlap2(zone, o) for o in state.bodies):
+        if any(o[4] < NAV_IGNORE_ABOVE and o[5] > FLAT and _overlap2(zone, o) for o in state.bodies):
             continue
         if state.fits(items, None):
             state.commit(items, zone)
@@ -363,10 +364,10 @@ def _nav_ok(state: _RoomState, anchors: list[np.ndarray], openings: list[np.ndar
     for o in openings:
         free |= inside(o)
     for b in state.bodies:
-        if b[4] < NAV_IGNORE_ABOVE:
+        if b[4] < NAV_IGNORE_ABOVE and b[5] > FLAT:
             free &= ~inside(b)
     dist = ndimage.distance_transform_edt(free) * res
-    nav = dist > AGENT_RADIUS + 0.02
+    nav = dist > AGENT_RADIUS + 0.04  # a little stricter than the agent radius
     lab, _ = ndimage.label(nav)
     labels = set()
     for a in anchors:
@@ -377,11 +378,12 @@ def _nav_ok(state: _RoomState, anchors: list[np.ndarray], openings: list[np.ndar
         labels.add(int(lab[i, j]))
     if len(labels) != 1:
         return False
-    main = lab == labels.pop()
+    # receptacles must be reachable from roomy cells (not only from a squeeze beside the bed)
+    main = (lab == labels.pop()) & (dist > AGENT_RADIUS + 0.08)
     for m, ox, oy, yaw in state.placed:
         if m.kind == "receptacle":
             b = _item_box(m, ox, oy, yaw)
-            if not np.any(main & inside(b, AGENT_RADIUS + 0.3)):
+            if not np.any(main & inside(b, AGENT_RADIUS + 0.27)):
                 return False
     return True
 
@@ -410,6 +412,8 @@ def _bed_group(rng: np.random.Generator, level: int, min_dim: float) -> Group:
         ns = FU.nightstand(rng, wood)
         s = side if k == 0 else -side
         items.append((ns, s * (0.5 * b.width + 0.04 + 0.5 * ns.width), 0.0, 0))
+    if rng.random() < 0.4 and level == 0:
+        items.append((FU.rug(rng, b.width + 0.4, 0.7), 0.0, b.depth + 0.03, 0))
     return Group(items, 0.5)
 
 
@@ -418,7 +422,11 @@ def _sofa_group(rng: np.random.Generator, level: int) -> Group:
     sf = FU.sofa(rng, None if level == 0 else u(rng, 1.6, 1.8))
     ct = FU.coffee_table(rng)
     gap = u(rng, 0.38, 0.45)
-    return Group([(sf, 0.0, 0.0, 0), (ct, 0.0, sf.depth + gap, 0)], 0.3)
+    items = [(sf, 0.0, 0.0, 0), (ct, 0.0, sf.depth + gap, 0)]
+    if rng.random() < 0.6 and level == 0:
+        rw = min(sf.width - 0.1, ct.width + u(rng, 0.4, 0.8))
+        items.append((FU.rug(rng, rw, gap + ct.depth + 0.25), 0.0, sf.depth + 0.05, 0))
+    return Group(items, 0.3)
 
 
 def _desk_group(rng: np.random.Generator, level: int) -> Group:
@@ -526,6 +534,7 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
             (_desk_group, "wall", False, 0.3),
             (_single(FU.floor_lamp), "corner", False, 0.3),
             (_single(bs, 0.5), "corner", False, 0.2),
+            (_single(FU.picture), "high", False, 0.6),
         ]
     if rtype == "kitchen":
         return [
@@ -545,6 +554,8 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
             (_single(FU.dresser, 0.6), "wall", False, 0.25),
             (_single(FU.wall_shelf), "high", False, 0.25),
             (_single(FU.floor_lamp), "corner", False, 0.5),
+            (_single(FU.picture), "high", False, 0.7),
+            (_single(FU.picture), "high", False, 0.4),
         ]
     if rtype == "bathroom":
         return [
@@ -561,6 +572,7 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
             (_single(FU.dresser, 0.6), "wall", False, 0.3),
             (_single(bs, 0.5), "wall", False, 0.3),
             (_single(FU.floor_lamp), "corner", False, 0.3),
+            (_single(FU.picture), "high", False, 0.4),
         ]
     if rtype == "dining room":
         return [
@@ -569,6 +581,7 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
             (_single(FU.dresser, 0.5), "wall", True, 1.0),
             (_single(FU.wall_shelf), "high", False, 0.6),
             (_single(bs, 0.5), "corner", False, 0.3),
+            (_single(FU.picture), "high", False, 0.7),
         ]
     raise ValueError(f"unknown room type {rtype!r}")
 

@@ -19,7 +19,7 @@ RECEPTACLE_LABELS: tuple[str, ...] = (
     "table", "desk", "dresser", "bookshelf", "shelf", "bed", "sofa", "counter", "nightstand", "coffee table",
 )
 FURNITURE_LABELS: tuple[str, ...] = (
-    "chair", "wardrobe", "toilet", "fridge", "sink", "stove", "bathtub", "tv stand", "tv", "floor lamp",
+    "chair", "wardrobe", "toilet", "fridge", "sink", "stove", "bathtub", "tv stand", "tv", "floor lamp", "picture", "rug",
 )
 
 WOODS = ((176, 134, 92), (122, 84, 56), (205, 175, 135), (96, 66, 44), (232, 228, 220), (64, 62, 60))
@@ -624,3 +624,33 @@ def tv_stand(rng: np.random.Generator) -> tuple[Model, Model]:
     tv.add(S.box((-0.03, cy - 0.015, h + 0.015), (0.03, cy + 0.015, h + 0.1)), black, "metal")
     tv.add(S.box((-0.5 * tw, cy - 0.045, h + 0.08), (0.5 * tw, cy - 0.015, h + 0.08 + th)), black, "metal")
     return m, tv
+
+
+def picture(rng: np.random.Generator) -> Model:
+    """A framed picture hanging on the wall (bottom edge 1.2-1.5 m)."""
+    w, h = u(rng, 0.4, 1.0), u(rng, 0.3, 0.7)
+    z0 = u(rng, 1.2, 1.5)
+    d, f = 0.03, u(rng, 0.02, 0.045)
+    m = Model("picture", "furniture", [], w, d, z0 + h, z_min=z0)
+    frame = pick(rng, WOODS + ((240, 240, 240), (30, 30, 30), (200, 170, 90)))
+    x0, x1 = -0.5 * w, 0.5 * w
+    m.add(S.box((x0, 0.0, z0), (x1, d, z0 + f)), frame, "wood")
+    m.add(S.box((x0, 0.0, z0 + h - f), (x1, d, z0 + h)), frame, "wood")
+    m.add(S.box((x0, 0.0, z0 + f), (x0 + f, d, z0 + h - f)), frame, "wood")
+    m.add(S.box((x1 - f, 0.0, z0 + f), (x1, d, z0 + h - f)), frame, "wood")
+    # the canvas: a few colour fields, slightly recessed
+    n = int(rng.integers(1, 4))
+    cuts = np.sort(rng.uniform(0.2, 0.8, n - 1)) if n > 1 else np.array([])
+    edges = np.concatenate([[x0 + f], x0 + f + cuts * (w - 2 * f), [x1 - f]])
+    for a, b in zip(edges[:-1], edges[1:]):
+        m.add(S.box((a, 0.0, z0 + f), (b, d - 0.008, z0 + h - f)), pick(rng, FABRICS + LINENS + WOODS[:3]), "plain")
+    return m
+
+
+def rug(rng: np.random.Generator, width: float, depth: float) -> Model:
+    """A flat rug (8 mm) with a border; walkable, never a receptacle."""
+    m = Model("rug", "furniture", [], width, depth, 0.008)
+    base = pick(rng, FABRICS + LINENS)
+    m.add(S.rounded_box((-0.5 * width, 0.0, 0.0), (0.5 * width, depth, 0.006), 0.003, 3), jitter(base, rng, 25), "fabric")
+    m.add(S.rounded_box((-0.5 * width + 0.08, 0.08, 0.0), (0.5 * width - 0.08, depth - 0.08, 0.008), 0.003, 3), base, "fabric")
+    return m
