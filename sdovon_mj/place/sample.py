@@ -205,7 +205,9 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
                     asset = fitting[int(rng.integers(len(fitting)))]
                     placed = _place_one(asset, plane, taken[plane.id], cfg, rng, headroom[plane.id])
             if placed is None:
-                room = f" under {headroom[plane.id]:.2f} m headroom" if math.isfinite(headroom[plane.id]) else ""
+                ext = np.asarray(asset.bbox[1], float) - np.asarray(asset.bbox[0], float)
+                tight = math.isfinite(headroom[plane.id]) and float(ext.max()) + 2 * HEADROOM_MARGIN > headroom[plane.id]
+                room = f" under {headroom[plane.id]:.2f} m headroom" if tight else ""
                 res.notes.append(f"plane {plane.id} ({plane.label}): no room for a {cat} ({asset.name}){room}")
                 continue
             pos, q = placed

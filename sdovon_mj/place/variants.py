@@ -170,20 +170,45 @@ def place_variants(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: 
 
 
 def planes_from_scene(scene: SceneAsset) -> list[ReceptaclePlane]:
-    """Return ground-truth receptacle planes from a scene's support surfaces (region = its room type)."""
+    """Return ground-truth receptacle planes from a scene's support surfaces (region = its room type).
+
+    An instance missing from the scene's list leaves the label empty; the region then comes from the
+    room whose polygon holds the surface's centre on the nearest floor below it.
+    """
     rooms = {r.id: r for r in scene.rooms}
+    floors = sorted(scene.floors, key=lambda f: f.height)
     out = []
     for k, s in enumerate(scene.support_surfaces):
         try:
             inst = scene.instance(s.instance_id)
             label, room, floor = inst.label, inst.room, inst.floor
         except KeyError:
-            label, room, floor = "", -1, 0
+            label, room, floor = "", -1, -1
+        poly = np.asarray(s.polygon, float)
+        if floor < 0:
+            below = [f for f in floors if f.height <= s.height + 1e-6]
+            floor = below[-1].index if below else 0
+        if room not in rooms:
+            c = poly.mean(axis=0)
+            inside = [r for r in scene.rooms if r.floor == floor and _in_polygon(np.asarray(r.polygon, float), c)]
+            room = inside[0].id if inside else -1
         region = rooms[room].type if room in rooms else ""
         out.append(ReceptaclePlane(id=k, instance_id=s.instance_id, label=label, height=float(s.height),
-                                   polygon=np.asarray(s.polygon, float), normal=np.array([0.0, 0.0, 1.0]),
-                                   region=region, floor=max(floor, 0)))
+                                   polygon=poly, normal=np.array([0.0, 0.0, 1.0]), region=region, floor=max(floor, 0)))
     return out
+
+
+def _in_polygon(polygon: np.ndarray, xy: np.ndarray) -> bool:
+    """Return whether a point lies in a (possibly non-convex) polygon (even-odd rule)."""
+    x, y = float(xy[0]), float(xy[1])
+    inside = False
+    n = len(polygon)
+    for i in range(n):
+        x1, y1 = polygon[i]
+        x2, y2 = polygon[(i + 1) % n]
+        if (y1 > y) != (y2 > y) and x < x1 + (y - y1) * (x2 - x1) / (y2 - y1):
+            inside = not inside
+    return inside
 
 
 __all__ = ["place_variant", "place_variants", "run_variant", "variant_seed", "variant_paths", "planes_from_scene",
