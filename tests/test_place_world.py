@@ -116,3 +116,35 @@ def test_world_variants_rest_on_intended_planes_24(setup):
     checks, variants = _run(setup, [0, 1, 2, 3, 4, 5], 4)
     assert len(variants) >= 20
     _assert_must_show(checks, variants)
+
+
+CONVERTED = ("book", "cereal_box", "can", "apple", "remote", "bowl")
+
+
+@pytest.mark.slow
+def test_world_variants_with_converted_world_objects(tmp_path):
+    """Must show with the world's own object library converted by assets_convert (CoACD hulls), 20 variants."""
+    convert = pytest.importorskip("assets_convert.object")
+    if not hasattr(world, "write_object_library"):
+        pytest.skip("the world's object library is not available")
+    root = tmp_path
+    paths = world.write_object_library(0, root / "inputs" / "objects", variants=1, categories=list(CONVERTED))
+    lib = [convert.convert_object(p, root) for p in paths]  # cached in the user cache after the first run
+    from sdovon_mj.semantics import get_backend, relevance
+
+    cats = sorted({a.category for a in lib})
+    rel = relevance(cats, list(world.ROOM_TYPES), list(world.RECEPTACLE_LABELS), get_backend())
+    checks, variants = [], []
+    for seed in range(5):
+        scene = scene_from_apartment(seed, root)
+        planes = planes_from_scene(scene)
+        for k in range(4):
+            v, _ = run_variant(scene, planes, rel, lib, root, PlaceConfig(), variant_seed(seed, k), k)
+            assert len(v.placements) >= 10, v.notes
+            variants.append(v)
+            checks.append(check_variant(v, planes, root))
+    report = format_report(checks)
+    print(f"\n{len(variants)} variants, converted world objects: {', '.join(cats)}\n{report}")
+    ok = sum(c.ok_count for c in checks)
+    assert ok / sum(len(c.objects) for c in checks) >= 0.95, report
+    assert max(c.max_penetration for c in checks) <= 0.005

@@ -15,7 +15,7 @@ from ..config import PlaceConfig
 from ..records import ObjectAsset, Placement, ReceptaclePlane, Relevance, SceneAsset, SceneVariant, save_json
 from .compose import compose, write_mjcf
 from .sample import object_radius, plane_headroom, resample_pose, sample_placements
-from .settle import FELL, RESTING, Settler
+from .settle import RESTING, Settler
 
 
 @dataclass
@@ -212,4 +212,4 @@ def _in_polygon(polygon: np.ndarray, xy: np.ndarray) -> bool:
 
 
 __all__ = ["place_variant", "place_variants", "run_variant", "variant_seed", "variant_paths", "planes_from_scene",
-           "write_variant_model", "VariantStats", "FELL"]
+           "write_variant_model", "VariantStats"]
