@@ -1,0 +1,97 @@
+"""Conversion cache: key = hash(input bytes + referenced files + every parameter + converter version).
+
+Folder: ``$SDOVON_CACHE/convert`` when SDOVON_CACHE is set (``off`` disables caching), else ``~/.cache/sdovon-mj/convert``.
+A finished entry is a folder renamed into place atomically; a hit hard-links (or copies) it out.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+CONVERTER_VERSION = "assets_convert-1"
+
+
+def cache_root(cache_dir: str | Path | None = None) -> Path | None:
+    """Return the cache folder (None when caching is off)."""
+    if cache_dir is not None:
+        return None if str(cache_dir).lower() in ("", "off", "none", "0") else Path(cache_dir)
+    env = os.environ.get("SDOVON_CACHE")
+    if env is not None:
+        return None if env.lower() in ("", "off", "none", "0") else Path(env) / "convert"
+    return Path.home() / ".cache" / "sdovon-mj" / "convert"
+
+
+def cache_key(files: list[Path], params: dict[str, Any]) -> str:
+    """Return the hex key of a conversion: file bytes (in order) + parameters + converter version."""
+    h = hashlib.sha256()
+    h.update(CONVERTER_VERSION.encode())
+    h.update(json.dumps(params, sort_keys=True, default=str).encode())
+    for f in files:
+        h.update(b"\0file\0")
+        h.update(Path(f).name.encode("utf-8", "backslashreplace"))
+        with open(f, "rb") as fh:
+            while True:
+                b = fh.read(1 << 20)
+                if not b:
+                    break
+                h.update(b)
+    return h.hexdigest()[:32]
+
+
+def lookup(root: Path | None, key: str) -> Path | None:
+    """Return the cached folder of a key, or None."""
+    if root is None:
+        return None
+    p = root / key
+    return p if (p / "asset.json").is_file() else None
+
+
+def store(root: Path | None, key: str, src: Path) -> None:
+    """Copy a finished conversion folder into the cache (atomic rename; a racing writer wins)."""
+    if root is None:
+        return
+    root.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=root))
+    try:
+        shutil.copytree(src, tmp, dirs_exist_ok=True)
+        try:
+            os.rename(tmp, root / key)
+        except OSError:
+            pass  # another process stored the same key first
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def link_tree(src: Path, dst: Path) -> None:
+    """Replace folder `dst` with a hard-linked (else copied) copy of `src`, atomically by rename."""
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{dst.name}.", dir=dst.parent))
+
+    def _link(s: str, d: str) -> None:
+        try:
+            os.link(s, d)
+        except OSError:
+            shutil.copy2(s, d)
+
+    shutil.copytree(src, tmp, copy_function=_link, dirs_exist_ok=True)
+    replace_dir(tmp, dst)
+
+
+def replace_dir(tmp: Path, dst: Path) -> None:
+    """Move a finished folder over `dst` (old contents removed)."""
+    old = None
+    if dst.exists():
+        old = dst.with_name(f".{dst.name}.old.{os.getpid()}")
+        if old.exists():
+            shutil.rmtree(old, ignore_errors=True)
+        os.rename(dst, old)
+    os.rename(tmp, dst)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)

@@ -1,0 +1,370 @@
+"""Mesh loading: OBJ(+MTL), GLB/glTF, PLY, STL -> parts in metres, Z up, one material each.
+
+Units (``units="auto"``), by the largest bounding-box extent E of the file in file units:
+
+- objects: E <= 5 -> metres; 5 < E <= 500 -> centimetres; 500 < E <= 5000 -> millimetres;
+  larger -> error (no household object is that big in any of these units).
+- scenes: E <= 200 -> metres; <= 20 000 -> centimetres; <= 200 000 -> millimetres; larger -> error.
+
+Explicit units: ``"m"``, ``"cm"``, ``"mm"``, ``"in"`` or a number (metres per file unit). A converted
+object larger than 20 m (scene: 2 km) or smaller than 1 mm is rejected. ``target_size > 0``
+rescales an object so its largest extent equals it (for files whose units are unknown).
+
+Up axis (``up="auto"``): glTF/GLB -> +Y (the glTF convention), every other format -> +Z.
+Explicit: ``"+X" "-X" "+Y" "-Y" "+Z" "-Z"`` (also ``"y"``, ``"z"``). The file is rotated so its
+up axis becomes +Z; +Y up maps (x, y, z) -> (x, -z, y) (+90 deg about X, as Drake and robocasa do).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sdovon_mj.errors import InputError
+
+SUPPORTED = (".obj", ".glb", ".gltf", ".ply", ".stl")
+UNIT_NAMES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
+OBJECT_AUTO = ((5.0, 1.0), (500.0, 0.01), (5000.0, 0.001))
+SCENE_AUTO = ((200.0, 1.0), (20000.0, 0.01), (200000.0, 0.001))
+OBJECT_MAX_SIZE = 20.0
+SCENE_MAX_SIZE = 2000.0
+MIN_SIZE = 1e-3
+FLAT_TOL = 1e-5  # m: thinner than this is a flat (zero-volume) object
+
+
+def display_path(path: str | os.PathLike[str]) -> str:
+    """Return a printable path (undecodable bytes of non-UTF-8 names shown as \\xNN)."""
+    return os.fsencode(os.fspath(path)).decode("utf-8", "backslashreplace")
+
+
+def check_name(path: Path) -> None:
+    """Raise InputError when a file name is not valid UTF-8 (it cannot go into MJCF or JSON)."""
+    try:
+        os.fspath(path).encode("utf-8")
+    except UnicodeEncodeError:
+        raise InputError(display_path(path), "file name is not valid UTF-8; rename the file") from None
+
+
+@dataclass
+class Material:
+    """One render material: colour factor and an optional base-colour image (PIL)."""
+
+    name: str
+    rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
+    image: Any = None  # PIL.Image or None
+    key: str = ""  # identity for merging parts that share a material
+
+
+@dataclass
+class Part:
+    """A triangle mesh with one material, already in metres and Z up."""
+
+    vertices: np.ndarray  # (N, 3) float64
+    faces: np.ndarray  # (M, 3) int64
+    material: Material
+    uv: np.ndarray | None = None  # (N, 2), OBJ convention (v = 0 at the image bottom)
+    colors: np.ndarray | None = None  # (N, 4) uint8 vertex colours (scans)
+    node: str = ""
+
+
+@dataclass
+class LoadedMesh:
+    """A loaded file: its parts and how units and up axis were resolved."""
+
+    path: Path
+    parts: list[Part]
+    scale: float
+    units_rule: str
+    up: str
+    files: list[Path] = field(default_factory=list)  # the file and every file it references
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Return the (2, 3) min/max of all parts."""
+        v = np.concatenate([p.vertices for p in self.parts])
+        return np.stack([v.min(axis=0), v.max(axis=0)])
+
+    @property
+    def face_count(self) -> int:
+        """Return the number of triangles over all parts."""
+        return int(sum(len(p.faces) for p in self.parts))
+
+
+# ----------------------------------------------------------------------------------------------
+# referenced files (for missing-file errors and cache keys)
+
+
+def _obj_references(path: Path) -> list[Path]:
+    """Return the MTL files and textures an OBJ references; raise on missing ones."""
+    refs: list[Path] = []
+    try:
+        text = path.read_bytes().decode("utf-8", "replace")
+    except OSError as e:
+        raise InputError(display_path(path), f"cannot read file: {e}") from None
+    for m in re.finditer(r"^\s*mtllib\s+(.+?)\s*$", text, flags=re.M):
+        mtl = path.parent / m.group(1)
+        if not mtl.is_file():
+            raise InputError(display_path(path), f"material library '{m.group(1)}' not found (looked at {display_path(mtl)})")
+        refs.append(mtl)
+        mtext = mtl.read_bytes().decode("utf-8", "replace")
+        for t in re.finditer(r"^\s*map_\w+\s+(.+?)\s*$", mtext, flags=re.M):
+            tokens = t.group(1).split()
+            # options like "-s 1 1 1" precede the file name; the name is the last token(s)
+            name = tokens[-1]
+            tex = mtl.parent / name
+            if not tex.is_file():
+                raise InputError(display_path(path), f"texture file '{name}' referenced by {mtl.name} not found")
+            refs.append(tex)
+    return refs
+
+
+def _gltf_json(path: Path) -> dict[str, Any]:
+    """Return the JSON chunk of a glTF or GLB; raise on truncated or corrupt files."""
+    data = path.read_bytes()
+    if path.suffix.lower() == ".glb":
+        if len(data) < 20:
+            raise InputError(display_path(path), f"truncated GLB: {len(data)} bytes, shorter than the 20-byte header")
+        magic, _version, length = struct.unpack("<4sII", data[:12])
+        if magic != b"glTF":
+            raise InputError(display_path(path), "not a GLB file (bad magic bytes)")
+        if length > len(data):
+            raise InputError(display_path(path), f"truncated GLB: header says {length} bytes, file has {len(data)}")
+        clen, ctype = struct.unpack("<II", data[12:20])
+        if ctype != 0x4E4F534A or 20 + clen > len(data):
+            raise InputError(display_path(path), "corrupt GLB: bad JSON chunk")
+        raw = data[20 : 20 + clen]
+    else:
+        raw = data
+    try:
+        return json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise InputError(display_path(path), f"glTF JSON is not readable: {e}") from None
+
+
+def _gltf_references(path: Path) -> list[Path]:
+    """Return the buffers and images a glTF references; raise on missing ones."""
+    doc = _gltf_json(path)
+    from urllib.parse import unquote
+
+    refs: list[Path] = []
+    # base-colour images are required; normal/roughness maps are not used and may be missing
+    textures = doc.get("textures", [])
+    colour_images = set()
+    for mat in doc.get("materials", []):
+        idx = mat.get("pbrMetallicRoughness", {}).get("baseColorTexture", {}).get("index")
+        if idx is not None and 0 <= idx < len(textures):
+            colour_images.add(textures[idx].get("source"))
+    for kind in ("buffers", "images"):
+        for i, item in enumerate(doc.get(kind, [])):
+            uri = item.get("uri")
+            if not uri or uri.startswith("data:"):
+                continue
+            p = path.parent / unquote(uri)
+            if not p.is_file():
+                if kind == "images" and i not in colour_images:
+                    continue
+                what = "texture file" if kind == "images" else "buffer file"
+                raise InputError(display_path(path), f"{what} '{uri}' not found")
+            refs.append(p)
+    if path.suffix.lower() == ".glb":
+        data = path.read_bytes()
+        for buf in doc.get("buffers", []):
+            if "uri" not in buf:
+                need = int(buf.get("byteLength", 0))
+                if len(data) < 20 + need:
+                    raise InputError(display_path(path), f"truncated GLB: binary chunk needs {need} bytes")
+    return refs
+
+
+def referenced_files(path: Path) -> list[Path]:
+    """Return `path` plus every file it references (MTL, textures, buffers), checking they exist."""
+    path = Path(path)
+    check_name(path)
+    if not path.exists():
+        raise InputError(display_path(path), "file not found")
+    if not path.is_file():
+        raise InputError(display_path(path), "not a regular file")
+    if path.stat().st_size == 0:
+        raise InputError(display_path(path), "empty file (0 bytes)")
+    suffix = path.suffix.lower()
+    if suffix not in SUPPORTED:
+        raise InputError(display_path(path), f"unsupported format '{suffix}' (supported: {', '.join(SUPPORTED)})")
+    refs: list[Path] = []
+    if suffix == ".obj":
+        refs = _obj_references(path)
+    elif suffix in (".gltf", ".glb"):
+        refs = _gltf_references(path)
+    out = [path]
+    for r in refs:
+        if r not in out:
+            out.append(r)
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# units and up axis
+
+
+def up_rotation(up: str, path: Path) -> tuple[np.ndarray, str]:
+    """Return the 3x3 rotation taking the file's up axis to +Z, and the axis name."""
+    key = up.strip().upper()
+    if key == "AUTO":
+        key = "+Y" if path.suffix.lower() in (".glb", ".gltf") else "+Z"
+    if key in ("X", "Y", "Z"):
+        key = "+" + key
+    rots = {
+        "+Z": np.eye(3),
+        "-Z": np.diag([1.0, -1.0, -1.0]),
+        "+Y": np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]]),
+        "-Y": np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]]),
+        "+X": np.array([[0, 0, -1.0], [0, 1.0, 0], [1.0, 0, 0]]),
+        "-X": np.array([[0, 0, 1.0], [0, 1.0, 0], [-1.0, 0, 0]]),
+    }
+    if key not in rots:
+        raise InputError(display_path(path), f"unknown up axis '{up}' (use auto, +X, -X, +Y, -Y, +Z or -Z)")
+    return rots[key], key
+
+
+def resolve_scale(units: str | float, extent: float, path: Path, kind: str, target_size: float = 0.0) -> tuple[float, str]:
+    """Return metres per file unit and the rule that chose it (see the module docstring)."""
+    where = display_path(path)
+    if target_size and target_size > 0:
+        if extent <= 0:
+            raise InputError(where, "mesh has zero size; cannot rescale to target_size")
+        return target_size / extent, f"target_size {target_size} m"
+    u = str(units).strip().lower()
+    if u == "auto":
+        table = OBJECT_AUTO if kind == "object" else SCENE_AUTO
+        for limit, scale in table:
+            if extent <= limit:
+                name = {1.0: "m", 0.01: "cm", 0.001: "mm"}[scale]
+                return scale, f"auto: largest extent {extent:.4g} units -> {name}"
+        raise InputError(where, f"largest extent {extent:.4g} file units is implausible for an {kind} in m, cm or mm "
+                                f"(auto limit {table[-1][0]:g}); pass units explicitly")
+    if u in UNIT_NAMES:
+        return UNIT_NAMES[u], f"explicit {u}"
+    try:
+        s = float(u)
+    except ValueError:
+        raise InputError(where, f"unknown units '{units}' (use auto, m, cm, mm, in or a number)") from None
+    if not np.isfinite(s) or s <= 0:
+        raise InputError(where, f"units scale must be a positive number, got {units}")
+    return s, f"explicit scale {s:g}"
+
+
+# ----------------------------------------------------------------------------------------------
+# loading
+
+
+def _rgba(c: Any, default: tuple[float, ...] = (0.6, 0.6, 0.6, 1.0)) -> tuple[float, float, float, float]:
+    """Return an RGBA float tuple from a trimesh colour (0-255 or 0-1)."""
+    if c is None:
+        return tuple(default)  # type: ignore[return-value]
+    a = np.asarray(c, dtype=float).ravel()
+    if a.size == 3:
+        a = np.append(a, 1.0 if a.max() <= 1.0 else 255.0)
+    if a.size != 4:
+        return tuple(default)  # type: ignore[return-value]
+    if a.max() > 1.0:
+        a = a / 255.0
+    return tuple(float(x) for x in np.clip(a, 0.0, 1.0))  # type: ignore[return-value]
+
+
+def _material_of(geom: Any, gname: str, suffix: str) -> tuple[Material, np.ndarray | None, np.ndarray | None]:
+    """Return (material, uv, vertex colours) of a trimesh geometry."""
+    visual = getattr(geom, "visual", None)
+    kind = getattr(visual, "kind", None)
+    if kind == "texture" or type(visual).__name__ == "TextureVisuals":
+        mat = visual.material
+        uv = None if visual.uv is None else np.asarray(visual.uv, dtype=np.float64)
+        name = getattr(mat, "name", None) or gname
+        image = None
+        rgba: tuple[float, float, float, float]
+        if hasattr(mat, "baseColorTexture"):  # PBR (glTF)
+            image = mat.baseColorTexture
+            rgba = _rgba(mat.baseColorFactor, (1.0, 1.0, 1.0, 1.0))
+        else:  # SimpleMaterial (OBJ/MTL)
+            image = getattr(mat, "image", None)
+            if image is not None:
+                rgba = (1.0, 1.0, 1.0, 1.0)  # obj2mjcf semantics: a textured OBJ material shows its texture
+            else:
+                rgba = _rgba(getattr(mat, "diffuse", None))
+        if uv is None or len(uv) != len(geom.vertices):
+            image, uv = None, None
+        key = f"{name}|{id(mat)}"
+        return Material(str(name), rgba, image, key), uv, None
+    colors = None
+    rgba = (0.6, 0.6, 0.6, 1.0)
+    if kind == "vertex":
+        colors = np.asarray(visual.vertex_colors, dtype=np.uint8)
+        rgba = _rgba(colors[:, :4].mean(axis=0))
+    elif kind == "face":
+        fc = np.asarray(visual.face_colors, dtype=float)
+        rgba = _rgba(fc.mean(axis=0))
+    elif visual is not None and hasattr(visual, "main_color"):
+        try:
+            rgba = _rgba(visual.main_color)
+        except Exception:  # noqa: BLE001 - a colourless mesh keeps the default grey
+            pass
+    key = f"colour|{gname}|{','.join(f'{x:.3f}' for x in rgba)}" if colors is None else f"vertex|{gname}"
+    return Material(f"{gname}", rgba, None, key), None, colors
+
+
+def load_mesh(path: str | Path, units: str | float = "auto", up: str = "auto", kind: str = "object",
+              target_size: float = 0.0) -> LoadedMesh:
+    """Load a mesh file as parts (one material each) in metres, Z up; raise InputError on bad input."""
+    import trimesh
+
+    path = Path(path)
+    files = referenced_files(path)
+    where = display_path(path)
+    try:
+        scene = trimesh.load(str(path), force="scene", process=False)
+    except InputError:
+        raise
+    except Exception as e:  # noqa: BLE001 - any parser failure is a bad input
+        msg = str(e).strip().splitlines()[0] if str(e).strip() else ""
+        raise InputError(where, f"cannot parse {path.suffix.lower()[1:].upper()} file: {type(e).__name__}{': ' + msg if msg else ''}") from None
+    rot, up_name = up_rotation(up, path)
+    parts: list[Part] = []
+    nan_count = 0
+    for node in sorted(scene.graph.nodes_geometry):
+        transform, gname = scene.graph[node]
+        geom = scene.geometry.get(gname)
+        if geom is None or not hasattr(geom, "faces") or geom.faces is None or len(geom.faces) == 0:
+            continue
+        v = np.asarray(geom.vertices, dtype=np.float64)
+        f = np.asarray(geom.faces, dtype=np.int64)
+        bad = ~np.isfinite(v).all(axis=1)
+        if bad.any():
+            nan_count += int(bad.sum())
+            continue
+        if len(f) and (f.min() < 0 or f.max() >= len(v)):
+            raise InputError(where, f"node '{node}': face indices out of range")
+        v = v @ np.asarray(transform, dtype=np.float64)[:3, :3].T + np.asarray(transform, dtype=np.float64)[:3, 3]
+        material, uv, colors = _material_of(geom, str(gname), path.suffix.lower())
+        parts.append(Part(v @ rot.T, f, material, uv, colors, str(node)))
+    if nan_count:
+        raise InputError(where, f"{nan_count} vertex coordinate rows are NaN or infinite")
+    if not parts:
+        raise InputError(where, "no triangles in the file (empty mesh or point cloud)")
+    allv = np.concatenate([p.vertices for p in parts])
+    ext_file = float((allv.max(axis=0) - allv.min(axis=0)).max())
+    scale, rule = resolve_scale(units, ext_file, path, kind, target_size)
+    for p in parts:
+        p.vertices = p.vertices * scale
+    size = ext_file * scale
+    limit = OBJECT_MAX_SIZE if kind == "object" else SCENE_MAX_SIZE
+    if size > limit:
+        raise InputError(where, f"mesh is {size:.4g} m across ({rule}), larger than the {limit:g} m limit for an {kind}; "
+                                "check the units")
+    if size < MIN_SIZE:
+        raise InputError(where, f"mesh is only {size:.3g} m across ({rule}); check the units")
+    return LoadedMesh(path, parts, scale, rule, up_name, files)

@@ -1,0 +1,277 @@
+"""convert_object: one mesh file -> Menagerie-style MJCF object with CoACD collision hulls.
+
+Output ``<out_dir>/objects/<name>/``: ``model.xml``, ``asset.json`` (the ObjectAsset record) and
+``assets/`` (``visual_<i>.obj`` one per material, ``texture_<k>.png``, ``collision_<k>.obj``).
+The object frame: metres, Z up, base at z = 0, bounding box centred in X and Y. The body is named
+``object``; it has no joint (the scene composer adds a freejoint).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sdovon_mj.config import ConvertConfig
+from sdovon_mj.errors import InputError
+from sdovon_mj.records import ObjectAsset, dumps
+from sdovon_mj.store import atomic_write_text
+
+from . import cache
+from .hulls import clean_hulls, decompose, hull_volume, mass_properties
+from .load import FLAT_TOL, Part, display_path, load_mesh
+from .writer import AssetWriter, clean_part, fmt, merge_parts, render_template
+
+# Bulk densities (kg/m^3) of the solid hull volume: hollow things (boxes, bins, furniture) are light.
+DENSITIES: dict[str, float] = {
+    "apple": 800, "ball": 150, "banana": 900, "bin": 150, "book": 700, "bottle": 800, "bowl": 700,
+    "bread": 250, "cabinet": 350, "can": 900, "chair": 250, "cup": 700, "cushion": 60, "donut": 400,
+    "food_box": 250, "fruit": 900, "keyboard": 600, "lamp": 300, "laptop": 1200, "mug": 700,
+    "pillow": 60, "plant": 400, "plate": 1500, "power_drill": 900, "remote": 900, "shelf": 300,
+    "shoe": 400, "sofa": 120, "stool": 350, "table": 350, "tea_set": 700, "teddy_bear": 80,
+    "toy": 300, "toy_block": 80, "vase": 900,
+}
+GENERIC_STEMS = {"textured", "model", "mesh", "object", "untitled", "scene", "visual", "model_normalized"}
+MAX_RATIO_WARN = 1.5
+
+
+def density_for(category: str, default: float = 500.0) -> float:
+    """Return the bulk density (kg/m^3) of a category (default when unknown)."""
+    key = re.sub(r"[\s\-]+", "_", category.strip().lower())
+    if key in DENSITIES:
+        return float(DENSITIES[key])
+    last = key.split("_")[-1]
+    return float(DENSITIES.get(last, default))
+
+
+def sanitize(name: str) -> str:
+    """Return a name safe for MJCF and file names ([A-Za-z0-9_-])."""
+    s = re.sub(r"[^A-Za-z0-9_\-]+", "_", name).strip("_")
+    return s or "object"
+
+
+def default_name(path: Path) -> str:
+    """Return an object name from a file path (the folder name for generic stems like textured.obj)."""
+    stem = path.stem
+    if stem.lower() in GENERIC_STEMS or stem.lower().endswith("_1k"):
+        return sanitize(path.parent.name if stem.lower() in GENERIC_STEMS else re.sub(r"_1k$", "", stem))
+    return sanitize(stem)
+
+
+def default_category(path: Path) -> str:
+    """Return a category guess: meta.json 'category' beside the file, else the grandparent folder name."""
+    meta = path.parent / "meta.json"
+    if meta.is_file():
+        try:
+            cat = json.loads(meta.read_text(encoding="utf-8")).get("category")
+            if cat:
+                return str(cat)
+        except (json.JSONDecodeError, UnicodeDecodeError, AttributeError):
+            pass
+    return path.parent.parent.name or path.parent.name or "object"
+
+
+def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> tuple[float, str]:
+    """Return the enclosed volume of a mesh (exact when watertight, else a filled-voxel estimate)."""
+    import trimesh
+
+    tm = trimesh.Trimesh(vertices, faces, process=True)
+    if tm.is_watertight and tm.is_winding_consistent:
+        return float(abs(tm.volume)), "exact"
+    ext = float(tm.extents.max())
+    if ext <= 0:
+        return 0.0, "empty"
+    pitch = ext / 64.0
+    try:
+        vox = tm.voxelized(pitch).fill()
+        # the filled grid includes the surface shell: remove half a voxel layer of it
+        vol = float(vox.volume) - 0.5 * pitch * float(tm.area)
+        return max(vol, 0.0), "voxel"
+    except Exception:  # noqa: BLE001 - odd geometry: fall back to the convex hull volume
+        return float(tm.convex_hull.volume), "convex hull"
+
+
+def _resolve(cfg: ConvertConfig, units: str | float, up: str, target_size: float) -> tuple[str, str, float]:
+    """Return (units, up, target_size): explicit arguments win over the config."""
+    u = str(units) if str(units) != "auto" else cfg.units
+    a = up if up != "auto" else cfg.up
+    t = float(target_size) if target_size else float(cfg.target_size)
+    return u, a, t
+
+
+def convert_object(path: str | Path, out_dir: str | Path, category: str | None = None, units: str | float = "auto",
+                   up: str = "auto", target_size: float = 0.0, density: float | None = None, name: str | None = None,
+                   config: ConvertConfig | None = None, cache_dir: str | Path | None = None) -> ObjectAsset:
+    """Convert one object mesh to `<out_dir>/objects/<name>/model.xml` (cached); return its ObjectAsset."""
+    asset, _info = convert_object_report(path, out_dir, category, units, up, target_size, density, name, config, cache_dir)
+    return asset
+
+
+def convert_object_report(path: str | Path, out_dir: str | Path, category: str | None = None,
+                          units: str | float = "auto", up: str = "auto", target_size: float = 0.0,
+                          density: float | None = None, name: str | None = None,
+                          config: ConvertConfig | None = None,
+                          cache_dir: str | Path | None = None) -> tuple[ObjectAsset, dict[str, Any]]:
+    """Convert one object and also return report figures (faces, hulls, seconds, cache hit, warnings)."""
+    from .load import referenced_files
+
+    t0 = time.perf_counter()
+    cfg = config or ConvertConfig()
+    path = Path(path)
+    out_dir = Path(out_dir)
+    files = referenced_files(path)
+    name = sanitize(name) if name else default_name(path)
+    category = category or default_category(path)
+    u, a, t = _resolve(cfg, units, up, target_size)
+    dens = float(density) if density else density_for(category, cfg.default_density)
+    params = {"kind": "object", "name": name, "category": category, "units": u, "up": a, "target_size": t,
+              "density": dens, "config": {k: getattr(cfg, k) for k in sorted(cfg.__dataclass_fields__)
+                                          if k not in ("jobs", "timeout_s")}}
+    key = cache.cache_key(files, params)
+    root = cache.cache_root(cache_dir)
+    target = out_dir / "objects" / name
+    hit = cache.lookup(root, key)
+    if hit is not None:
+        cache.link_tree(hit, target)
+        stored = json.loads((target / "asset.json").read_text(encoding="utf-8"))
+        asset = ObjectAsset.from_dict(stored)
+        asset.mjcf = (Path("objects") / name / "model.xml").as_posix()
+        info = dict(_read_info(target))
+        info.update(cache_hit=True, seconds=time.perf_counter() - t0)
+        return asset, info
+    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=_mkdir(out_dir / "objects")))
+    try:
+        asset, info = _build(path, tmp, name, category, u, a, t, dens, cfg)
+        asset.content_hash = key
+        asset.source = display_path(path)
+        atomic_write_text(tmp / "asset.json", dumps(asset.to_dict()))
+        atomic_write_text(tmp / "report.json", dumps(info))
+        cache.store(root, key, tmp)
+        cache.replace_dir(tmp, target)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    asset.mjcf = (Path("objects") / name / "model.xml").as_posix()
+    info = dict(info, cache_hit=False, seconds=time.perf_counter() - t0)
+    return asset, info
+
+
+def _read_info(folder: Path) -> dict[str, Any]:
+    """Return the stored report figures of a converted object folder."""
+    p = folder / "report.json"
+    return json.loads(p.read_text(encoding="utf-8")) if p.is_file() else {}
+
+
+def _mkdir(p: Path) -> Path:
+    """Create a folder (and parents) and return it."""
+    p.mkdir(parents=True, exist_ok=True)
+    return p
+
+
+def _build(path: Path, work: Path, name: str, category: str, units: str, up: str, target_size: float,
+           density: float, cfg: ConvertConfig) -> tuple[ObjectAsset, dict[str, Any]]:
+    """Load, recentre, decompose and write one object into folder `work`."""
+    import trimesh
+
+    where = display_path(path)
+    mesh = load_mesh(path, units=units, up=up, kind="object", target_size=target_size)
+    parts = [p for p in (clean_part(q) for q in merge_parts(mesh.parts)) if p is not None]
+    if not parts:
+        raise InputError(where, "all triangles are degenerate (zero area)")
+    allv = np.concatenate([p.vertices for p in parts])
+    lo, hi = allv.min(axis=0), allv.max(axis=0)
+    offset = np.array([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]])
+    for p in parts:
+        p.vertices = p.vertices + offset
+    lo, hi = lo + offset, hi + offset
+    ext = hi - lo
+    if ext.min() < FLAT_TOL:
+        raise InputError(where, f"flat mesh: {ext.min():.2g} m thick along its thinnest axis, it encloses no volume "
+                                "(an object needs a solid shape for collision and mass)")
+    offs = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+    cv = np.concatenate([p.vertices for p in parts])
+    cf = np.concatenate([p.faces + o for p, o in zip(parts, offs)])
+    tm = trimesh.Trimesh(cv, cf, process=True)
+    mvol, vol_method = mesh_volume(tm.vertices, tm.faces)
+    try:
+        chull = tm.convex_hull
+        ch_vol = float(chull.volume)
+    except Exception:  # noqa: BLE001
+        ch_vol = 0.0
+    if ch_vol <= 1e-12:
+        raise InputError(where, "flat mesh: its convex hull has zero volume")
+    if mvol <= 1e-12 and vol_method == "exact":
+        raise InputError(where, "zero-volume mesh: its surfaces enclose no volume")
+    tol = float(getattr(cfg, "convex_tolerance", 0.03))
+    t_hull = time.perf_counter()
+    if _nearly_convex(tm, chull, float(cfg.coacd_threshold)) or (vol_method == "exact" and mvol >= (1.0 - tol) * ch_vol):
+        hulls = clean_hulls([(np.asarray(chull.vertices), np.asarray(chull.faces))], int(cfg.coacd_max_hull_vertices))
+        method = "convex"
+    else:
+        hulls = decompose(tm.vertices, tm.faces, cfg)
+        method = "coacd"
+    hull_seconds = time.perf_counter() - t_hull
+    if not hulls:
+        raise InputError(where, "no usable collision hulls (the mesh encloses no volume)")
+    hvol = hull_volume(hulls)
+    ratio = hvol / mvol if mvol > 0 else 0.0
+    warnings = []
+    if ratio > MAX_RATIO_WARN:
+        warnings.append(f"hull volume is {ratio:.2f}x the mesh volume: a cavity was probably filled")
+    mass, com, inertia = mass_properties(hulls, density)
+    if mass <= 0:
+        raise InputError(where, "collision hulls have no mass")
+
+    writer = AssetWriter(work / "assets", cfg.texture_max_size)
+    geoms: list[str] = []
+    for i, p in enumerate(parts):
+        textured = p.material.image is not None and p.uv is not None
+        mat = writer.material(p.material, textured)
+        writer.mesh(f"visual_{i}", p.vertices, p.faces, p.uv if textured else None, ' inertia="shell"')
+        geoms.append(f'      <geom name="visual_{i}" class="visual" mesh="visual_{i}" material="{mat}"/>')
+    maxv = int(cfg.coacd_max_hull_vertices)
+    for k, (hv, hf) in enumerate(hulls):
+        writer.mesh(f"collision_{k}", hv, hf, None, f' inertia="convex" maxhullvert="{max(maxv, 4)}"')
+        geoms.append(f'      <geom name="collision_{k}" class="collision" mesh="collision_{k}"/>')
+    full = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+    render_template("object.xml", work / "model.xml", name=name, density=fmt([density]), friction="1 0.005 0.0001",
+                    assets=writer.xml, com=fmt(com), mass=fmt([mass]), inertia=fmt(full, 8), geoms="\n".join(geoms))
+    _check_compiles(work / "model.xml", where)
+    asset = ObjectAsset(name=name, category=category, mjcf="model.xml", bbox=np.stack([lo, hi]), mass=float(mass),
+                        hull_count=len(hulls), volume=float(hvol), volume_ratio=float(ratio))
+    info = {"faces": mesh.face_count, "parts": len(parts), "hulls": len(hulls), "hull_method": method,
+            "hull_seconds": round(hull_seconds, 3), "volume_ratio": round(float(ratio), 4), "mesh_volume": mvol,
+            "volume_method": vol_method, "mass": float(mass), "density": density, "units": mesh.units_rule,
+            "up": mesh.up, "scale": mesh.scale, "warnings": warnings}
+    return asset, info
+
+
+def _nearly_convex(tm: Any, chull: Any, threshold: float, samples: int = 2000) -> bool:
+    """Return whether the convex hull stays within CoACD's concavity threshold of the surface.
+
+    A hull whose surface lies within threshold x half the largest extent of the mesh (CoACD normalises
+    to [-1, 1]) everywhere (a can's
+    recessed lid, a box's rounded edges) becomes the single collision hull without running CoACD.
+    """
+    import trimesh
+
+    pts, _ = trimesh.sample.sample_surface(chull, samples, seed=0)
+    pts = np.concatenate([pts, np.asarray(chull.vertices)])
+    _closest, dist, _tri = trimesh.proximity.closest_point(tm, pts)
+    return float(np.max(dist)) <= threshold * 0.5 * float(tm.extents.max())
+
+
+def _check_compiles(xml: Path, where: str) -> None:
+    """Compile the written MJCF once; raise InputError naming the input when MuJoCo refuses it."""
+    import mujoco
+
+    try:
+        mujoco.MjModel.from_xml_path(str(xml))
+    except Exception as e:  # noqa: BLE001
+        raise InputError(where, f"converted model does not compile in MuJoCo: {e}") from None

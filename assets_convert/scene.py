@@ -1,0 +1,393 @@
+"""convert_scene: a scene file -> visual-only MJCF that keeps semantic instances.
+
+Output ``<out_dir>/scenes/<name>/``: ``scene.xml``, ``asset.json`` (SceneAsset), ``scene_mesh.npz``
+(the merged Z-up metre mesh with per-face instance ids) and ``assets/``. Every geom is visual only
+(contype = conaffinity = 0, mesh inertia shell); instance k's geoms are ``inst_<k>`` / ``inst_<k>_<j>``
+(one per material), group 0, ceilings group 1.
+
+Semantics, first found wins: the ``semantics`` argument (a sidecar path), ``<stem>.semantics.json``
+beside the file (our default world), ``placements.json`` beside a glTF room (Drake-style furnished
+room: shell nodes plus placed furniture), ScanNet ``*.segs.json`` + ``*.aggregation.json`` for PLY
+scans, else one instance per mesh node labelled from its node name.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sdovon_mj.errors import InputError
+from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, SupportSurface, dumps
+from sdovon_mj.sim.model import instance_geom_name, save_scene_mesh
+from sdovon_mj.store import atomic_write_text
+
+from . import cache
+from .load import Material, Part, display_path, load_mesh, referenced_files
+from .object import sanitize
+from .writer import AssetWriter, clean_part, fmt, render_template, xml_attr
+
+
+def label_from_node(node: str) -> str:
+    """Return a label from a node name: 'frl_apartment_chair_05' -> 'frl apartment chair'."""
+    s = re.sub(r"\.\d+$", "", node)
+    s = re.sub(r"[_\-\s]*[0-9a-f]{6}$", "", s) if re.search(r"_[0-9a-f]{6}$", s) else s
+    s = re.sub(r"[_\-]+", " ", s)
+    s = re.sub(r"\s*\d+$", "", s).strip().lower()
+    return s or "object"
+
+
+def _sidecar_for(path: Path) -> Path | None:
+    """Return `<stem>.semantics.json` beside a scene file (stem without ScanNet suffixes)."""
+    stem = re.sub(r"_vh_clean(_2)?$", "", path.stem)
+    p = path.parent / f"{stem}.semantics.json"
+    return p if p.is_file() else None
+
+
+def _scannet_files(path: Path) -> tuple[Path, Path] | None:
+    """Return ScanNet (segs.json, aggregation.json) beside a PLY scan, if both exist."""
+    stem = re.sub(r"_vh_clean(_2)?$", "", path.stem)
+    segs = sorted(path.parent.glob(f"{path.stem}*.segs.json")) or sorted(path.parent.glob(f"{stem}*.segs.json"))
+    aggs = sorted(path.parent.glob(f"{stem}*aggregation.json"))
+    if segs and aggs:
+        return segs[0], aggs[0]
+    return None
+
+
+def _read_json(path: Path) -> Any:
+    """Read a JSON file or raise InputError naming it."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise InputError(display_path(path), f"cannot read JSON: {e}") from None
+
+
+def _rpy_matrix(rpy_deg: list[float]) -> np.ndarray:
+    """Return R = Rz(yaw) Ry(pitch) Rx(roll) (Drake's rpy convention)."""
+    r, p, y = np.radians(np.asarray(rpy_deg, dtype=float))
+    rx = np.array([[1, 0, 0], [0, np.cos(r), -np.sin(r)], [0, np.sin(r), np.cos(r)]])
+    ry = np.array([[np.cos(p), 0, np.sin(p)], [0, 1, 0], [-np.sin(p), 0, np.cos(p)]])
+    rz = np.array([[np.cos(y), -np.sin(y), 0], [np.sin(y), np.cos(y), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def _placements_parts(path: Path, placements: Path, units: str, up: str) -> tuple[list[tuple[Part, int]], list[dict], list[Path]]:
+    """Load a Drake-style furnished room: every placed asset's parts, posed, with instance ids."""
+    doc = _read_json(placements)
+    items = doc.get("instances", [])
+    # asset paths are relative to the assets root: find the ancestor that holds the first one
+    root = None
+    for anc in [placements.parent, *placements.parents]:
+        if items and (anc / items[0].get("asset", "")).is_file():
+            root = anc
+            break
+    if root is None:
+        raise InputError(display_path(placements), "cannot resolve the asset paths it lists")
+    out: list[tuple[Part, int]] = []
+    insts: list[dict] = []
+    files: list[Path] = [placements]
+    for item in items:
+        apath = root / item["asset"]
+        mesh = load_mesh(apath, units=units, up=up, kind="scene")
+        files.extend(mesh.files)
+        rot = _rpy_matrix(item.get("rpy_deg", [0, 0, 0]))
+        t = np.asarray(item.get("translation", [0, 0, 0]), dtype=float)
+        structural = item.get("object_id") is None
+        for p in mesh.parts:
+            p.vertices = p.vertices @ rot.T + t
+        if structural:  # room shell and curtains: one instance per node
+            by_node: dict[str, list[Part]] = {}
+            for p in mesh.parts:
+                by_node.setdefault(p.node, []).append(p)
+            for node in sorted(by_node):
+                iid = len(insts)
+                label = label_from_node(node)
+                m = re.search(r"floor|ceiling|window|glass", by_node[node][0].material.name.lower())
+                if m and re.search(r"_[0-9a-f]{6}$", node):  # a node split per material: its material names it
+                    label = {"glass": "window"}.get(m.group(0), m.group(0))
+                insts.append({"id": iid, "label": label, "kind": "structure", "name": f"{item['name']}/{node}"})
+                out.extend((p, iid) for p in by_node[node])
+        else:
+            iid = len(insts)
+            insts.append({"id": iid, "label": str(item.get("name", "object")).replace("_", " "), "kind": "furniture",
+                          "name": item["name"], "object_id": item.get("object_id", "")})
+            out.extend((p, iid) for p in mesh.parts)
+    return out, insts, files
+
+
+def _node_instance_id(node: str) -> int | None:
+    """Return k for a node named 'instance_<k>'."""
+    m = re.match(r"^instance_(\d+)$", node)
+    return int(m.group(1)) if m else None
+
+
+def _split_by_vertex_instance(part: Part, vinst: np.ndarray) -> list[tuple[Part, int]]:
+    """Split a vertex-coloured scan part by per-vertex instance ids (faces take their first vertex's id)."""
+    finst = vinst[part.faces[:, 0]]
+    out = []
+    for iid in np.unique(finst):
+        sel = part.faces[finst == iid]
+        used = np.unique(sel)
+        remap = np.full(len(part.vertices), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        colors = part.colors[used] if part.colors is not None else None
+        rgba = tuple(float(x) for x in (colors[:, :4].mean(axis=0) / 255.0)) if colors is not None else part.material.rgba
+        mat = Material(f"inst_{iid}", rgba, None, f"scan|{iid}")  # type: ignore[arg-type]
+        out.append((Part(part.vertices[used], remap[sel], mat, None, colors, part.node), int(iid)))
+    return out
+
+
+def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None, units: str | float = "auto",
+                  up: str = "auto", semantics: str | Path | None = None, texture_max_size: int = 1024,
+                  cache_dir: str | Path | None = None) -> SceneAsset:
+    """Convert a scene mesh to visual-only MJCF at `<out_dir>/scenes/<name>/scene.xml`; return its SceneAsset."""
+    path = Path(path)
+    out_dir = Path(out_dir)
+    files = referenced_files(path)
+    name = sanitize(name) if name else sanitize(re.sub(r"_vh_clean(_2)?$", "", path.stem))
+    sidecar_path = Path(semantics) if semantics else _sidecar_for(path)
+    placements = path.parent / "placements.json"
+    sidecar = _read_json(sidecar_path) if sidecar_path else None
+    if sidecar is not None:
+        files.append(sidecar_path)  # type: ignore[arg-type]
+        if up == "auto" and sidecar.get("up"):
+            up = str(sidecar["up"])
+        if str(units) == "auto" and sidecar.get("units"):
+            units = str(sidecar["units"])
+    scannet = _scannet_files(path) if path.suffix.lower() == ".ply" else None
+    use_placements = sidecar is None and placements.is_file() and _lists_asset(placements, path)
+    if use_placements:
+        files.append(placements)
+    if scannet:
+        files.extend(scannet)
+    params = {"kind": "scene", "name": name, "units": str(units), "up": up, "texture_max_size": texture_max_size,
+              "placements": use_placements}
+    key = cache.cache_key(files if not use_placements else files + _placement_files(placements), params)
+    root = cache.cache_root(cache_dir)
+    target = out_dir / "scenes" / name
+    hit = cache.lookup(root, key)
+    if hit is not None:
+        cache.link_tree(hit, target)
+        return _relocate(SceneAsset.from_json((target / "asset.json").read_text(encoding="utf-8")), name)
+    work_root = out_dir / "scenes"
+    work_root.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=work_root))
+    try:
+        asset = _build_scene(path, tmp, name, units, up, sidecar, scannet, placements if use_placements else None,
+                             texture_max_size)
+        asset.content_hash = key
+        atomic_write_text(tmp / "asset.json", asset.to_json())
+        cache.store(root, key, tmp)
+        cache.replace_dir(tmp, target)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return _relocate(asset, name)
+
+
+def _relocate(asset: SceneAsset, name: str) -> SceneAsset:
+    """Make the asset's paths relative to the output folder."""
+    asset.mjcf = f"scenes/{name}/scene.xml"
+    asset.mesh = f"scenes/{name}/scene_mesh.npz"
+    return asset
+
+
+def _lists_asset(placements: Path, path: Path) -> bool:
+    """Return whether a placements.json lists this file as its first (room) asset."""
+    try:
+        items = json.loads(placements.read_text(encoding="utf-8")).get("instances", [])
+    except (OSError, json.JSONDecodeError, AttributeError):
+        return False
+    return bool(items) and Path(items[0].get("asset", "")).name == path.name
+
+
+def _placement_files(placements: Path) -> list[Path]:
+    """Return every file a placements.json pulls in (for the cache key)."""
+    try:
+        _parts, _insts, files = _placements_parts_files_only(placements)
+    except InputError:
+        return []
+    return files
+
+
+def _placements_parts_files_only(placements: Path) -> tuple[None, None, list[Path]]:
+    """Return the referenced files of a placements.json without loading meshes."""
+    doc = _read_json(placements)
+    items = doc.get("instances", [])
+    for anc in [placements.parent, *placements.parents]:
+        if items and (anc / items[0].get("asset", "")).is_file():
+            files: list[Path] = []
+            for it in items:
+                files.extend(referenced_files(anc / it["asset"]))
+            return None, None, files
+    raise InputError(display_path(placements), "cannot resolve the asset paths it lists")
+
+
+def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str, sidecar: dict | None,
+                 scannet: tuple[Path, Path] | None, placements: Path | None, texture_max_size: int) -> SceneAsset:
+    """Load, group by instance and material, and write one scene into folder `work`."""
+    inst_meta: dict[int, dict] = {}
+    pairs: list[tuple[Part, int]] = []
+    if placements is not None:
+        pairs, insts, _files = _placements_parts(path, placements, str(units), up)
+        inst_meta = {d["id"]: d for d in insts}
+    else:
+        mesh = load_mesh(path, units=units, up=up, kind="scene")
+        if scannet is not None:
+            pairs, inst_meta = _scannet_pairs(mesh.parts, scannet)
+        else:
+            node_ids: dict[str, int] = {}
+            for p in mesh.parts:
+                iid = _node_instance_id(p.node)
+                if iid is None:
+                    iid = node_ids.setdefault(p.node, 10**6 + len(node_ids))
+                pairs.append((p, iid))
+            # nodes without ids get the next free ids in node order
+            taken = {i for _p, i in pairs if i < 10**6}
+            nxt = (max(taken) + 1) if taken else 0
+            remap = {}
+            for node, tmp_id in sorted(node_ids.items(), key=lambda kv: kv[1]):
+                remap[tmp_id] = nxt
+                inst_meta[nxt] = {"id": nxt, "label": label_from_node(node), "kind": "", "name": node}
+                nxt += 1
+            pairs = [(p, remap.get(i, i)) for p, i in pairs]
+            for p, i in pairs:
+                inst_meta.setdefault(i, {"id": i, "label": label_from_node(p.node), "kind": "", "name": p.node})
+    if sidecar is not None:
+        for d in sidecar.get("instances", []):
+            inst_meta[int(d["id"])] = {**inst_meta.get(int(d["id"]), {}), **d}
+    if not pairs:
+        raise InputError(display_path(path), "no triangles in the scene")
+
+    writer = AssetWriter(work / "assets", texture_max_size)
+    geoms: list[str] = []
+    by_inst: dict[int, list[Part]] = {}
+    for p, iid in pairs:
+        by_inst.setdefault(iid, []).append(p)
+    all_v: list[np.ndarray] = []
+    all_f: list[np.ndarray] = []
+    all_i: list[np.ndarray] = []
+    nv = 0
+    instances: list[SemanticInstance] = []
+    for iid in sorted(by_inst):
+        groups: dict[str, list[Part]] = {}
+        for p in by_inst[iid]:
+            groups.setdefault(p.material.key, []).append(p)
+        parts = []
+        for items in groups.values():
+            from .writer import merge_parts
+
+            merged = merge_parts(items)[0] if len(items) > 1 else items[0]
+            cp = clean_part(merged)
+            if cp is not None:
+                parts.append(cp)
+        if not parts:
+            continue
+        meta = inst_meta.get(iid, {})
+        label = str(meta.get("label", "object"))
+        ceiling = "ceiling" in label.lower() or meta.get("kind") == "ceiling"
+        cls = "ceiling" if ceiling else "scene"
+        gnames = []
+        for j, p in enumerate(parts):
+            gname = instance_geom_name(iid) if len(parts) == 1 else instance_geom_name(iid, j)
+            textured = p.material.image is not None and p.uv is not None
+            mat = writer.material(p.material, textured)
+            writer.mesh(gname, p.vertices, p.faces, p.uv if textured else None, ' inertia="shell"')
+            geoms.append(f'    <geom name="{gname}" class="{cls}" mesh="{gname}" material="{mat}"/>')
+            gnames.append(gname)
+            all_v.append(p.vertices)
+            all_f.append(p.faces + nv)
+            all_i.append(np.full(len(p.faces), iid, dtype=np.int64))
+            nv += len(p.vertices)
+        v = np.concatenate([p.vertices for p in parts])
+        instances.append(SemanticInstance(id=int(iid), label=label, geoms=gnames, room=int(meta.get("room", -1)),
+                                          floor=int(meta.get("floor", -1)), kind=str(meta.get("kind", "")),
+                                          bounds=np.stack([v.min(axis=0), v.max(axis=0)])))
+    V = np.concatenate(all_v)
+    F = np.concatenate(all_f)
+    FI = np.concatenate(all_i)
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    centre = (lo + hi) / 2
+    extent = float(np.linalg.norm(hi - lo) / 2)
+    znear = max(0.01 / max(extent, 1e-6), 1e-4)
+    zfar = max(50.0, 4.0 * float(np.linalg.norm(hi - lo)) / max(extent, 1e-6))
+    lights = _lights(lo, hi)
+    render_template("scene.xml", work / "scene.xml", name=name, extent=fmt([extent]), center=fmt(centre),
+                    znear=fmt([znear]), zfar=fmt([zfar]), assets=writer.xml, lights=lights, geoms="\n".join(geoms))
+    _check_compiles(work / "scene.xml", display_path(path))
+    save_scene_mesh(work / "scene_mesh.npz", V, F, FI)
+    floors: list[Floor] = []
+    rooms: list[Room] = []
+    supports: list[SupportSurface] = []
+    if sidecar is not None:
+        floors = [Floor(index=int(f["index"]), height=float(f["height"]), area=float(f.get("area", 0.0)))
+                  for f in sidecar.get("floors", [])]
+        rooms = [Room(id=int(r["id"]), type=str(r["type"]), floor=int(r.get("floor", 0)),
+                      polygon=np.asarray(r["polygon"], dtype=np.float64)) for r in sidecar.get("rooms", [])]
+        for d in sidecar.get("instances", []):
+            for s in d.get("support_surfaces", []):
+                supports.append(SupportSurface(instance_id=int(d["id"]), height=float(s["height"]),
+                                               polygon=np.asarray(s["polygon"], dtype=np.float64)))
+        for s in sidecar.get("support_surfaces", []):
+            supports.append(SupportSurface(instance_id=int(s["instance_id"]), height=float(s["height"]),
+                                           polygon=np.asarray(s["polygon"], dtype=np.float64)))
+    return SceneAsset(name=name, mjcf="scene.xml", source=display_path(path), floors=floors, instances=instances,
+                      bounds=np.stack([lo, hi]), rooms=rooms, support_surfaces=supports, mesh="scene_mesh.npz")
+
+
+def _scannet_pairs(parts: list[Part], files: tuple[Path, Path]) -> tuple[list[tuple[Part, int]], dict[int, dict]]:
+    """Split a PLY scan by ScanNet segments + aggregation into (part, instance id) pairs."""
+    segs_path, agg_path = files
+    segs = _read_json(segs_path)
+    agg = _read_json(agg_path)
+    seg_idx = np.asarray(segs.get("segIndices", []), dtype=np.int64)
+    if len(parts) != 1:
+        raise InputError(display_path(segs_path), "ScanNet labels need a single-mesh PLY")
+    part = parts[0]
+    if len(seg_idx) != len(part.vertices):
+        raise InputError(display_path(segs_path), f"has {len(seg_idx)} segment indices for {len(part.vertices)} vertices")
+    seg_to_inst: dict[int, int] = {}
+    meta: dict[int, dict] = {}
+    for g in agg.get("segGroups", []):
+        iid = int(g.get("objectId", g.get("id")))
+        meta[iid] = {"id": iid, "label": str(g.get("label", "object")), "kind": ""}
+        for s in g.get("segments", []):
+            seg_to_inst[int(s)] = iid
+    lut_keys = np.array(sorted(seg_to_inst), dtype=np.int64)
+    lut_vals = np.array([seg_to_inst[k] for k in lut_keys], dtype=np.int64)
+    pos = np.searchsorted(lut_keys, seg_idx) if len(lut_keys) else np.zeros(len(seg_idx), dtype=np.int64)
+    pos = np.clip(pos, 0, max(len(lut_keys) - 1, 0))
+    ok = (lut_keys[pos] == seg_idx) if len(lut_keys) else np.zeros(len(seg_idx), dtype=bool)
+    unl = (max(meta) + 1) if meta else 0
+    vinst = np.where(ok, lut_vals[pos] if len(lut_vals) else 0, unl)
+    if (~ok).any():
+        meta[unl] = {"id": unl, "label": "unlabeled", "kind": ""}
+    return _split_by_vertex_instance(part, vinst), meta
+
+
+def _lights(lo: np.ndarray, hi: np.ndarray) -> str:
+    """Return two directional lights (no shadows) for a scene box, so renders are lit."""
+    c = (lo + hi) / 2
+    z = hi[2] + 1.0
+    return (f'    <light name="sun" directional="true" pos="{fmt([c[0], c[1], z])}" dir="-0.3 -0.2 -1" '
+            f'diffuse="0.55 0.55 0.55" specular="0.1 0.1 0.1" castshadow="false"/>\n'
+            f'    <light name="fill" directional="true" pos="{fmt([c[0], c[1], z])}" dir="0.3 0.3 -1" '
+            f'diffuse="0.25 0.25 0.25" specular="0 0 0" castshadow="false"/>')
+
+
+def _check_compiles(xml: Path, where: str) -> None:
+    """Compile the written scene once; raise InputError naming the input when MuJoCo refuses it."""
+    import mujoco
+
+    try:
+        mujoco.MjModel.from_xml_path(str(xml))
+    except Exception as e:  # noqa: BLE001
+        raise InputError(where, f"converted scene does not compile in MuJoCo: {e}") from None
+
+
+__all__ = ["convert_scene", "label_from_node", "xml_attr"]

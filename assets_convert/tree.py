@@ -1,0 +1,211 @@
+"""convert_tree: batch conversion in a process pool with a per-item timeout, progress and a JSON report.
+
+Workers are spawned processes (CoACD's threads do not survive fork); a worker past its timeout is
+killed and replaced, a crashed worker is reported, and the batch goes on. The report
+``<out_dir>/convert_report.json`` lists per input: file, status, error, faces, hulls, volume ratio,
+mass, seconds, cache hit.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import sys
+import time
+from multiprocessing.connection import wait
+from pathlib import Path
+from typing import Any, Iterable
+
+from sdovon_mj.config import ConvertConfig
+from sdovon_mj.records import dumps
+from sdovon_mj.store import atomic_write_text
+
+from .load import SUPPORTED, display_path
+
+SKIP_PREFIXES = ("receptacle_mesh",)  # habitat receptacle annotations, not models
+
+
+def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object") -> list[Path]:
+    """Expand files and folders into a sorted list of mesh files to convert."""
+    items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
+    out: list[Path] = []
+    for item in items:
+        p = Path(item)
+        if p.is_dir():
+            for f in sorted(p.rglob("*")):
+                if f.is_file() and f.suffix.lower() in SUPPORTED and not f.name.startswith(SKIP_PREFIXES) \
+                        and not any(part.startswith(".") for part in f.relative_to(p).parts):
+                    if kind == "scene" and _placed_by_sibling(f):
+                        continue
+                    out.append(f)
+        else:
+            out.append(p)
+    seen: set[str] = set()
+    uniq = []
+    for f in out:
+        k = os.fsencode(str(f))
+        if k not in seen:
+            seen.add(k)  # type: ignore[arg-type]
+            uniq.append(f)
+    return sorted(uniq, key=lambda f: os.fsencode(str(f)))
+
+
+def _placed_by_sibling(f: Path) -> bool:
+    """Return whether a file is a non-room asset of a placements.json in its folder (e.g. curtains)."""
+    import json
+
+    pj = f.parent / "placements.json"
+    if not pj.is_file():
+        return False
+    try:
+        items = json.loads(pj.read_text(encoding="utf-8")).get("instances", [])
+    except (OSError, ValueError, AttributeError):
+        return False
+    return any(Path(it.get("asset", "")).name == f.name for it in items[1:])
+
+
+def _work(task: dict[str, Any]) -> dict[str, Any]:
+    """Convert one input (runs in a worker process); return its report row."""
+    t0 = time.perf_counter()
+    row: dict[str, Any] = {"file": task["display"], "status": "ok", "error": ""}
+    try:
+        if task["kind"] == "scene":
+            from .scene import convert_scene
+
+            a = convert_scene(task["path"], task["out_dir"], units=task["config"].units, up=task["config"].up,
+                              cache_dir=task["cache_dir"],
+                              texture_max_size=task["config"].texture_max_size)
+            row.update(name=a.name, mjcf=a.mjcf, instances=len(a.instances), cache_hit=False)
+        else:
+            from .object import convert_object_report
+
+            a, info = convert_object_report(task["path"], task["out_dir"], category=task.get("category"),
+                                            config=task["config"], cache_dir=task["cache_dir"])
+            row.update(name=a.name, category=a.category, mjcf=a.mjcf, faces=info.get("faces"), hulls=a.hull_count,
+                       volume_ratio=round(a.volume_ratio, 4), mass=round(a.mass, 6), cache_hit=info.get("cache_hit"),
+                       warnings=info.get("warnings", []))
+    except Exception as e:  # noqa: BLE001 - every failure becomes a report row, the batch goes on
+        from sdovon_mj.errors import InputError
+
+        row["status"] = "error"
+        row["error"] = e.cause if isinstance(e, InputError) else f"{type(e).__name__}: {e}"
+    row["seconds"] = round(time.perf_counter() - t0, 3)
+    return row
+
+
+def _worker_main(conn: Any) -> None:
+    """Worker loop: receive tasks, send rows, until None."""
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    while True:
+        try:
+            task = conn.recv()
+        except EOFError:
+            return
+        if task is None:
+            return
+        conn.send(_work(task))
+
+
+class _Worker:
+    """One spawned worker process and the task it is running."""
+
+    def __init__(self, ctx: Any) -> None:
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_worker_main, args=(child,), daemon=True)
+        self.proc.start()
+        child.close()
+        self.task: dict[str, Any] | None = None
+        self.t0 = 0.0
+
+    def submit(self, task: dict[str, Any]) -> None:
+        self.task = task
+        self.t0 = time.perf_counter()
+        self.conn.send(task)
+
+    def stop(self) -> None:
+        try:
+            self.conn.send(None)
+        except (OSError, BrokenPipeError):
+            pass
+        self.proc.join(timeout=2)
+        if self.proc.is_alive():
+            self.proc.kill()
+            self.proc.join()
+
+    def kill(self) -> None:
+        self.proc.kill()
+        self.proc.join()
+
+
+def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path, kind: str = "object",
+                 jobs: int = 0, timeout: float | None = None, progress: bool = True,
+                 config: ConvertConfig | None = None, cache_dir: str | Path | None = None,
+                 categories: dict[str, str] | None = None) -> dict[str, Any]:
+    """Convert every mesh under `inputs` in a process pool; write and return the batch report."""
+    if kind not in ("object", "scene"):
+        raise ValueError(f"kind must be 'object' or 'scene', got {kind!r}")
+    cfg = config or ConvertConfig()
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files = find_inputs(inputs, kind)
+    timeout = float(timeout if timeout is not None else cfg.timeout_s)
+    jobs = int(jobs or cfg.jobs or os.cpu_count() or 1)
+    jobs = max(1, min(jobs, len(files) or 1))
+    cache = None if cache_dir is None else str(cache_dir)
+    tasks = [{"path": str(f), "display": display_path(f), "out_dir": str(out_dir), "kind": kind, "config": cfg,
+              "cache_dir": cache, "category": (categories or {}).get(str(f))} for f in files]
+    rows: dict[int, dict[str, Any]] = {}
+    t_start = time.perf_counter()
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(tasks), desc=f"convert {kind}s", unit=kind, file=sys.stderr)
+    ctx = mp.get_context("spawn")
+    workers = [_Worker(ctx) for _ in range(min(jobs, len(tasks)))]
+    pending = list(enumerate(tasks))
+    busy: dict[int, tuple[_Worker, int]] = {}
+    try:
+        while pending or busy:
+            for w in workers:
+                if w.task is None and pending:
+                    idx, task = pending.pop(0)
+                    w.submit(task)
+                    busy[id(w)] = (w, idx)
+            ready = wait([w.conn for w, _ in busy.values()], timeout=0.2)
+            now = time.perf_counter()
+            for wid, (w, idx) in list(busy.items()):
+                row = None
+                if w.conn in ready:
+                    try:
+                        row = w.conn.recv()
+                    except (EOFError, OSError):
+                        row = {"file": tasks[idx]["display"], "status": "error",
+                               "error": f"worker crashed (exit code {w.proc.exitcode})", "seconds": round(now - w.t0, 3)}
+                elif now - w.t0 > timeout:
+                    row = {"file": tasks[idx]["display"], "status": "error",
+                           "error": f"timeout: conversion took longer than {timeout:g} s", "seconds": round(now - w.t0, 3)}
+                if row is None:
+                    continue
+                rows[idx] = row
+                del busy[wid]
+                if row["status"] == "error" and (not w.proc.is_alive() or row["error"].startswith(("timeout", "worker crashed"))):
+                    w.kill()
+                    workers[workers.index(w)] = _Worker(ctx)
+                else:
+                    w.task = None
+                if bar is not None:
+                    bar.update(1)
+                    if row["status"] == "error":
+                        bar.write(f"convert: {row['file']}: {row['error']}")
+    finally:
+        for w in workers:
+            w.stop()
+        if bar is not None:
+            bar.close()
+    items = [rows[i] for i in range(len(tasks))]
+    report = {"kind": kind, "out_dir": str(out_dir), "count": len(items),
+              "ok": sum(r["status"] == "ok" for r in items), "failed": sum(r["status"] != "ok" for r in items),
+              "seconds": round(time.perf_counter() - t_start, 3), "items": items}
+    atomic_write_text(out_dir / "convert_report.json", dumps(report))
+    return report

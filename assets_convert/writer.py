@@ -1,0 +1,132 @@
+"""Writing MJCF assets: OBJ meshes, PNG textures, materials, and filling the XML templates."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from string import Template
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from mjcf_templates import template_path
+from sdovon_mj.store import atomic_write_bytes, atomic_write_text
+
+from .load import Material, Part
+from .textures import to_png_bytes
+
+
+def obj_bytes(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None) -> bytes:
+    """Return Wavefront OBJ text of a triangle mesh (with texture coordinates when given)."""
+    buf = io.StringIO()
+    buf.write("# sdovon-mj assets_convert\n")
+    np.savetxt(buf, np.asarray(vertices, dtype=np.float64), fmt="v %.6f %.6f %.6f")
+    f1 = np.asarray(faces, dtype=np.int64) + 1
+    if uv is not None:
+        np.savetxt(buf, np.asarray(uv, dtype=np.float64), fmt="vt %.6f %.6f")
+        np.savetxt(buf, np.repeat(f1, 2, axis=1), fmt="f %d/%d %d/%d %d/%d")
+    else:
+        np.savetxt(buf, f1, fmt="f %d %d %d")
+    return buf.getvalue().encode("ascii")
+
+
+def fmt(values: np.ndarray | list[float] | tuple[float, ...], digits: int = 6) -> str:
+    """Return space-separated numbers for an XML attribute."""
+    return " ".join(f"{float(x):.{digits}g}" for x in np.ravel(values))
+
+
+def merge_parts(parts: list[Part]) -> list[Part]:
+    """Merge parts that share a material into one part each (order of first appearance)."""
+    groups: dict[str, list[Part]] = {}
+    for p in parts:
+        groups.setdefault(p.material.key, []).append(p)
+    out = []
+    for items in groups.values():
+        if len(items) == 1:
+            out.append(items[0])
+            continue
+        offs = np.cumsum([0] + [len(p.vertices) for p in items[:-1]])
+        v = np.concatenate([p.vertices for p in items])
+        f = np.concatenate([p.faces + o for p, o in zip(items, offs)])
+        uv = None
+        if all(p.uv is not None for p in items):
+            uv = np.concatenate([p.uv for p in items])  # type: ignore[misc]
+        colors = None
+        if all(p.colors is not None for p in items):
+            colors = np.concatenate([p.colors for p in items])  # type: ignore[misc]
+        out.append(Part(v, f, items[0].material, uv, colors, items[0].node))
+    return out
+
+
+def clean_part(part: Part) -> Part | None:
+    """Drop zero-area faces and unused vertices; None when nothing is left."""
+    v, f = part.vertices, part.faces
+    tri = v[f]
+    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    keep = area2 > 1e-14
+    f = f[keep]
+    if len(f) == 0:
+        return None
+    used = np.unique(f)
+    if len(used) < 3:
+        return None
+    remap = np.full(len(v), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    uv = part.uv[used] if part.uv is not None else None
+    colors = part.colors[used] if part.colors is not None else None
+    return Part(v[used], remap[f], part.material, uv, colors, part.node)
+
+
+class AssetWriter:
+    """Collects meshes, textures and materials for one MJCF file and writes them under assets/."""
+
+    def __init__(self, assets_dir: Path, texture_max_size: int = 1024) -> None:
+        self.assets_dir = Path(assets_dir)
+        self.texture_max_size = texture_max_size
+        self.lines: list[str] = []
+        self._textures: dict[int, str] = {}
+        self._materials: dict[str, str] = {}
+
+    def mesh(self, name: str, vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None,
+             extra: str = "") -> str:
+        """Write a mesh file and register its <mesh> asset; return its name."""
+        atomic_write_bytes(self.assets_dir / f"{name}.obj", obj_bytes(vertices, faces, uv))
+        self.lines.append(f'    <mesh name="{name}" file="{name}.obj"{extra}/>')
+        return name
+
+    def material(self, mat: Material, textured: bool) -> str:
+        """Register a material (and its PNG texture) once; return its name."""
+        key = f"{mat.key}|{textured}"
+        if key in self._materials:
+            return self._materials[key]
+        name = f"material_{len(self._materials)}"
+        rgba = fmt(mat.rgba, 4)
+        if textured and mat.image is not None:
+            tex = self._textures.get(id(mat.image))
+            if tex is None:
+                tex = f"texture_{len(self._textures)}"
+                atomic_write_bytes(self.assets_dir / f"{tex}.png", to_png_bytes(mat.image, self.texture_max_size))
+                self.lines.append(f'    <texture name="{tex}" type="2d" file="{tex}.png"/>')
+                self._textures[id(mat.image)] = tex
+            self.lines.append(f'    <material name="{name}" texture="{tex}" rgba="{rgba}" specular="0.2" shininess="0.2"/>')
+        else:
+            self.lines.append(f'    <material name="{name}" rgba="{rgba}" specular="0.2" shininess="0.2"/>')
+        self._materials[key] = name
+        return name
+
+    @property
+    def xml(self) -> str:
+        """Return the <asset> children as XML lines."""
+        return "\n".join(self.lines)
+
+
+def render_template(template: str, out: Path, **values: str) -> str:
+    """Fill an mjcf_templates/ template, write it atomically to `out`, return the text."""
+    text = Template(template_path(template).read_text(encoding="utf-8")).substitute(**values)
+    atomic_write_text(out, text)
+    return text
+
+
+def xml_attr(value: str) -> str:
+    """Return an XML-quoted attribute value."""
+    return quoteattr(value)
