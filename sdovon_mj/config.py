@@ -192,7 +192,7 @@ class PlaceConfig:
     lin_vel_tol: float = _p(0.01, "m/s", "settled linear speed")
     ang_vel_tol: float = _p(0.1, "rad/s", "settled angular speed")
     resample_attempts: int = _p(2, "-", "resampling rounds for failed objects")
-    support_thickness: float = _p(0.02, "m", "thickness of support prisms built from receptacle polygons")
+    support_thickness: float = _p(0.05, "m", "thickness of support prisms built from receptacle polygons (thin ones let heavy objects sink in)")
     support_hfield: bool = _p(False, "-", "use a heightfield from ray casts on the scene mesh where a plane's surface is not flat")
     hfield_resolution: float = _p(0.02, "m", "heightfield raster step")
     hfield_flatness: float = _p(0.01, "m", "surfaces whose height range is below this keep the flat prism")

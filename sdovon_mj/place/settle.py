@@ -29,6 +29,8 @@ RESTING = "resting"
 ELSEWHERE = "resting_elsewhere"
 FELL = "fell"
 UNSTABLE = "unstable"
+SINK_TOL = 0.002  # m: a centre of mass this far below its plane's top face means the object is stuck in it
+SINK_DEPTH_TOL = 0.005  # m: deeper contact penetration into a support means the object is stuck in it
 
 
 @dataclass
@@ -69,6 +71,7 @@ class Settler:
         self.floor_geoms = {mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_GEOM, n) for n in composed.support.floors.values()}
         self.plane_geom = {pid: mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_GEOM, n) for pid, n in composed.support.planes.items()}
         self.va = np.asarray(composed.qvel_adr, dtype=int)
+        self.support_geoms = np.array(sorted(self.floor_geoms | set(self.plane_geom.values())), dtype=int)
         self.contype0 = self.m.geom_contype.copy()
         self.conaffinity0 = self.m.geom_conaffinity.copy()
         self.gravcomp0 = self.m.body_gravcomp.copy()
@@ -139,6 +142,18 @@ class Settler:
                 out[self.body_index[b2]].add(int(g1))
         return out
 
+    def support_penetration(self, i: int) -> float:
+        """Return how deep (m) object i's geoms penetrate any support geom (0 when not at all)."""
+        n = self.d.ncon
+        if n == 0:
+            return 0.0
+        b = self.c.body_ids[i]
+        g = np.asarray(self.d.contact.geom[:n])
+        dist = np.asarray(self.d.contact.dist[:n])
+        supports = self.support_geoms
+        mine = ((self.geom_body[g[:, 0]] == b) & np.isin(g[:, 1], supports)) | ((self.geom_body[g[:, 1]] == b) & np.isin(g[:, 0], supports))
+        return float(max(-dist[mine].min(), 0.0)) if mine.any() else 0.0
+
     def run(self) -> SettleStats:
         """Step until every live object stays still for the window or the time cap; return the stats."""
         cfg, m, d = self.cfg, self.m, self.d
@@ -190,6 +205,12 @@ class Settler:
             v = self.c.qvel_adr[i]
             return Verdict(UNSTABLE, f"still moving after {self.cfg.max_settle_time:.1f} s "
                                      f"(|v| {np.linalg.norm(self.d.qvel[v:v + 3]):.3f} m/s, |w| {np.linalg.norm(self.d.qvel[v + 3:v + 6]):.2f} rad/s)", names)
+        depth = self.support_penetration(i)
+        if depth > SINK_DEPTH_TOL:
+            return Verdict(UNSTABLE, f"sunk {100 * depth:.1f} cm into a support", names)
+        if com[2] < plane.height - SINK_TOL:
+            # A centre of mass under the support's top face: the object got pushed into (or through) it.
+            return Verdict(UNSTABLE, f"sunk into its support (centre {100 * (plane.height - com[2]):.1f} cm below the plane)", names)
         gid = self.plane_geom.get(p.plane_id, -2)
         if gid in touching and points_in_convex_polygon(plane.polygon, com[:2], tol=0.01)[0]:
             return Verdict(RESTING, "", names)
