@@ -1,10 +1,10 @@
 """Must-show of the place stage on default-world apartments: objects end resting on their intended
 receptacle plane (independent ray + contact check), no interpenetration, figures per category.
 
-Scenes: `generate_apartment(seed)` with its ground-truth support surfaces as receptacle planes. When
-the converter's `convert_scene` / the world's object library are available they are used; until then
-the scene's visual MJCF is written here (one mesh geom per instance, named per the contract) and the
-objects are the primitive Menagerie-style models of `place.synthetic`.
+Scenes: `generate_apartment(seed)` written as GLB and converted by `assets_convert.convert_scene`
+(fallback without the converter: a visual MJCF written here, one mesh geom per instance), with its
+ground-truth support surfaces as receptacle planes. Objects: the primitive Menagerie-style models of
+`place.synthetic` (fast) and, in a slow test, the world's object library converted by assets_convert.
 """
 
 from __future__ import annotations
@@ -26,6 +26,16 @@ CATEGORIES = (("box", "book"), ("mug", "mug"), ("ball", "ball"), ("can", "soda c
 
 
 def scene_from_apartment(seed: int, root: Path) -> SceneAsset:
+    """Return a default-world apartment as a SceneAsset: converted by assets_convert when available."""
+    try:
+        from assets_convert.scene import convert_scene
+    except ImportError:
+        return write_scene_locally(seed, root)
+    glb = world.write_apartment(world.generate_apartment(seed), root / "inputs", mode="clean")
+    return convert_scene(glb, root)
+
+
+def write_scene_locally(seed: int, root: Path) -> SceneAsset:
     """Write an apartment's visual-only MJCF (one mesh per instance) and return its SceneAsset."""
     import trimesh
 
