@@ -4,6 +4,8 @@ Run folder layout (paths inside records are relative to the run root)::
 
     <run>/scenes/<scene>/scene.json                            SceneAsset (+ its asset files)
     <run>/scenes/<scene>/observe/navmap_<floor>.json           NavMap, one per floor
+    <run>/scenes/<scene>/semantics/relevance.json              Relevance (optional)
+    <run>/scenes/<scene>/semantics/regions_<floor>.json        RegionMap, one per floor (optional)
     <run>/scenes/<scene>/variants/<variant>/variant.json       SceneVariant (its .mjcf: composed MJCF)
     <run>/scenes/<scene>/variants/<variant>/episodes.json      list[Episode]
     <run>/objects/<name>/object.json                           ObjectAsset (+ its asset files)
@@ -30,7 +32,8 @@ from pathlib import Path
 from typing import Any
 
 from sdovon_mj.errors import InputError, SdovonError
-from sdovon_mj.records import Episode, NavMap, ObjectAsset, RecordError, SceneAsset, SceneVariant, load_json
+from sdovon_mj.records import (Episode, NavMap, ObjectAsset, RecordError, RegionMap, Relevance, SceneAsset, SceneVariant,
+                               load_json)
 from sdovon_mj.store import atomic_write_text
 
 MANIFEST = "sdovon_export.json"
@@ -107,6 +110,16 @@ class RunView:
     def navmaps(self, scene: str) -> list[NavMap]:
         """Return a scene's NavMaps sorted by floor."""
         maps = [_load(p, NavMap) for p in sorted((self.root / "scenes" / scene / "observe").glob("navmap_*.json"))]
+        return sorted(maps, key=lambda m: m.floor)
+
+    def relevance(self, scene: str) -> Relevance | None:
+        """Return a scene's relevance tables (None when the run has none)."""
+        p = self.root / "scenes" / scene / "semantics" / "relevance.json"
+        return _load(p, Relevance) if p.exists() else None
+
+    def region_maps(self, scene: str) -> list[RegionMap]:
+        """Return a scene's region maps sorted by floor ([] when the run has none)."""
+        maps = [_load(p, RegionMap) for p in sorted((self.root / "scenes" / scene / "semantics").glob("regions_*.json"))]
         return sorted(maps, key=lambda m: m.floor)
 
     def variants(self, scene: str) -> list[SceneVariant]:

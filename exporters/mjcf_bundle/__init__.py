@@ -102,6 +102,27 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path) ->
     return spec.to_xml(), copied
 
 
+def write_scene_knowledge(run: RunView, scene: str, bdir: Path) -> list[Path]:
+    """Write what an agent knows of the static scene after its first visit (paper appendix D).
+
+    `instance_labels.json` (scene instance id -> label: what the gt detector reports), and, when the
+    run has them, `relevance.json` (object-region/receptacle commonsense) and `region_map_<floor>.json`
+    (the static scene's region map): the familiar-scene knowledge Semantic A* starts from.
+    """
+    out: list[Path] = []
+    labels = {str(i.id): i.label for i in sorted(run.scene(scene).instances, key=lambda i: i.id)}
+    atomic_write_text(bdir / "instance_labels.json", json.dumps(labels, indent=1, sort_keys=True) + "\n")
+    out.append(bdir / "instance_labels.json")
+    rel = run.relevance(scene)
+    if rel is not None:
+        atomic_write_text(bdir / "relevance.json", rel.to_json())
+        out.append(bdir / "relevance.json")
+    for rm in run.region_maps(scene):
+        atomic_write_text(bdir / f"region_map_{rm.floor}.json", rm.to_json())
+        out.append(bdir / f"region_map_{rm.floor}.json")
+    return out
+
+
 class MjcfBundleExporter(Exporter):
     """Writes <out>/<name>/<variant>/{scene.xml, assets/, episodes.json, navmap_<floor>.json, bundle.json}."""
 
@@ -128,6 +149,7 @@ class MjcfBundleExporter(Exporter):
                 written.append(bdir / f"navmap_{nm.floor}.json")
             atomic_write_text(bdir / "episodes.json", dumps([e.to_dict() for e in eps]))
             written.append(bdir / "episodes.json")
+            written += write_scene_knowledge(run, variant.scene, bdir)
             meta = {"bundle_version": BUNDLE_VERSION, "dataset": options.name, "split": options.split,
                     "scene": variant.scene, "variant": variant.name, "model": "scene.xml", "episodes": "episodes.json",
                     "navmaps": {str(nm.floor): f"navmap_{nm.floor}.json" for nm in navmaps},

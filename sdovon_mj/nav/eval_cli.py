@@ -135,7 +135,10 @@ def trajectory_picture(dataset: str | Path, result: dict, path: Path, scale: int
 
     from ..suite import load_bundle
 
-    b = load_bundle(Path(dataset) / result["variant"]) if (Path(dataset) / result["variant"]).exists() else load_bundle(dataset)
+    from ..suite import find_bundles
+
+    match = [p for p in find_bundles(dataset) if p.name == result["variant"]]
+    b = load_bundle(match[0] if match else dataset)
     ep = next(e for e in b.episodes if e.episode_id == result["episode_id"])
     nm = b.navmap(ep.floor)
     img = np.full(nm.navigable.shape + (3,), 40, np.uint8)

@@ -1,0 +1,346 @@
+"""Runs the stages over scenes and variants: resumable, reproducible, local pool or Ray.
+
+Run folder layout (all record paths are relative to the run root):
+
+    config.yaml                 the resolved config
+    manifest.json               config hash, seeds, package versions, per-stage fingerprints
+    timings.json                wall seconds per stage (the only file that differs between reruns)
+    inputs/                     default-world scenes and objects written as input files
+    objects/objects.json        list[ObjectAsset]; objects/<name>/model.xml + assets
+    scenes/<scene>/scene.json   SceneAsset (+ MJCF, textures, scene mesh npz)
+    scenes/<scene>/observe/     navmap_<floor>.json, viewpoints.json, obs_*.npz shards, pictures
+    scenes/<scene>/perceive/    instances.npz, planes.json
+    scenes/<scene>/semantics/   regions_<floor>.json, relevance.json, pictures
+    scenes/<scene>/variants/<variant>/variant.json, episodes.json, composed MJCF, pictures
+    export/<format>/            exporter outputs
+    stats/                      summary tables (markdown + JSON) and category charts
+
+Tasks exchange only store paths: a task is (kind, run root, scene, variant) and reads everything
+else from the run folder, so the same task runs in a local process or on a Ray worker.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+from . import __version__
+from .config import RunConfig, dump_yaml, load_config, to_dict
+from .errors import SdovonError, StageError
+from .records import dumps
+from .store import Store, Timer, clean_temp_files, fingerprint
+
+
+def derive_seed(master: int, *names: object) -> int:
+    """Return a 31-bit seed derived from a master seed and names (no global RNG state)."""
+    blob = "/".join([str(master), *map(str, names)]).encode("utf-8")
+    return int(hashlib.sha256(blob).hexdigest()[:8], 16) & 0x7FFFFFFF
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """One unit of work; only paths and names, so it crosses process and machine boundaries."""
+
+    kind: str  # objects | scene | variant | export
+    run_root: str
+    scene: str = ""
+    variant: int = -1
+    fmt: str = ""
+
+    @property
+    def label(self) -> str:
+        """Return a short human name of the task."""
+        if self.kind == "variant":
+            return f"{self.scene}/v{self.variant:03d}"
+        return {"objects": "objects", "scene": self.scene, "export": f"export:{self.fmt}"}.get(self.kind, self.kind)
+
+
+@dataclass
+class TaskResult:
+    """What a task reports back: ok or the cause of failure, stage seconds, counters."""
+
+    spec: TaskSpec
+    ok: bool
+    error: str = ""
+    seconds: dict[str, float] = field(default_factory=dict)
+    skipped: list[str] = field(default_factory=list)
+    counters: dict[str, Any] = field(default_factory=dict)
+    attempts: int = 1
+
+
+class StageRunner:
+    """Runs one named stage at most once per fingerprint, recording outputs and timing."""
+
+    def __init__(self, store: Store, result: TaskResult) -> None:
+        self.store = store
+        self.result = result
+
+    def run(self, key: str, fp_parts: Iterable[Any], fn: Callable[[], list[str]]) -> bool:
+        """Run `fn` (returning its output paths) unless `key` is done with the same fingerprint."""
+        fp = fingerprint(*fp_parts)
+        short = key.split("/")[-1]
+        if self.store.is_done(key, fp):
+            self.result.skipped.append(key)
+            return False
+        self.store.invalidate(key)
+        with Timer() as t:
+            outputs = fn()
+        self.store.mark_done(key, fp, outputs, t.seconds)
+        self.result.seconds[short] = self.result.seconds.get(short, 0.0) + t.seconds
+        return True
+
+
+def run_task(spec: TaskSpec) -> TaskResult:
+    """Execute one task in this process; failures are returned, never raised."""
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    result = TaskResult(spec, ok=True)
+    try:
+        from . import stages
+
+        store = Store(spec.run_root)
+        cfg = load_config(store.path("config.yaml"))
+        runner = StageRunner(store, result)
+        if spec.kind == "objects":
+            stages.objects_task(store, cfg, runner)
+        elif spec.kind == "scene":
+            stages.scene_task(store, cfg, runner, spec.scene)
+        elif spec.kind == "variant":
+            stages.variant_task(store, cfg, runner, spec.scene, spec.variant)
+        elif spec.kind == "export":
+            stages.export_task(store, cfg, runner, spec.fmt)
+        else:
+            raise StageError(f"unknown task kind {spec.kind!r}")
+    except SdovonError as e:
+        result.ok, result.error = False, str(e)
+    except Exception as e:  # a task must report its cause, whatever it is
+        result.ok = False
+        tb = traceback.extract_tb(e.__traceback__)[-1]
+        result.error = f"{type(e).__name__}: {e} (at {Path(tb.filename).name}:{tb.lineno})"
+    return result
+
+
+# ----------------------------------------------------------------------------------------------
+# Executors
+
+
+class LocalExecutor:
+    """Runs tasks in a process pool (`jobs` workers; 1 = in this process), with bounded retries."""
+
+    def __init__(self, jobs: int = 1, retries: int = 1) -> None:
+        self.jobs = max(1, int(jobs))
+        self.retries = max(0, int(retries))
+
+    def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None) -> list[TaskResult]:
+        """Run every task; return results in the order of `specs`."""
+        results: dict[int, TaskResult] = {}
+        if self.jobs == 1 or len(specs) <= 1:
+            for i, s in enumerate(specs):
+                results[i] = self._with_retries(lambda s=s: run_task(s))
+                if progress:
+                    progress(results[i])
+            return [results[i] for i in range(len(specs))]
+        pending = {i: 0 for i in range(len(specs))}
+        with ProcessPoolExecutor(max_workers=min(self.jobs, len(specs)), mp_context=get_context("spawn")) as pool:
+            futs = {pool.submit(run_task, specs[i]): i for i in pending}
+            while futs:
+                for fut in as_completed(list(futs)):
+                    i = futs.pop(fut)
+                    try:
+                        r = fut.result()
+                    except Exception as e:  # worker crashed (e.g. killed): counts as a failed attempt
+                        r = TaskResult(specs[i], ok=False, error=f"worker died: {type(e).__name__}: {e}")
+                    pending[i] += 1
+                    r.attempts = pending[i]
+                    if not r.ok and pending[i] <= self.retries:
+                        futs[pool.submit(run_task, specs[i])] = i
+                        continue
+                    results[i] = r
+                    if progress:
+                        progress(r)
+                    break
+        return [results[i] for i in range(len(specs))]
+
+    def _with_retries(self, fn: Callable[[], TaskResult]) -> TaskResult:
+        """Call `fn` until it succeeds or the retries are spent."""
+        for attempt in range(1, self.retries + 2):
+            r = fn()
+            r.attempts = attempt
+            if r.ok:
+                return r
+        return r
+
+
+class RayExecutor:
+    """Runs tasks as Ray remote functions (tasks carry store paths only), with bounded retries."""
+
+    def __init__(self, address: str | None = None, retries: int = 1, num_cpus: int | None = None) -> None:
+        try:
+            import ray
+        except ImportError:
+            raise StageError("the ray executor needs Ray: pip install 'sdovon-mj[ray]'") from None
+        self.ray = ray
+        self.retries = max(0, int(retries))
+        if not ray.is_initialized():
+            kwargs: dict[str, Any] = {"address": address} if address else {"num_cpus": num_cpus}
+            ray.init(ignore_reinit_error=True, log_to_driver=False, include_dashboard=False,
+                     runtime_env={"env_vars": {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}}, **kwargs)
+        self.remote = ray.remote(num_cpus=1)(run_task)
+
+    def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None) -> list[TaskResult]:
+        """Run every task on the cluster; return results in the order of `specs`."""
+        results: dict[int, TaskResult] = {}
+        attempts = {i: 1 for i in range(len(specs))}
+        refs = {self.remote.remote(s): i for i, s in enumerate(specs)}
+        while refs:
+            done, _ = self.ray.wait(list(refs), num_returns=1)
+            i = refs.pop(done[0])
+            try:
+                r = self.ray.get(done[0])
+            except Exception as e:  # worker lost: a failed attempt
+                r = TaskResult(specs[i], ok=False, error=f"ray task failed: {type(e).__name__}: {e}")
+            r.attempts = attempts[i]
+            if not r.ok and attempts[i] <= self.retries:
+                attempts[i] += 1
+                refs[self.remote.remote(specs[i])] = i
+                continue
+            results[i] = r
+            if progress:
+                progress(r)
+        return [results[i] for i in range(len(specs))]
+
+
+def make_executor(name: str, jobs: int = 1, address: str | None = None, retries: int = 1) -> Any:
+    """Return the executor named `local` or `ray`."""
+    if name == "local":
+        return LocalExecutor(jobs, retries)
+    if name == "ray":
+        return RayExecutor(address, retries, num_cpus=jobs if not address else None)
+    raise StageError(f"unknown executor '{name}' (local, ray)")
+
+
+# ----------------------------------------------------------------------------------------------
+# The whole run
+
+
+@dataclass
+class RunSummary:
+    """What a run did: counts, failures, seconds per stage."""
+
+    run_root: str
+    scenes: list[str]
+    results: list[TaskResult]
+    seconds: dict[str, float]
+
+    @property
+    def failures(self) -> list[TaskResult]:
+        """Return the failed tasks."""
+        return [r for r in self.results if not r.ok]
+
+
+def package_versions() -> dict[str, str]:
+    """Return versions of the packages whose behaviour shapes the outputs."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {"sdovon-mj": __version__, "python": sys.version.split()[0]}
+    for name in ("mujoco", "dm-control", "trimesh", "coacd", "numpy", "scipy", "open3d", "torch"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = "absent"
+    return out
+
+
+def prepare_run(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = None,
+                objects: list[str] | None = None) -> Store:
+    """Create (or reopen) a run folder: write the config and the inputs list."""
+    store = Store(run_root)
+    clean_temp_files(store.root)
+    cfg_text = dump_yaml(cfg)
+    cfg_path = store.path("config.yaml")
+    if cfg_path.exists() and cfg_path.read_text(encoding="utf-8") != cfg_text:
+        # A changed config is fine: stages whose fingerprint changed are redone, the rest kept.
+        pass
+    store.write_text("config.yaml", cfg_text)
+    inputs = {"scenes": [str(Path(s).resolve()) for s in (scenes or [])],
+              "objects": [str(Path(o).resolve()) for o in (objects or [])]}
+    store.write_json("inputs.json", inputs)
+    return store
+
+
+def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = None, objects: list[str] | None = None,
+             executor: str = "local", jobs: int = 1, address: str | None = None, retries: int = 1,
+             progress: bool | None = None, exporters: Iterable[str] | None = None) -> RunSummary:
+    """Run the whole pipeline into `run_root`; finished stages are skipped on a rerun."""
+    from . import stages
+    from .progress import Progress
+
+    store = prepare_run(run_root, cfg, scenes, objects)
+    ex = make_executor(executor, jobs, address, retries)
+    scene_names = stages.scene_names(store, cfg)
+    results: list[TaskResult] = []
+    fmts = list(cfg.exporters if exporters is None else exporters)
+    n_variants = len(scene_names) * cfg.place.k_v
+    with Progress(total=1 + len(scene_names) + n_variants + len(fmts), enabled=progress, desc="generate") as bar:
+        def tick(r: TaskResult) -> None:
+            bar.update(1, r.spec.label + ("" if r.ok else " FAILED"))
+
+        results += ex.map([TaskSpec("objects", str(store.root))], tick)
+        if not results[-1].ok:
+            raise StageError(f"object library failed: {results[-1].error}")
+        scene_results = ex.map([TaskSpec("scene", str(store.root), s) for s in scene_names], tick)
+        results += scene_results
+        good = [r.spec.scene for r in scene_results if r.ok]
+        variant_specs = [TaskSpec("variant", str(store.root), s, v) for s in good for v in range(cfg.place.k_v)]
+        bar.total -= (len(scene_names) - len(good)) * cfg.place.k_v
+        results += ex.map(variant_specs, tick)
+        for fmt in fmts:
+            results += ex.map([TaskSpec("export", str(store.root), fmt=fmt)], tick)
+    seconds: dict[str, float] = {}
+    for r in results:
+        for k, v in r.seconds.items():
+            seconds[k] = seconds.get(k, 0.0) + v
+    summary = RunSummary(str(store.root), scene_names, results, seconds)
+    write_manifest(store, cfg, summary)
+    stages.write_statistics(store, cfg, summary)
+    return summary
+
+
+def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
+    """Write manifest.json (deterministic) and timings.json (wall seconds) for a run."""
+    fps: dict[str, str] = {}
+    for marker in sorted(store.root.rglob(".done.json")):
+        key = marker.parent.relative_to(store.root).as_posix()
+        fps[key] = json.loads(marker.read_text(encoding="utf-8"))["fingerprint"]
+    manifest = {
+        "sdovon_mj": __version__,
+        "config": to_dict(cfg),
+        "seed": cfg.seed,
+        "scene_seeds": {s: derive_seed(cfg.seed, "scene", s) for s in summary.scenes},
+        "packages": package_versions(),
+        "stages": fps,
+        "failures": [{"task": r.spec.label, "error": r.error, "attempts": r.attempts} for r in summary.failures],
+    }
+    store.write_json("manifest.json", manifest)
+    timings = {
+        "stage_seconds": {k: round(v, 3) for k, v in sorted(summary.seconds.items())},
+        "tasks": [{"task": r.spec.label, "ok": r.ok, "seconds": {k: round(v, 3) for k, v in r.seconds.items()},
+                   "skipped": r.skipped, "attempts": r.attempts} for r in summary.results],
+        "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
+    }
+    store.write_json("timings.json", timings)
+
+
+def summary_json(summary: RunSummary) -> str:
+    """Return a run summary as JSON text (for logs and tests)."""
+    return dumps({"run_root": summary.run_root, "scenes": summary.scenes,
+                  "results": [{**asdict(r), "spec": asdict(r.spec)} for r in summary.results],
+                  "seconds": summary.seconds})

@@ -1,0 +1,361 @@
+"""The wiring of the stages into tasks (used by `pipeline`): each stage's public API, run once per fingerprint.
+
+This module is the one place that knows every stage; stages themselves only know records, config,
+store and sim. Every stage writes into the run folder layout documented in `pipeline`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import re
+import shutil
+from pathlib import Path
+from typing import Any
+
+from .config import RunConfig, config_hash, to_dict
+from .errors import InputError, StageError
+from .records import (Instance, NavMap, ObjectAsset, ReceptaclePlane, Relevance, SceneAsset, SceneVariant, load_json,
+                      load_npz, save_json, save_npz)
+from .store import Store, file_hash
+
+
+def _scene_seed(cfg: RunConfig, scene: str) -> int:
+    """Return the derived seed of a scene."""
+    from .pipeline import derive_seed
+
+    return derive_seed(cfg.seed, "scene", scene)
+
+
+def _safe_name(stem: str) -> str:
+    """Return a file-system-safe scene/object name."""
+    s = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem).strip("_.")
+    return s or "scene"
+
+
+def scene_inputs(store: Store, cfg: RunConfig) -> dict[str, str]:
+    """Return scene name -> input file ('' for a default-world apartment)."""
+    inputs = store.read_json("inputs.json")
+    if not inputs["scenes"]:
+        return {f"apt_{seed:04d}": "" for seed in cfg.world.scene_seeds}
+    out: dict[str, str] = {}
+    for path in inputs["scenes"]:
+        name = _safe_name(Path(path).stem.replace("_vh_clean", ""))
+        base, k = name, 1
+        while name in out:
+            k += 1
+            name = f"{base}_{k}"
+        out[name] = path
+    return out
+
+
+def scene_names(store: Store, cfg: RunConfig) -> list[str]:
+    """Return the run's scene names in a fixed order."""
+    return list(scene_inputs(store, cfg))
+
+
+# ----------------------------------------------------------------------------------------------
+# Objects
+
+
+def _object_inputs(store: Store, cfg: RunConfig, runner: Any) -> list[tuple[Path, str | None]]:
+    """Return (object file, category or None) for every input object, writing the default library if needed."""
+    inputs = store.read_json("inputs.json")
+    if inputs["objects"]:
+        files: list[tuple[Path, str | None]] = []
+        for p in map(Path, inputs["objects"]):
+            if p.is_dir():
+                found = sorted(q for q in p.rglob("*") if q.suffix.lower() in (".obj", ".glb", ".gltf", ".ply", ".stl"))
+                if not found:
+                    raise InputError(p, "folder holds no OBJ/GLB/glTF/PLY/STL object files")
+                files += [(q, _meta_category(q)) for q in found]
+            elif p.exists():
+                files.append((p, _meta_category(p)))
+            else:
+                raise InputError(p, "object file not found")
+        return files
+    from .world import write_object_library
+
+    w = cfg.world
+    rel = "inputs/objects"
+
+    def make() -> list[str]:
+        paths = write_object_library(w.object_seed, store.path(rel), variants=w.object_variants,
+                                     categories=list(w.object_categories) or None)
+        return [store.rel(p) for p in paths]
+
+    runner.run(rel, ["object-library", w.object_seed, w.object_variants, list(w.object_categories)], make)
+    mark = store.mark(rel)
+    assert mark is not None
+    return [(store.path(o), _meta_category(store.path(o))) for o in mark.outputs if o.endswith((".obj", ".glb", ".ply"))]
+
+
+def _meta_category(path: Path) -> str | None:
+    """Return the category named by a meta.json beside an object file, if any."""
+    meta = path.parent / "meta.json"
+    if meta.exists():
+        try:
+            return str(json.loads(meta.read_text(encoding="utf-8"))["category"])
+        except (json.JSONDecodeError, KeyError):
+            return None
+    return None
+
+
+def objects_task(store: Store, cfg: RunConfig, runner: Any) -> None:
+    """Convert the object library into `objects/<name>/` (+ object.json) and `objects/objects.json`."""
+    from assets_convert.object import convert_object_report
+
+    from .errors import SdovonError
+
+    items = _object_inputs(store, cfg, runner)
+    fp = ["objects", to_dict(cfg.convert), [(str(p), c, file_hash(p)) for p, c in items]]
+
+    def make() -> list[str]:
+        assets: list[ObjectAsset] = []
+        failures: dict[str, str] = {}
+        for path, category in items:
+            try:
+                asset, _report = convert_object_report(path, store.root, category=category, config=cfg.convert)
+            except SdovonError as e:  # one bad object is reported; the library goes on
+                failures[str(path)] = str(e)
+                continue
+            save_json(asset, store.path(f"objects/{asset.name}/object.json"))
+            assets.append(asset)
+        if not assets:
+            raise StageError("no object converted: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
+        assets.sort(key=lambda a: a.name)
+        save_json(assets, store.path("objects/objects.json"))
+        store.write_json("objects/failures.json", failures)
+        return ["objects/objects.json", "objects/failures.json"] + [f"objects/{a.name}/object.json" for a in assets]
+
+    runner.run("objects", fp, make)
+
+
+def load_objects(store: Store) -> list[ObjectAsset]:
+    """Return the run's converted objects."""
+    return load_json(store.path("objects/objects.json"), ObjectAsset)
+
+
+# ----------------------------------------------------------------------------------------------
+# Scenes
+
+
+def scene_task(store: Store, cfg: RunConfig, runner: Any, scene: str) -> None:
+    """Convert, observe, perceive and annotate one scene (each step skipped when already done)."""
+    src = scene_inputs(store, cfg)[scene]
+    sdir = f"scenes/{scene}"
+    seed = _scene_seed(cfg, scene)
+    if not src:
+        src = _write_world_scene(store, cfg, runner, scene)
+    src_path = Path(src)
+    if not src_path.exists():
+        raise InputError(src_path, "scene file not found")
+
+    def convert() -> list[str]:
+        from assets_convert.scene import convert_scene
+
+        asset = convert_scene(src_path, store.root, name=scene, units=cfg.convert.units, up=cfg.convert.up,
+                              texture_max_size=cfg.convert.texture_max_size)
+        save_json(asset, store.path(f"{sdir}/scene.json"))
+        return [f"{sdir}/scene.json", asset.mjcf, asset.mesh]
+
+    runner.run(f"{sdir}/convert", ["convert-scene", file_hash(src_path), to_dict(cfg.convert)], convert)
+    asset = load_json(store.path(f"{sdir}/scene.json"), SceneAsset)
+
+    def observe() -> list[str]:
+        from .observe import observe_scene
+
+        summary = observe_scene(asset, store.root, f"{sdir}/observe", cfg.observe, seed=seed)
+        return list(summary["outputs"])
+
+    runner.run(f"{sdir}/observe", ["observe", _fp_of(store, f"{sdir}/convert"), to_dict(cfg.observe), seed], observe)
+
+    def perceive() -> list[str]:
+        from .observe import load_shards
+        from .perceive import perceive_scene
+        from .receptacles import find_receptacle_planes
+
+        shards = sorted(store.path(f"{sdir}/observe").glob("*.npz"))
+        instances = perceive_scene(load_shards(shards), asset, cfg.perceive, seed=seed)
+        save_npz(instances, store.path(f"{sdir}/perceive/instances.npz"))
+        planes = find_receptacle_planes(instances, cfg.receptacles)
+        save_json(planes, store.path(f"{sdir}/perceive/planes.json"))
+        return [f"{sdir}/perceive/instances.npz", f"{sdir}/perceive/planes.json"]
+
+    runner.run(f"{sdir}/perceive", ["perceive", _fp_of(store, f"{sdir}/observe"), to_dict(cfg.perceive),
+                                    to_dict(cfg.receptacles), seed], perceive)
+
+    def semantics() -> list[str]:
+        from .semantics import get_backend, region_map, region_picture, relevance
+
+        instances: list[Instance] = load_npz(store.path(f"{sdir}/perceive/instances.npz"))  # type: ignore[assignment]
+        planes: list[ReceptaclePlane] = load_json(store.path(f"{sdir}/perceive/planes.json"), ReceptaclePlane)
+        navmaps = load_navmaps(store, scene)
+        backend = get_backend(cfg.semantics, cache_dir=store.path("cache/llm") if cfg.semantics.cache else None)
+        outs: list[str] = []
+        maps = {}
+        for nm in navmaps:
+            rm = region_map(instances, nm, backend, cfg.semantics)
+            maps[nm.floor] = (nm, rm)
+            rel = f"{sdir}/semantics/regions_{nm.floor}.json"
+            save_json(rm, store.path(rel))
+            region_picture(rm, store.path(f"{sdir}/semantics/regions_{nm.floor}.png"), navmap=nm)
+            outs += [rel, f"{sdir}/semantics/regions_{nm.floor}.png"]
+        annotated = [_annotate_plane(p, maps) for p in planes]
+        save_json(annotated, store.path(f"{sdir}/semantics/planes.json"))
+        categories = sorted({o.category for o in load_objects(store)})
+        regions = sorted({p.region for p in annotated if p.region} | set(cfg.semantics.region_labels))
+        receptacles = sorted({p.label for p in annotated})
+        rel = relevance(categories, regions, receptacles, backend)
+        save_json(rel, store.path(f"{sdir}/semantics/relevance.json"))
+        return outs + [f"{sdir}/semantics/planes.json", f"{sdir}/semantics/relevance.json"]
+
+    runner.run(f"{sdir}/semantics", ["semantics", _fp_of(store, f"{sdir}/perceive"), _fp_of(store, "objects"),
+                                     to_dict(cfg.semantics)], semantics)
+
+
+def _write_world_scene(store: Store, cfg: RunConfig, runner: Any, scene: str) -> str:
+    """Write a default-world apartment as an input file; return its path."""
+    from .world import generate_apartment, write_apartment
+
+    seed = int(scene.split("_")[-1])
+    rel_dir = f"inputs/scenes/{scene}"
+    w = cfg.world
+
+    def make() -> list[str]:
+        apt = generate_apartment(seed, floors=w.floors or None)
+        mesh = write_apartment(apt, store.path(rel_dir), mode=w.scene_mode, name=scene)
+        return sorted(store.rel(p) for p in store.path(rel_dir).iterdir() if p.is_file() and not p.name.startswith(".")) or [store.rel(mesh)]
+
+    runner.run(rel_dir, ["world-apartment", seed, w.floors, w.scene_mode], make)
+    mark = store.mark(rel_dir)
+    assert mark is not None
+    mesh = [o for o in mark.outputs if o.endswith((".glb", ".ply")) and not o.endswith(".segs.json")]
+    if not mesh:
+        raise StageError(f"default-world apartment {scene} wrote no mesh")
+    return str(store.path(mesh[0]))
+
+
+def _fp_of(store: Store, stage: str) -> str:
+    """Return the fingerprint a finished stage recorded ('' when not finished)."""
+    m = store.mark(stage)
+    return m.fingerprint if m else ""
+
+
+def _annotate_plane(plane: ReceptaclePlane, maps: dict[int, tuple[NavMap, Any]]) -> ReceptaclePlane:
+    """Return the plane with its floor (nearest floor below it) and region (region map at its centre)."""
+    floor, best = plane.floor, None
+    for f, (nm, _rm) in maps.items():
+        dz = plane.height - nm.height
+        if dz >= -0.05 and (best is None or dz < best):
+            floor, best = f, dz
+    region = plane.region
+    if floor in maps:
+        import numpy as np
+
+        rm = maps[floor][1]
+        region = rm.region_at(np.asarray(plane.polygon, float).mean(axis=0)) or _nearest_region(rm, plane) or region
+    return dataclasses.replace(plane, floor=floor, region=region)
+
+
+def _nearest_region(rm: Any, plane: ReceptaclePlane) -> str:
+    """Return the region label of the labelled cell nearest to a plane's centre ('' if none)."""
+    import numpy as np
+
+    rows, cols = np.nonzero(rm.label_map >= 0)
+    if len(rows) == 0:
+        return ""
+    c = np.asarray(plane.polygon, float).mean(axis=0)
+    xy = np.stack([rm.origin[0] + (cols + 0.5) * rm.resolution, rm.origin[1] + (rows + 0.5) * rm.resolution], 1)
+    k = int(np.argmin(((xy - c) ** 2).sum(1)))
+    return rm.labels[int(rm.label_map[rows[k], cols[k]])]
+
+
+def load_navmaps(store: Store, scene: str) -> list[NavMap]:
+    """Return a scene's NavMaps sorted by floor."""
+    maps = [load_json(p, NavMap) for p in sorted(store.path(f"scenes/{scene}/observe").glob("navmap_*.json"))]
+    return sorted(maps, key=lambda m: m.floor)
+
+
+# ----------------------------------------------------------------------------------------------
+# Variants
+
+
+def variant_task(store: Store, cfg: RunConfig, runner: Any, scene: str, index: int) -> None:
+    """Place, settle and derive episodes for one variant of a scene."""
+    from .place import variant_seed
+
+    sdir = f"scenes/{scene}"
+    name = f"{scene}_v{index:03d}"
+    vdir = f"{sdir}/variants/{name}"
+    seed = variant_seed(_scene_seed(cfg, scene), index)
+
+    def place() -> list[str]:
+        from .place import place_variant
+
+        asset = load_json(store.path(f"{sdir}/scene.json"), SceneAsset)
+        planes = load_json(store.path(f"{sdir}/semantics/planes.json"), ReceptaclePlane)
+        rel = load_json(store.path(f"{sdir}/semantics/relevance.json"), Relevance)
+        variant = place_variant(asset, planes, rel, load_objects(store), store.root, cfg.place, seed, index)
+        return [f"{vdir}/variant.json", variant.mjcf]
+
+    runner.run(f"{vdir}/place", ["place", _fp_of(store, f"{sdir}/semantics"), _fp_of(store, "objects"),
+                                 to_dict(cfg.place), seed], place)
+
+    def episodes() -> list[str]:
+        from .episodes import generate_episodes
+
+        variant = load_json(store.path(f"{vdir}/variant.json"), SceneVariant)
+        eps = generate_episodes(variant, load_navmaps(store, scene), store.root, cfg.episodes, seed)
+        save_json(eps, store.path(f"{vdir}/episodes.json"))
+        return [f"{vdir}/episodes.json"]
+
+    runner.run(f"{vdir}/episodes", ["episodes", _fp_of(store, f"{vdir}/place"), to_dict(cfg.episodes), seed], episodes)
+
+
+# ----------------------------------------------------------------------------------------------
+# Export and statistics
+
+
+def export_task(store: Store, cfg: RunConfig, runner: Any, fmt: str) -> None:
+    """Run one exporter plugin into `export/<fmt>/` (redone whenever the run's records change)."""
+    from exporters.base import ExportOptions, RunView, run_export
+
+    from . import plugins
+
+    view = RunView(store.root)
+    out = store.path(f"export/{fmt}")
+
+    def make() -> list[str]:
+        if out.exists():
+            shutil.rmtree(out)  # our own folder: an older export of this run is replaced whole
+        exporter = plugins.load("exporter", fmt)()
+        report = run_export(exporter, view, out, ExportOptions(name=cfg.name, split=cfg.split))
+        store.write_json(f"export/{fmt}.report.json", {"format": report.format, "variants": report.variants,
+                                                       "skipped": report.skipped, "episodes": report.episodes})
+        return [f"export/{fmt}.report.json"] + [f"export/{fmt}/{f}" for f in report.files]
+
+    runner.run(f"export/{fmt}.stage", ["export", fmt, view.run_id(), cfg.name, cfg.split, config_hash(cfg.episodes)], make)
+
+
+def write_statistics(store: Store, cfg: RunConfig, summary: Any) -> None:
+    """Write dataset statistics, tables and charts into `stats/`."""
+    from . import stats
+
+    stats.write_statistics(store.root)
+
+
+def summary_table(summary: Any) -> str:
+    """Return the end-of-run summary (scenes, variants, categories, episodes, rejections, seconds per stage)."""
+    from . import stats
+
+    st = stats.dataset_statistics(Path(summary.run_root))
+    lines = [stats.summary_table(st), "", "seconds per stage (this run; 0 = skipped, already done):"]
+    for k, v in sorted(summary.seconds.items(), key=lambda kv: -kv[1]):
+        lines.append(f"  {k:<12} {v:8.2f}")
+    if summary.failures:
+        lines.append("")
+        lines.append("failed tasks:")
+        for r in summary.failures:
+            lines.append(f"  {r.spec.label}: {r.error}")
+    return "\n".join(lines)
