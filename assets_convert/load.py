@@ -363,7 +363,7 @@ def load_mesh(path: str | Path, units: str | float = "auto", up: str = "auto", k
     size = ext_file * scale
     limit = OBJECT_MAX_SIZE if kind == "object" else SCENE_MAX_SIZE
     if size > limit:
-        raise InputError(where, f"mesh is {size:.4g} m across ({rule}), larger than the {limit:g} m limit for an {kind}; "
+        raise InputError(where, f"mesh is {size:,.6g} m across ({rule}), larger than the {limit:g} m limit for an {kind}; "
                                 "check the units")
     if size < MIN_SIZE:
         raise InputError(where, f"mesh is only {size:.3g} m across ({rule}); check the units")

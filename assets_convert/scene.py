@@ -122,7 +122,7 @@ def _placements_parts(path: Path, placements: Path, units: str, up: str) -> tupl
 
 def _node_instance_id(node: str) -> int | None:
     """Return k for a node named 'instance_<k>'."""
-    m = re.match(r"^instance_(\d+)$", node)
+    m = re.match(r"^instance_(\d+)(?:_[0-9a-f]{6})?$", node)  # trimesh suffixes multi-primitive nodes
     return int(m.group(1)) if m else None
 
 

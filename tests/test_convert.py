@@ -1,0 +1,372 @@
+"""assets_convert: shared objects and scenes to MJCF, default-world scenes, bad inputs, cache, CLI."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mujoco
+
+from assets_convert import convert_object, convert_scene, convert_tree
+from assets_convert.collision import floor_boxes, heightfield_from_mesh
+from assets_convert.object import convert_object_report, density_for
+from assets_convert.textures import surface_mean_color
+from sdovon_mj.sim.model import geom_segment_ids, load_scene_mesh
+
+# a representative subset converted in the default run (OBJ m/cm, GLB, glTF, textured/untextured, convex/CoACD)
+SUBSET = ["ycb_004_sugar_box", "ycb_061_foam_brick", "habitat_sphere", "bullet_banana", "pybullet_mug",
+          "replicacad_chair", "drake_plate_8in"]
+
+
+def _manifest(shared: Path) -> dict[str, dict]:
+    return {it["id"]: it for it in json.loads((shared / "MANIFEST.json").read_text())["items"]}
+
+
+def _convert_set(shared: Path, out: Path, ids: list[str]) -> dict[str, dict]:
+    """Convert manifest objects with convert_tree (2 workers, shared cache); return rows by id."""
+    man = _manifest(shared)
+    files = [shared / man[i]["main_file"] for i in ids]
+    report = convert_tree(files, out, jobs=2, progress=False, categories={str(f): man[i]["category"] for f, i in zip(files, ids)})
+    rows = {}
+    for i, f in zip(ids, files):
+        rows[i] = next(r for r in report["items"] if r["file"] == str(f))
+    return rows
+
+
+@pytest.fixture(scope="session")
+def converted(shared_assets: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, dict]]:
+    out = tmp_path_factory.mktemp("objects_out")
+    return out, _convert_set(shared_assets, out, SUBSET)
+
+
+def _drop_model(xml: Path, drop: float = 0.01) -> mujoco.MjModel:
+    """Compile an object on a plane with a freejoint, `drop` metres above it."""
+    text = xml.read_text()
+    assets = (xml.parent / "assets").resolve()
+    text = text.replace('meshdir="assets" texturedir="assets"', f'meshdir="{assets}" texturedir="{assets}"')
+    text = text.replace('<body name="object">', f'<body name="object" pos="0 0 {drop}"><freejoint/>')
+    text = text.replace("<worldbody>", '<option timestep="0.002" integrator="implicitfast"/>\n<worldbody>\n'
+                                       '<geom name="floor" type="plane" size="5 5 0.1"/>', 1)
+    return mujoco.MjModel.from_xml_string(text)
+
+
+def _collision_min_z(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """Return the lowest world z over all collision hull vertices."""
+    zmin = np.inf
+    for g in range(model.ngeom):
+        if model.geom_group[g] != 3 or model.geom_dataid[g] < 0:
+            continue
+        m = model.geom_dataid[g]
+        v = model.mesh_vert[model.mesh_vertadr[m]:model.mesh_vertadr[m] + model.mesh_vertnum[m]]
+        w = v @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g]
+        zmin = min(zmin, float(w[:, 2].min()))
+    return zmin
+
+
+def _check_object(out: Path, row: dict, manifest_item: dict) -> None:
+    assert row["status"] == "ok", row
+    xml = out / row["mjcf"]
+    model = mujoco.MjModel.from_xml_path(str(xml))
+    asset = json.loads((xml.parent / "asset.json").read_text())
+    # no joint in the object file; visual group 2 without contacts or mass; hulls in group 3
+    assert model.njnt == 0
+    vis = model.geom_group == 2
+    assert vis.any() and (model.geom_contype[vis] == 0).all() and (model.geom_conaffinity[vis] == 0).all()
+    assert (model.geom_group == 3).sum() == row["hulls"] >= 1
+    # mass: hull volume (measured here from the written hull files) x the category density, within 25 %
+    import trimesh
+
+    vol = sum(trimesh.load(xml.parent / "assets" / f"collision_{k}.obj", process=False).convex_hull.volume
+              for k in range(row["hulls"]))
+    expect = vol * density_for(manifest_item["category"])
+    body = model.body("object").id
+    assert abs(model.body_mass[body] - expect) <= 0.25 * expect, (model.body_mass[body], expect)
+    assert abs(asset["mass"] - model.body_mass[body]) < 1e-3 * expect + 1e-9
+    # base at z = 0, centred in XY
+    lo, hi = np.frombuffer(__import__("base64").b64decode(asset["bbox"]["__ndarray__"]), dtype=asset["bbox"]["dtype"]).reshape(2, 3)
+    assert abs(lo[2]) < 1e-6 and np.allclose((lo[:2] + hi[:2]) / 2, 0, atol=1e-6)
+    # dropped onto a plane: at rest within 2 s, not sinking more than 5 mm
+    dm = _drop_model(xml)
+    data = mujoco.MjData(dm)
+    while data.time < 2.0:
+        mujoco.mj_step(dm, data)
+    assert np.linalg.norm(data.qvel[:3]) < 0.02 and np.linalg.norm(data.qvel[3:]) < 0.3, data.qvel
+    assert _collision_min_z(dm, data) > -0.005
+    if manifest_item.get("textured") and model.ntex > 0:
+        _check_texture_render(xml, model)
+
+
+def _check_texture_render(xml: Path, model: mujoco.MjModel) -> None:
+    """Rendered mean colour (flat ambient light) ~ the texture's mean colour over the mesh surface."""
+    from PIL import Image
+
+    model.vis.headlight.ambient[:] = 1.0
+    model.vis.headlight.diffuse[:] = 0.0
+    model.vis.headlight.specular[:] = 0.0
+    model.mat_specular[:] = 0.0
+    model.mat_reflectance[:] = 0.0
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    r = mujoco.Renderer(model, 240, 320)
+    cam = mujoco.MjvCamera()
+    lo, hi = model.stat.center - model.stat.extent, model.stat.center + model.stat.extent
+    cam.lookat[:] = model.stat.center
+    cam.distance = 2.2 * model.stat.extent
+    pix, segs = [], []
+    for az in (0, 90, 180, 270):
+        for el in (-35, -10):
+            cam.azimuth, cam.elevation = az, el
+            r.update_scene(data, cam)
+            pix.append(r.render().reshape(-1, 3).astype(float))
+            r.enable_segmentation_rendering()
+            r.update_scene(data, cam)
+            segs.append(r.render()[..., 0].ravel())
+            r.disable_segmentation_rendering()
+    r.close()
+    pix_all = np.concatenate(pix)
+    seg_all = np.concatenate(segs)
+    rendered = pix_all[seg_all >= 0].mean(axis=0)
+    # expected: area-weighted texture colour x material rgba over the textured visual meshes
+    cols, areas = [], []
+    for g in range(model.ngeom):
+        if model.geom_group[g] != 2:
+            continue
+        name = model.geom(g).name
+        mat = model.geom_matid[g]
+        tex = model.mat_texid[mat][mujoco.mjtTextureRole.mjTEXROLE_RGB] if mat >= 0 else -1
+        v, f, uv = _read_obj(xml.parent / "assets" / f"{name}.obj")
+        tri = v[f]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+        rgba = model.mat_rgba[mat] if mat >= 0 else np.ones(4)
+        if tex >= 0 and uv is not None:
+            png = next((xml.parent / "assets").glob(f"{model.texture(tex).name}.png"))
+            c = surface_mean_color(Image.open(png), v, f, uv)
+        else:
+            c = np.full(3, 255.0)
+        cols.append(c * rgba[:3])
+        areas.append(area)
+    expected = np.average(np.array(cols), axis=0, weights=areas)
+    if np.abs(rendered - expected).max() < 30:
+        return
+    # furniture with hidden interior faces (a cabinet's inside) darkens the area-weighted mean: then the
+    # hue must still match and the brightness be within 60 %
+    chroma = np.abs(rendered / rendered.sum() - expected / expected.sum()).max()
+    assert chroma < 0.03 and 0.6 < rendered.sum() / expected.sum() < 1.6, (rendered, expected)
+
+
+def _read_obj(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    v, vt, f = [], [], []
+    for line in path.read_text().splitlines():
+        if line.startswith("v "):
+            v.append([float(x) for x in line.split()[1:4]])
+        elif line.startswith("vt "):
+            vt.append([float(x) for x in line.split()[1:3]])
+        elif line.startswith("f "):
+            f.append([int(t.split("/")[0]) - 1 for t in line.split()[1:4]])
+    return np.array(v), np.array(f), (np.array(vt) if vt else None)
+
+
+@pytest.mark.parametrize("oid", SUBSET)
+def test_shared_object_converts_compiles_renders_settles(converted, shared_assets, oid):
+    out, rows = converted
+    _check_object(out, rows[oid], _manifest(shared_assets)[oid])
+
+
+@pytest.mark.slow
+def test_every_shared_object(shared_assets, tmp_path):
+    man = _manifest(shared_assets)
+    ids = sorted(i for i, it in man.items() if it["kind"] in ("object", "furniture"))
+    rows = _convert_set(shared_assets, tmp_path, ids)
+    for oid in ids:
+        _check_object(tmp_path, rows[oid], man[oid])
+
+
+def _extents(out: Path, row: dict) -> np.ndarray:
+    a = json.loads((out / row["mjcf"]).with_name("asset.json").read_text())
+    lo, hi = np.frombuffer(__import__("base64").b64decode(a["bbox"]["__ndarray__"]), dtype=a["bbox"]["dtype"]).reshape(2, 3)
+    return hi - lo
+
+
+def test_units_and_up_axis_match_manifest(converted, shared_assets):
+    out, rows = converted
+    man = _manifest(shared_assets)
+    # IsaacGymEnvs YCB in centimetres -> metres, +Z up kept
+    brick = man["ycb_061_foam_brick"]
+    assert np.allclose(_extents(out, rows["ycb_061_foam_brick"]), np.array(brick["extents_file_units"]) * 0.01, rtol=0.01)
+    # glTF +Y up -> Z up: file (x, y, z) extents become (x, z, y)
+    for oid in ("habitat_sphere", "replicacad_chair"):
+        e = np.array(man[oid]["extents_file_units"])
+        assert np.allclose(_extents(out, rows[oid]), e[[0, 2, 1]], rtol=0.01), oid
+    assert _extents(out, rows["replicacad_chair"])[2] == pytest.approx(0.9005, rel=0.01)  # chair stands 0.9 m tall
+
+
+def test_cache_hit_and_deterministic(converted, shared_assets, tmp_path):
+    out, rows = converted
+    src = shared_assets / _manifest(shared_assets)["bullet_banana"]["main_file"]
+    a, info = convert_object_report(src, tmp_path, category="banana")
+    assert info["cache_hit"] is True
+    first = (out / rows["bullet_banana"]["mjcf"]).read_bytes()
+    assert (tmp_path / a.mjcf).read_bytes() == first
+    assert a.hull_count == rows["bullet_banana"]["hulls"]
+    # a different parameter misses the cache (and converts without it)
+    b, info2 = convert_object_report(src, tmp_path / "d", category="banana", density=321.0, cache_dir="off")
+    assert info2["cache_hit"] is False and b.mass == pytest.approx(321.0 * b.volume)
+
+
+def _write(path: Path, text: str | bytes) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    (path.write_bytes if isinstance(text, bytes) else path.write_text)(text)
+    return path
+
+
+TETRA = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+
+
+def test_bad_inputs_named_and_batch_continues(shared_assets, tmp_path):
+    d = tmp_path / "in"
+    _write(d / "empty.obj", "")
+    sphere = (shared_assets / "objects/ball/habitat_sphere/sphere.glb").read_bytes()
+    _write(d / "truncated.glb", sphere[: len(sphere) // 3])
+    _write(d / "nan.obj", TETRA.replace("v 0.1 0 0", "v nan 0 0"))
+    _write(d / "flat.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n")
+    _write(d / "notex.obj", "mtllib notex.mtl\nusemtl a\n" + TETRA)
+    _write(d / "notex.mtl", "newmtl a\nKd 1 1 1\nmap_Kd gone.png\n")
+    _write(d / "huge.obj", TETRA.replace("0.1", "10000"))
+    _write(d / "good.obj", TETRA)
+    bad_name = os.fsdecode(b"caf\xe9.obj")
+    _write(d / bad_name, TETRA)
+    report = convert_tree(d, tmp_path / "out", jobs=2, progress=False, cache_dir="off")
+    rows = {Path(r["file"]).name: r for r in report["items"]}
+    expect = {"empty.obj": "empty file", "truncated.glb": "truncated GLB", "nan.obj": "NaN",
+              "flat.obj": "flat mesh", "notex.obj": "gone.png", "huge.obj": "implausible",
+              "caf\\xe9.obj": "not valid UTF-8"}
+    for name, cause in expect.items():
+        assert rows[name]["status"] == "error" and cause in rows[name]["error"], rows[name]
+    assert rows["good.obj"]["status"] == "ok"
+    assert report["failed"] == len(expect) and report["ok"] == 1
+    saved = json.loads((tmp_path / "out" / "convert_report.json").read_text())
+    assert saved["failed"] == len(expect)
+    # explicit metres on the 10 km mesh: still refused, naming the size
+    from sdovon_mj.errors import InputError
+
+    with pytest.raises(InputError, match="huge.obj.*10,000 m across"):
+        convert_object(d / "huge.obj", tmp_path / "o", units="m", cache_dir="off")
+
+
+def test_timeout_kills_worker_and_batch_continues(shared_assets, tmp_path):
+    d = tmp_path / "in"
+    _write(d / "a_good.obj", TETRA)
+    src = shared_assets / "objects/mug/pybullet_mug"
+    for f in src.iterdir():
+        _write(d / "b_mug" / f.name, f.read_bytes())
+    report = convert_tree(d, tmp_path / "out", jobs=1, timeout=4.0, progress=False, cache_dir="off")
+    rows = {Path(r["file"]).name: r for r in report["items"]}
+    assert rows["mug.obj"]["status"] == "error" and "timeout" in rows["mug.obj"]["error"]
+    assert rows["a_good.obj"]["status"] == "ok"
+
+
+def _inside(b: np.ndarray, lo: np.ndarray, hi: np.ndarray, tol: float = 0.02) -> bool:
+    return bool(np.all(b[0] >= lo - tol) and np.all(b[1] <= hi + tol))
+
+
+def test_shared_scenes(shared_assets, tmp_path):
+    simple = convert_scene(shared_assets / "scenes/simple_room/simple_room.glb", tmp_path, up="+Z")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / simple.mjcf))
+    assert (m.geom_contype == 0).all() and (m.geom_conaffinity == 0).all() and m.nbody == 1
+    assert len(simple.instances) == 7
+    floor = min(simple.instances, key=lambda i: i.bounds[1, 2])
+    assert floor.bounds[1, 2] == pytest.approx(0.15, abs=0.01) and np.ptp(floor.bounds[:, 0]) > 10  # Z up kept
+    room = convert_scene(shared_assets / "scenes/furnished_living_room/living_room.gltf", tmp_path)
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / room.mjcf))
+    assert m.vis.map.znear * m.stat.extent < 0.05 and m.nlight >= 1
+    labels = {i.label for i in room.instances}
+    placements = json.loads((shared_assets / "scenes/furnished_living_room/placements.json").read_text())
+    furniture = [p["name"].replace("_", " ") for p in placements["instances"] if p.get("object_id")]
+    assert set(furniture) <= labels and {"floor", "door", "curtain"} <= labels
+    walls = [i for i in room.instances if i.label == "walls"]
+    wl = np.min([w.bounds[0] for w in walls], axis=0)
+    wh = np.max([w.bounds[1] for w in walls], axis=0)
+    for name in furniture:
+        inst = next(i for i in room.instances if i.label == name)
+        assert _inside(inst.bounds, wl, wh), (name, inst.bounds, wl, wh)
+        assert inst.bounds[0, 2] == pytest.approx(0.0, abs=0.02)  # stands on the floor
+    # segmentation ids of geoms follow the instance ids; ceilings are group 1
+    seg = geom_segment_ids(m)
+    for inst in room.instances:
+        for g in inst.geoms:
+            assert seg[m.geom(g).id] == inst.id
+    ceiling = next(i for i in room.instances if i.label == "ceiling")
+    assert m.geom_group[m.geom(ceiling.geoms[0]).id] == 1
+    v, f, fi = load_scene_mesh(tmp_path / room.mesh)
+    assert len(f) == len(fi) and set(np.unique(fi)) == {i.id for i in room.instances}
+    # renders lit (not black) from inside the room
+    r = mujoco.Renderer(m, 120, 160)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    cam = mujoco.MjvCamera()
+    cam.lookat[:] = [0, 0, 1.0]
+    cam.distance, cam.azimuth, cam.elevation = 2.0, 90, -20
+    r.update_scene(d, cam)
+    assert r.render().mean() > 40
+    r.close()
+
+
+def test_default_world_apartment_clean_and_scan(tmp_path):
+    world = pytest.importorskip("sdovon_mj.world")
+    apt = world.generate_apartment(0)
+    for mode in ("clean", "scan"):
+        path = world.write_apartment(apt, tmp_path / mode, mode=mode)
+        side = json.loads(next((tmp_path / mode).glob("*.semantics.json")).read_text())
+        asset = convert_scene(path, tmp_path / f"out_{mode}")
+        m = mujoco.MjModel.from_xml_path(str(tmp_path / f"out_{mode}" / asset.mjcf))
+        labels = {d["id"]: d["label"] for d in side["instances"]}
+        got = {i.id: i.label for i in asset.instances}
+        assert got and all(labels[k] == v for k, v in got.items() if k in labels)
+        assert len(set(got) & set(labels)) >= 0.9 * len(labels)
+        seg = geom_segment_ids(m)
+        for inst in asset.instances[:50]:
+            assert all(seg[m.geom(g).id] == inst.id for g in inst.geoms)
+        assert len(asset.rooms) == len(side["rooms"]) and len(asset.floors) == len(side["floors"])
+        assert len(asset.support_surfaces) == sum(len(d["support_surfaces"]) for d in side["instances"])
+        # Z up in metres: the scene sits on z ~ 0 with storeys a few metres tall
+        assert abs(asset.bounds[0, 2]) < 0.2 and 2.0 < asset.bounds[1, 2] < 10.0
+
+
+def test_world_object_library_objects(tmp_path):
+    world = pytest.importorskip("sdovon_mj.world")
+    if not hasattr(world, "write_object_library"):
+        pytest.skip("object library not built")
+    paths = world.write_object_library(0, tmp_path / "lib", variants=1)
+    picked = sorted(paths)[:2]
+    for p in picked:
+        a = convert_object(p, tmp_path / "out")
+        m = mujoco.MjModel.from_xml_path(str(tmp_path / "out" / a.mjcf))
+        assert m.body("object").id > 0 and a.hull_count >= 1 and a.mass > 0
+        assert a.category == json.loads((Path(p).parent / "meta.json").read_text())["category"]
+
+
+def test_collision_helpers():
+    import trimesh
+
+    box = trimesh.creation.box(extents=[1.0, 1.0, 0.5])
+    box.apply_translation([0, 0, 0.25])
+    h, spec = heightfield_from_mesh(box.vertices, box.faces, (-0.4, -0.4, 0.4, 0.4), 0.05)
+    assert np.allclose(h, 0.5) and spec["nrow"] == h.shape[0]
+    h2, _ = heightfield_from_mesh(box.vertices, box.faces, (0.2, 0.2, 1.0, 1.0), 0.1)
+    assert h2.max() == pytest.approx(0.5) and h2.min() < 0.5
+    fb = floor_boxes([0.0, 3.0], (0, 0, 4, 5), thickness=0.1)
+    assert fb[1]["pos"][2] + fb[1]["size"][2] == pytest.approx(3.0)
+
+
+def test_cli_convert(tmp_path):
+    from sdovon_mj.cli import main
+
+    src = _write(tmp_path / "in" / "thing.obj", TETRA)
+    assert main(["convert", str(src), "--out", str(tmp_path / "out"), "--category", "toy", "--no-progress",
+                 "--cache", "off"]) == 0
+    assert (tmp_path / "out" / "objects" / "thing" / "model.xml").is_file()
+    assert main(["convert", str(tmp_path / "missing.obj"), "--out", str(tmp_path / "o2"), "--no-progress"]) == 1
