@@ -92,16 +92,44 @@ class StageRunner:
             self.result.skipped.append(key)
             return False
         self.store.invalidate(key)
+        reset_peak_rss()
         with Timer() as t:
             outputs = fn()
         self.store.mark_done(key, fp, outputs, t.seconds)
         self.result.seconds[short] = self.result.seconds.get(short, 0.0) + t.seconds
+        peaks = self.result.counters.setdefault("peak_rss_mb", {})
+        peaks[short] = max(peaks.get(short, 0.0), peak_rss_mb())
         return True
+
+
+def reset_peak_rss() -> None:
+    """Reset this process's peak resident memory (Linux clear_refs; a no-op elsewhere)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+
+
+def peak_rss_mb() -> float:
+    """Return this process's peak resident memory in MiB since the last reset (else since start)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return round(int(line.split()[1]) / 1024.0, 1)
+    except OSError:
+        pass
+    import resource
+
+    return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
 
 
 def run_task(spec: TaskSpec) -> TaskResult:
     """Execute one task in this process; failures are returned, never raised."""
     os.environ.setdefault("MUJOCO_GL", "egl")
+    if not sys.stderr.isatty():  # model loaders' progress bars would flood non-interactive logs
+        os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")
     result = TaskResult(spec, ok=True)
     try:
         from . import stages
@@ -333,7 +361,8 @@ def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
     timings = {
         "stage_seconds": {k: round(v, 3) for k, v in sorted(summary.seconds.items())},
         "tasks": [{"task": r.spec.label, "ok": r.ok, "seconds": {k: round(v, 3) for k, v in r.seconds.items()},
-                   "skipped": r.skipped, "attempts": r.attempts} for r in summary.results],
+                   "skipped": r.skipped, "attempts": r.attempts,
+                   "peak_rss_mb": r.counters.get("peak_rss_mb", {})} for r in summary.results],
         "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
     }
     store.write_json("timings.json", timings)

@@ -90,6 +90,14 @@ def _object_inputs(store: Store, cfg: RunConfig, runner: Any) -> list[tuple[Path
     return [(store.path(o), _meta_category(store.path(o))) for o in mark.outputs if o.endswith((".obj", ".glb", ".ply"))]
 
 
+def _input_name(store: Store, path: Path) -> str:
+    """Return an input file's name for fingerprints: store-relative inside the run folder, else absolute."""
+    try:
+        return store.rel(path)
+    except ValueError:
+        return str(Path(path).resolve())
+
+
 def _meta_category(path: Path) -> str | None:
     """Return the category named by a meta.json beside an object file, if any."""
     meta = path.parent / "meta.json"
@@ -108,7 +116,9 @@ def objects_task(store: Store, cfg: RunConfig, runner: Any) -> None:
     from .errors import SdovonError
 
     items = _object_inputs(store, cfg, runner)
-    fp = ["objects", to_dict(cfg.convert), [(str(p), c, file_hash(p)) for p, c in items]]
+    # Inputs inside the run folder are named relative to it, so the fingerprint (and the manifest) does
+    # not depend on where the run folder lives.
+    fp = ["objects", to_dict(cfg.convert), [(_input_name(store, p), c, file_hash(p)) for p, c in items]]
 
     def make() -> list[str]:
         assets: list[ObjectAsset] = []
