@@ -91,6 +91,8 @@ class ObserveConfig:
     obstacle_max_height: float = _p(0.0, "m", "geometry below floor + this blocks the agent (band mode; 0: agent_height)")
     coverage_combine: str = _p("add", "-", "how a viewpoint's Gaussian is overlaid on M_P: add (sum, clipped to 1) or max")
     frames_per_shard: int = _p(24, "-", "observations per compressed npz shard")
+    camera_heights: tuple[float, ...] = _p((2.0,), "m", "extra camera heights above the floor, rendered at every viewpoint and yaw with camera_height_pitches besides agent_height (the agent camera cannot see the tops of shelves above it); empty: agent_height only")
+    camera_height_pitches: tuple[float, ...] = _p((-40.0,), "deg", "camera pitch angles at the extra camera_heights (negative looks down)")
 
 
 @dataclass(frozen=True)
@@ -145,6 +147,9 @@ class ReceptacleConfig:
     min_clearance: float = _p(0.10, "m", "free height needed above a plane; receptacle points in (eps_t, this] above it count as covering")
     max_covered: float = _p(0.5, "-", "planes with more than this fraction of their points covered from just above are rejected (undersides)")
     clearance_radius: float = _p(0.015, "m", "XY radius within which a receptacle point above a plane point covers it")
+    fit_band: float = _p(0.01, "m", "final fit and polygon use the densest layer of this half-thickness (vertical faces within eps_t excluded); 0: off")
+    min_width: float = _p(0.15, "m", "support regions narrower than this are cut off (strips around a sink, points seen through a gap); real shelves are >= 0.2 m deep")
+    open_cell: float = _p(0.025, "m", "XY grid cell of the min_width opening")
     coverage_cell: float = _p(0.05, "m", "XY grid cell for plane connectivity, hull coverage and clearance tests")
     min_coverage: float = _p(0.5, "-", "planes whose hull cells hold inlier points less often than this are rejected (slabs through legs or walls)")
     min_clearance: float = _p(0.10, "m", "free height needed above a plane; receptacle points in (eps_t, this] above it count as covering")

@@ -198,7 +198,11 @@ def test_backprojected_depth_lies_on_scene_surfaces(two_storey):
     cfg = dataclasses.replace(ObserveConfig(), width=160, height=120, yaw_steps=3, pitch_angles=(-30.0, 0.0))
     vps = [Viewpoint(floor=0, position=np.array([2.0, 4.0, 0.88])), Viewpoint(floor=1, position=np.array([6.0, 2.5, 3.68]))]
     obs = list(render_observations(scene, vps, cfg, store_root=root))
-    assert len(obs) == 2 * 3 * 2 and [o.view_id for o in obs] == list(range(12))
+    per_vp = 3 * (2 + len(cfg.camera_heights) * len(cfg.camera_height_pitches))
+    assert len(obs) == 2 * per_vp and [o.view_id for o in obs] == list(range(2 * per_vp))
+    # the raised camera views come after the agent-height ones, at floor + camera_heights
+    z = [float(o.T_cam[2, 3]) for o in obs[:per_vp]]
+    assert np.allclose(z[:6], 0.88) and np.allclose(z[6:], cfg.camera_heights[0])
     rng = np.random.default_rng(0)
     seg_ok = seg_n = 0
     medians: list[float] = []
@@ -248,7 +252,7 @@ def test_observe_scene_writes_everything_deterministically(two_storey, tmp_path)
     s1 = observe_scene(scene, root, "observe", cfg, seed=3, out_root=tmp_path / "a")
     s2 = observe_scene(scene, root, "observe", cfg, seed=3, out_root=tmp_path / "b")
     assert [fl["height"] for fl in s1["floors"]] == [0.0, 2.8]
-    assert s1["frames"] == s1["viewpoints"] * 2 and len(s1["shards"]) == -(-s1["frames"] // 5)
+    assert s1["frames"] == s1["viewpoints"] * 2 * (1 + len(cfg.camera_heights) * len(cfg.camera_height_pitches)) and len(s1["shards"]) == -(-s1["frames"] // 5)
     for rel in s1["outputs"]:
         assert (tmp_path / "a" / rel).read_bytes() == (tmp_path / "b" / rel).read_bytes(), rel
     obs = list(load_shards([tmp_path / "a" / p for p in s1["shards"]]))

@@ -97,11 +97,14 @@ def instance_scores(scene: SceneAsset, fused: list, labels) -> tuple[float, floa
     return tp / max(len(pred), 1), tp / max(len(truth), 1)
 
 
-def surface_scores(scene: SceneAsset, planes: list, tol: float) -> list[tuple[int, str, float, float, float]]:
-    """Per true surface (same-height faces of one instance united, e.g. sofa cushions): (instance, label, height, height error, best IoU)."""
+JOIN_GAP = 0.15  # m: same-height true faces of one instance closer than this form one support region
+
+
+def true_regions(scene: SceneAsset) -> list[tuple[int, float, np.ndarray]]:
+    """Return (instance, height, CCW polygon) per true support region: same-height faces of one instance closer
+    than JOIN_GAP united into their convex hull (seat cushions); parts a sink or hob keeps apart stay apart."""
     from shapely.ops import unary_union
 
-    from sdovon_mj.receptacles import polygon_iou
     from sdovon_mj.receptacles.polygon import _shapely
 
     groups: dict[tuple[int, float], list] = {}
@@ -109,8 +112,25 @@ def surface_scores(scene: SceneAsset, planes: list, tol: float) -> list[tuple[in
         groups.setdefault((s.instance_id, round(float(s.height), 3)), []).append(_shapely(s.polygon))
     out = []
     for (iid, h), polys in sorted(groups.items()):
-        u = unary_union(polys).convex_hull
-        truth = np.asarray(u.exterior.coords)[:-1]
+        clusters: list[list] = []
+        for poly in polys:
+            near = [c for c in clusters if any(poly.distance(q) < JOIN_GAP for q in c)]
+            merged = [poly] + [q for c in near for q in c]
+            clusters = [c for c in clusters if not any(c is n for n in near)] + [merged]
+        for c in clusters:
+            u = unary_union(c).convex_hull
+            out.append((iid, h, np.asarray(u.exterior.coords)[:-1][::1]))
+    return out
+
+
+def surface_scores(scene: SceneAsset, planes: list, tol: float) -> list[tuple[int, str, float, float, float]]:
+    """Per true support region: (instance, label, height, height error, best polygon IoU of a plane within tol)."""
+    from sdovon_mj.receptacles import polygon_iou
+    from sdovon_mj.receptacles.polygon import ensure_ccw
+
+    out = []
+    for iid, h, truth in true_regions(scene):
+        truth = ensure_ccw(truth)
         cands = [(polygon_iou(p.polygon, truth), abs(p.height - h)) for p in planes
                  if p.instance_id >= 0 and abs(p.height - h) <= tol]
         iou, err = max(cands, default=(0.0, float("inf")))

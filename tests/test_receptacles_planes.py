@@ -93,3 +93,41 @@ def test_room_planes_match_true_support_surfaces(sigma: float, height_tol: float
     assert np.allclose(shelf_planes, sorted(shelf_levels), atol=height_tol)
     for p in planes:  # CCW polygons, facing up
         assert p.area > 0 and p.normal[2] > 0.98
+
+
+def _grid(x0, y0, x1, y1, z, spacing=0.02) -> np.ndarray:
+    X, Y = np.meshgrid(np.arange(x0, x1 + 1e-9, spacing), np.arange(y0, y1 + 1e-9, spacing))
+    return np.stack([X.ravel(), Y.ravel(), np.full(X.size, z)], 1)
+
+
+def test_thin_board_underside_is_not_a_plane() -> None:
+    """A 2 cm board seen from above and below (thinner than eps_t): only its top is a support plane."""
+    board = np.concatenate([_grid(0, 0, 0.8, 0.25, 1.02), _grid(0, 0, 0.8, 0.25, 1.0)])
+    planes = detect_planes(make_instance(board, "shelf", [1.0], [0]), CFG)
+    assert len(planes) == 1 and abs(planes[0].height - 1.02) < 0.003, [(p.height, p.area) for p in planes]
+
+
+def test_height_from_the_densest_layer_not_the_front_face() -> None:
+    """A sparsely seen top over a front face seen at voxel density: the plane sits on the top, not pulled down the face."""
+    top = _grid(0, 0, 1.0, 0.5, 0.83, spacing=0.04)
+    Y, Z = np.meshgrid(np.arange(0, 1.0, 0.02), np.arange(0.01, 0.83, 0.02))
+    face = np.stack([Y.ravel(), np.zeros(Y.size), Z.ravel()], 1)
+    planes = detect_planes(make_instance(np.concatenate([top, face]), "counter", [1.0], [0]), CFG)
+    assert len(planes) == 1 and abs(planes[0].height - 0.83) < 0.003, [(p.height, p.area) for p in planes]
+
+
+def test_strips_around_a_sink_and_occupied_parts_are_cut() -> None:
+    """A counter top with a sink hole (8 cm strips beside it): two planes; another instance just above the top occupies it."""
+    top = _grid(0, 0, 2.0, 0.6, 0.9)
+    hole = (top[:, 0] > 0.8) & (top[:, 0] < 1.3) & (top[:, 1] > 0.08) & (top[:, 1] < 0.52)
+    inst = make_instance(top[~hole], "counter", [1.0], [0], instance_id=0)
+    got = sorted(detect_planes(inst, CFG), key=lambda p: p.polygon[:, 0].min())
+    assert len(got) == 2, [(p.polygon.min(0), p.polygon.max(0)) for p in got]  # the strips cannot hold an object
+    for p, (a, b) in zip(got, [(0.0, 0.8), (1.3, 2.0)]):
+        assert polygon_iou(p.polygon, np.array([[a, 0], [b, 0], [b, 0.6], [a, 0.6]])) > 0.9
+    # A bowl rim 5 cm over the middle of a plain top (another instance): the top splits around it.
+    full = make_instance(top, "counter", [1.0], [0], instance_id=0)
+    assert len(detect_planes(full, CFG)) == 1
+    rim = _grid(0.9, 0.0, 1.3, 0.6, 0.95)
+    got = sorted(detect_planes(full, CFG, obstacles=rim), key=lambda p: p.polygon[:, 0].min())
+    assert len(got) == 2 and got[0].polygon[:, 0].max() < 0.9 and got[1].polygon[:, 0].min() > 1.3

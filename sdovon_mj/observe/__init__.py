@@ -4,11 +4,11 @@ from .coverage import CoverageStats, coverage_fraction, coverage_viewpoints, uni
 from .floors import find_floors
 from .io import load_shards, save_shards
 from .navmap import OffFloorError, locate, navigable_map, navmap_image, save_png
-from .render_views import load_model, make_renderer, render_observations, view_angles
+from .render_views import load_model, make_renderer, render_observations, view_angles, view_poses
 from .stage import observe_scene, scene_floors_and_maps
 
 __all__ = [
     "CoverageStats", "OffFloorError", "coverage_fraction", "coverage_viewpoints", "find_floors", "load_model",
     "load_shards", "locate", "make_renderer", "navigable_map", "navmap_image", "observe_scene", "render_observations",
-    "save_png", "save_shards", "scene_floors_and_maps", "uniform_viewpoints", "view_angles",
+    "save_png", "save_shards", "scene_floors_and_maps", "uniform_viewpoints", "view_angles", "view_poses",
 ]

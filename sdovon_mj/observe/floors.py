@@ -89,8 +89,16 @@ def find_floors(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveConfig) -> 
         raise StageError(f"no floor found: the largest horizontal upward-facing area at one height is {best:.2f} m^2, "
                          f"below min_floor_area {cfg.min_floor_area} m^2")
     vertical = np.abs(normal[:, 2]) < 0.3
+    down = normal[:, 2] <= -UP_COS
     floors: list[Floor] = []
     for h, a in cands:
+        # the top of a ceiling slab under the next storey's floor slab is covered right above: not a floor
+        sel = up & (np.abs(centre[:, 2] - h) <= tol / 2)
+        pts = v[f[sel]].reshape(-1, 3)[:, :2]
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        lid = down & (centre[:, 2] > h + BIN) & (centre[:, 2] <= h + cfg.h_map) & np.all((centre[:, :2] >= lo) & (centre[:, :2] <= hi), axis=1)
+        if area[lid].sum() >= 0.5 * a:
+            continue
         if floors:
             if h - floors[-1].height < MIN_STOREY_HEIGHT:
                 continue

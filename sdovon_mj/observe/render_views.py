@@ -1,7 +1,9 @@
 """RGB-D(+segmentation) observations at viewpoints: yaw/pitch sweeps with one reused renderer.
 
 Camera: OpenCV pose from ``camera.pose_cv`` at the viewpoint (floor + agent_height), yaw steps of
-360/yaw_steps degrees and each of ``pitch_angles``; image ``width`` x ``height`` with horizontal
+360/yaw_steps degrees and each of ``pitch_angles``; then, at each extra height of ``camera_heights``
+above the floor, the same yaws with each of ``camera_height_pitches`` (a raised camera looking down
+sees the tops of shelves and counters above the agent camera); image ``width`` x ``height`` with horizontal
 field of view ``hfov`` (MuJoCo's fovy is vertical: the renderer converts). Depth is metric z-depth
 along the optical axis, 0 outside [depth_min, depth_max]. Segmentation holds scene instance ids
 (``geom_segment_ids``), -1 for none. Geom groups 0 (scene), 1 (ceilings: the agent sees them) and
@@ -44,10 +46,20 @@ def load_model(scene: SceneAsset | str | Path, store_root: str | Path | None = N
         raise InputError(path, f"MuJoCo cannot compile the scene: {e}") from None
 
 
-def view_angles(cfg: ObserveConfig) -> list[tuple[float, float]]:
-    """Return the (yaw, pitch) degrees rendered at every viewpoint, in render order."""
+def view_poses(cfg: ObserveConfig) -> list[tuple[float, float, float]]:
+    """Return the (yaw deg, pitch deg, height offset m above the viewpoint) rendered at every viewpoint, in render order."""
     steps = max(1, int(cfg.yaw_steps))
-    return [(360.0 * k / steps, float(p)) for k in range(steps) for p in cfg.pitch_angles]
+    yaws = [360.0 * k / steps for k in range(steps)]
+    out = [(y, float(p), 0.0) for y in yaws for p in cfg.pitch_angles]
+    for h in cfg.camera_heights:
+        dz = float(h) - float(cfg.agent_height)
+        out.extend((y, float(p), dz) for y in yaws for p in cfg.camera_height_pitches)
+    return out
+
+
+def view_angles(cfg: ObserveConfig) -> list[tuple[float, float]]:
+    """Return the (yaw, pitch) degrees rendered at every viewpoint, in render order (heights: view_poses)."""
+    return [(y, p) for y, p, _dz in view_poses(cfg)]
 
 
 def make_renderer(model: mujoco.MjModel, cfg: ObserveConfig) -> SceneRenderer:
@@ -62,20 +74,20 @@ def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoi
                         cfg: ObserveConfig, store_root: str | Path | None = None, rgb: bool = True,
                         depth: bool = True, segmentation: bool = True, start_view_id: int = 0,
                         renderer: SceneRenderer | None = None) -> Iterator[Observation]:
-    """Yield one Observation per (viewpoint, yaw, pitch), rendered with one reused renderer."""
+    """Yield one Observation per (viewpoint, yaw, pitch, camera height), rendered with one reused renderer."""
     own = renderer is None
     if renderer is None:
         model = scene if isinstance(scene, mujoco.MjModel) else load_model(scene, store_root)
         renderer = make_renderer(model, cfg)
     seg_lut = np.append(geom_segment_ids(renderer.model), -1).astype(np.int32)  # geom id -1 -> -1
     K = renderer.K.copy()
-    angles = view_angles(cfg)
+    poses = view_poses(cfg)
     view_id = int(start_view_id)
     try:
         for vi, vp in enumerate(viewpoints):
             pos = np.asarray(vp.position, dtype=np.float64)
-            for yaw, pitch in angles:
-                T = pose_cv(pos, yaw, pitch)
+            for yaw, pitch, dz in poses:
+                T = pose_cv(pos + np.array([0.0, 0.0, dz]), yaw, pitch)
                 fr = renderer.render(T, rgb=rgb, depth=depth, segmentation=segmentation)
                 d = clip_depth(fr.depth, cfg.depth_min, cfg.depth_max) if fr.depth is not None else np.zeros((cfg.height, cfg.width), np.float32)
                 seg = seg_lut[fr.segmentation] if fr.segmentation is not None else None

@@ -61,6 +61,27 @@ def _xy_components(points: np.ndarray, cell: float) -> list[np.ndarray]:
     return [np.nonzero(lab == k)[0] for k in range(1, count + 1)]
 
 
+def open_components(points_xy: np.ndarray, cell: float, min_width: float) -> list[np.ndarray]:
+    """Split points into the 8-connected parts of their XY occupancy opened to min_width; return index arrays (narrower slivers dropped)."""
+    from scipy import ndimage
+
+    if len(points_xy) == 0:
+        return []
+    k = max(1, int(math.ceil(min_width / cell)))
+    ij = np.floor(np.asarray(points_xy) / cell).astype(np.int64)
+    ij -= ij.min(axis=0) - (k + 1)
+    grid = np.zeros(ij.max(axis=0) + k + 2, dtype=bool)
+    grid[ij[:, 0], ij[:, 1]] = True
+    # Close one-cell holes of sparse sampling, then drop what a min_width square cannot cover: a line
+    # of points seen through a gap, the strips around a sink; no object stands there.
+    grid = ndimage.binary_closing(grid, structure=np.ones((3, 3), dtype=bool))
+    if k > 1:
+        grid = ndimage.binary_opening(grid, structure=np.ones((k, k), dtype=bool))
+    labels, count = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
+    lab = labels[ij[:, 0], ij[:, 1]]
+    return [np.nonzero(lab == c)[0] for c in range(1, count + 1)]
+
+
 def _cells(points_xy: np.ndarray, cell: float) -> set[tuple[int, int]]:
     """Return the set of occupied XY grid cells."""
     ij = np.floor(np.asarray(points_xy) / cell).astype(np.int64)
@@ -85,16 +106,68 @@ def hull_coverage(points_xy: np.ndarray, polygon: np.ndarray, cell: float) -> fl
     return float(sum(c in occupied for c in cells_in) / len(cells_in))
 
 
-def free_above(all_points: np.ndarray, inliers: np.ndarray, height: float, cfg: ReceptacleConfig) -> np.ndarray:
-    """Return which inlier points have no receptacle point above them (XY within clearance_radius, Z in (eps_t, min_clearance])."""
+def free_above(all_points: np.ndarray, inliers: np.ndarray, height: float, cfg: ReceptacleConfig,
+               low: float | None = None) -> np.ndarray:
+    """Return which inlier points have no point of `all_points` above them (XY within clearance_radius, Z in (low, min_clearance], low defaults to eps_t)."""
     from scipy.spatial import cKDTree
 
     z = all_points[:, 2]
-    above = all_points[(z > height + cfg.eps_t) & (z <= height + cfg.min_clearance)]
+    lo = cfg.eps_t if low is None else float(low)
+    above = all_points[(z > height + lo) & (z <= height + cfg.min_clearance)]
     if len(above) == 0 or len(inliers) == 0:
         return np.ones(len(inliers), dtype=bool)
     d, _ = cKDTree(above[:, :2]).query(inliers[:, :2], k=1, distance_upper_bound=cfg.clearance_radius)
     return ~np.isfinite(d)
+
+
+def refine_plane(points: np.ndarray, idx: np.ndarray, centroid: np.ndarray, normal: np.ndarray,
+                 band: float, iterations: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return (inliers, centroid, normal) re-fitted to the densest `band`-thick layer of an EM plane's inliers."""
+    if band <= 0 or len(idx) < 3:
+        return idx, centroid, normal
+    # A horizontal surface stacks its points into one thin layer; vertical faces cut by the slab
+    # (table edges, drawer fronts) spread over the whole slab and tilt a least-squares fit. Start
+    # from the densest horizontal layer, then let the fit follow the surface's own tilt.
+    z = points[idx, 2]
+    step = 0.25 * band
+    edges = np.arange(z.min(), z.max() + 2 * step, step)
+    counts = np.histogram(z, bins=edges)[0]
+    win = min(len(counts), max(1, int(round(band / step))))
+    dens = np.convolve(counts, np.ones(win), mode="valid")
+    # The top layer: of the layers nearly as dense as the densest, the highest (a thin board seen
+    # from both sides has two; its top is the support surface), at its own density peak.
+    top = int(np.nonzero(dens >= 0.5 * dens.max())[0][-1])
+    k = max(0, top - win) + int(np.argmax(dens[max(0, top - win): top + 1]))
+    c = np.array([*points[idx, :2].mean(axis=0), 0.5 * (edges[k] + edges[k + win])])
+    n = np.array([0.0, 0.0, 1.0])
+    cur = idx
+    for _ in range(int(iterations)):
+        sel = idx[np.abs((points[idx] - c) @ n) <= band]
+        if sel.size < 3:
+            break
+        cur = sel
+        c, n = fit_plane(points[cur])
+    if cur is idx:
+        return idx, centroid, normal
+    return cur, c, n
+
+
+def drop_covered_planes(planes: list[ReceptaclePlane], cfg: ReceptacleConfig) -> list[ReceptaclePlane]:
+    """Drop planes with another plane of the same instance less than min_clearance above over most of their area (undersides of boards)."""
+    from .polygon import _shapely
+
+    def covers(q: ReceptaclePlane, p: ReceptaclePlane) -> bool:
+        if q is p or q.instance_id != p.instance_id or not (cfg.fit_band < q.height - p.height <= cfg.min_clearance):
+            return False
+        a = _shapely(p.polygon)
+        return a.area > 0 and a.intersection(_shapely(q.polygon)).area >= cfg.max_covered * a.area
+
+    keep = []
+    for p in planes:
+        covered = any(covers(q, p) for q in planes)
+        if not covered:
+            keep.append(p)
+    return keep
 
 
 def convex_projected_hull(points: np.ndarray, centroid: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, float]:
@@ -160,8 +233,9 @@ def _merge(cands: list[np.ndarray], points: np.ndarray, cfg: ReceptacleConfig) -
     return [np.unique(np.concatenate([cands[i] for i in g])) for _, g in sorted(groups.items())]
 
 
-def detect_planes(instance: Instance, cfg: ReceptacleConfig, first_id: int = 0) -> list[ReceptaclePlane]:
-    """Return the horizontal support planes of one receptacle instance, lowest first."""
+def detect_planes(instance: Instance, cfg: ReceptacleConfig, first_id: int = 0,
+                  obstacles: np.ndarray | None = None) -> list[ReceptaclePlane]:
+    """Return the horizontal support planes of one receptacle instance, lowest first (obstacles: other instances' points, (n, 3))."""
     points = instance.world_points
     if len(points) < max(cfg.rho_min, 3):
         return []
@@ -178,17 +252,41 @@ def detect_planes(instance: Instance, cfg: ReceptacleConfig, first_id: int = 0) 
             continue
         idx = idx[free]
         c, n = fit_plane(points[idx])
-        poly, h = convex_projected_hull(points[idx], c, n)
-        if len(poly) < 3 or polygon_area(poly) < cfg.min_plane_area:
+        idx, c, n = refine_plane(points, idx, c, n, cfg.fit_band)
+        if idx.size < cfg.rho_min:
             continue
-        if hull_coverage(points[idx, :2], poly, cfg.coverage_cell) < cfg.min_coverage:
-            continue
-        planes.append(ReceptaclePlane(id=0, instance_id=int(instance.id), label=instance.label, height=h,
-                                      polygon=poly, normal=n.astype(float), inliers=int(idx.size)))
+        if obstacles is not None and len(obstacles):
+            # Other instances standing on the surface (a sink bowl, a hob) occupy it.
+            idx = idx[free_above(obstacles, points[idx], float(c[2]), cfg, low=cfg.fit_band)]
+        for comp in open_components(points[idx, :2], cfg.open_cell, cfg.min_width):
+            sel = idx[comp]
+            if sel.size < 3:
+                continue
+            cc, nn = fit_plane(points[sel])
+            poly, h = convex_projected_hull(points[sel], cc, nn)
+            if len(poly) < 3 or polygon_area(poly) < cfg.min_plane_area:
+                continue
+            if hull_coverage(points[sel, :2], poly, cfg.coverage_cell) < cfg.min_coverage:
+                continue
+            planes.append(ReceptaclePlane(id=0, instance_id=int(instance.id), label=instance.label, height=h,
+                                          polygon=poly, normal=nn.astype(float), inliers=int(sel.size)))
+    planes = drop_covered_planes(planes, cfg)
     planes.sort(key=lambda p: (p.height, -p.area))
     for k, p in enumerate(planes):
         p.id = first_id + k
     return planes
+
+
+def _nearby_points(instances: list[Instance], inst: Instance, margin: float) -> np.ndarray:
+    """Return the points of the other instances inside inst's box grown by margin."""
+    lo, hi = inst.bounds[0] - margin, inst.bounds[1] + margin
+    out = []
+    for other in instances:
+        if other.id == inst.id or np.any(other.bounds[0] > hi) or np.any(other.bounds[1] < lo):
+            continue
+        p = other.world_points
+        out.append(p[np.all((p >= lo) & (p <= hi), axis=1)])
+    return np.concatenate(out) if out else np.zeros((0, 3))
 
 
 def find_receptacle_planes(instances: list[Instance], cfg: ReceptacleConfig, labels: tuple[str, ...] | list[str] | None = None) -> list[ReceptaclePlane]:
@@ -198,5 +296,6 @@ def find_receptacle_planes(instances: list[Instance], cfg: ReceptacleConfig, lab
     recs = receptacle_instances(instances, cfg.labels if labels is None else labels)
     out: list[ReceptaclePlane] = []
     for inst in sorted(recs, key=lambda i: i.id):
-        out.extend(detect_planes(inst, cfg, first_id=len(out)))
+        obstacles = _nearby_points(instances, inst, cfg.min_clearance)
+        out.extend(detect_planes(inst, cfg, first_id=len(out), obstacles=obstacles))
     return out
