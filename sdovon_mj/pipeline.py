@@ -87,7 +87,7 @@ class StageRunner:
     def run(self, key: str, fp_parts: Iterable[Any], fn: Callable[[], list[str]]) -> bool:
         """Run `fn` (returning its output paths) unless `key` is done with the same fingerprint."""
         fp = fingerprint(*fp_parts)
-        short = key.split("/")[-1]
+        short = stage_name(key)
         if self.store.is_done(key, fp):
             self.result.skipped.append(key)
             return False
@@ -100,6 +100,16 @@ class StageRunner:
         peaks = self.result.counters.setdefault("peak_rss_mb", {})
         peaks[short] = max(peaks.get(short, 0.0), peak_rss_mb())
         return True
+
+
+def stage_name(key: str) -> str:
+    """Return the stage a marker key belongs to (e.g. scenes/a/observe -> observe, export/mjcf.stage -> export:mjcf)."""
+    parts = key.split("/")
+    if parts[0] == "inputs" and len(parts) > 1:
+        return "world:objects" if parts[1] == "objects" else "world:scene"
+    if parts[0] == "export":
+        return "export:" + parts[-1].removesuffix(".stage")
+    return parts[-1]
 
 
 def reset_peak_rss() -> None:

@@ -30,11 +30,18 @@ def _resolve(spec_dir: Path, subdir: str, file: str) -> Path:
     return (spec_dir / subdir / p).resolve()
 
 
-def _bundle_name(src: Path, used: dict[str, Path]) -> str:
+def _bundle_name(src: Path, used: dict[str, Path], root: Path | None = None) -> str:
     """Return a unique file name in assets/ for a source file (same file -> same name)."""
     name = src.name
     if name in used and used[name] != src:
-        name = f"{hashlib.sha256(str(src).encode()).hexdigest()[:8]}_{src.name}"
+        # Hash the run-relative path (not the absolute one) so a run exports the same bytes wherever it lives.
+        key = str(src)
+        if root is not None:
+            try:
+                key = src.resolve().relative_to(Path(root).resolve()).as_posix()
+            except ValueError:
+                pass
+        name = f"{hashlib.sha256(key.encode()).hexdigest()[:8]}_{src.name}"
     used[name] = src
     return name
 
@@ -66,7 +73,7 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path) ->
         src = _resolve(spec_dir, subdir, file)
         if not src.exists():
             raise InputError(src, f"asset referenced by {path} not found")
-        name = _bundle_name(src, used)
+        name = _bundle_name(src, used, run.root)
         dst = bundle_dir / "assets" / name
         if dst not in copied:
             atomic_copy(src, dst)

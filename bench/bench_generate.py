@@ -1,0 +1,164 @@
+"""Benchmark `generate` on a scaled-down SD-OVON-3k-shaped job; extrapolate to the full size.
+
+SD-OVON-3k (paper table 1): 8 scenes, 363 variants (~45 per scene), ~2.9k episodes (~8 per variant).
+Scaled down (defaults): 2 default-world apartments x 6 variants = 12 variants, with the per-variant
+episode density kept near 8 (k_e episodes per goal category; the density is measured and printed).
+Time is split into per-scene stages (world, convert, observe, perceive, semantics), which scale with the
+number of scenes, and per-variant stages (place, episodes), which scale with the number of variants; the
+full-size estimate is 8 x (per-scene seconds) + 363 x (per-variant seconds) + exports, divided by the
+number of parallel workers (ideal scaling; both kinds of task are independent). Object conversion is
+reported apart: the goal is stated "once assets are converted" (the converter caches them by content).
+
+Peak memory per stage is each stage's peak resident set (VmHWM, reset at the start of the stage) in the
+process that ran it, as recorded in timings.json. A second run measures a scan-mode apartment of about
+500k triangles (`write_apartment(..., mode="scan", max_faces=500_000)`) through the whole scene pipeline.
+
+    python bench/bench_generate.py                      # 2 scenes x 6 variants + the scan apartment
+    python bench/bench_generate.py --scenes 1 --variants 2 --no-scan    # quicker
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+FULL = {"name": "SD-OVON-3k", "scenes": 8, "variants": 363, "episodes": 2900}
+SCENE_STAGES = ("world:scene", "convert", "observe", "perceive", "semantics")
+VARIANT_STAGES = ("place", "episodes")
+CATEGORIES = ["mug", "bowl", "plate", "book", "bottle", "apple", "pillow", "laptop", "toothbrush", "towel", "vase",
+              "remote"]
+
+
+def bench_config(args: argparse.Namespace, scene_seeds: list[int], k_v: int):
+    """Return the RunConfig of the scaled job."""
+    from sdovon_mj.config import load_config
+
+    sets = [f"world.scene_seeds={scene_seeds}", "world.floors=1", "world.object_variants=1",
+            f"world.object_categories={CATEGORIES[: args.categories]}", f"observe.width={args.width}",
+            f"observe.height={args.height}", f"place.k_v={k_v}", f"episodes.k_e={args.k_e}", "name=bench-generate"]
+    return load_config(args.config, sets + list(args.set))
+
+
+def run_job(out: Path, cfg, jobs: int, scenes: list[str] | None = None) -> tuple[dict, float]:
+    """Run generate into `out`; return (timings.json, wall seconds)."""
+    from sdovon_mj.pipeline import generate
+
+    t0 = time.perf_counter()
+    summary = generate(out, cfg, scenes=scenes, jobs=jobs, progress=None)
+    wall = time.perf_counter() - t0
+    for f in summary.failures:
+        print(f"  FAILED {f.spec.label}: {f.error}", file=sys.stderr)
+    return json.loads((out / "timings.json").read_text()), wall
+
+
+def per_stage(timings: dict) -> tuple[dict[str, float], dict[str, float], dict[str, int]]:
+    """Return seconds per stage (summed over tasks), peak MiB per stage (max over tasks), tasks per stage."""
+    secs: dict[str, float] = {}
+    peak: dict[str, float] = {}
+    count: dict[str, int] = {}
+    for t in timings["tasks"]:
+        for k, v in t["seconds"].items():
+            secs[k] = secs.get(k, 0.0) + v
+            count[k] = count.get(k, 0) + 1
+        for k, v in t.get("peak_rss_mb", {}).items():
+            peak[k] = max(peak.get(k, 0.0), v)
+    return secs, peak, count
+
+
+def episodes_in(out: Path) -> tuple[int, int]:
+    """Return (variants, episodes) written in a run folder."""
+    files = sorted(out.glob("scenes/*/variants/*/episodes.json"))
+    return len(files), sum(len(json.loads(p.read_text())) for p in files)
+
+
+def main() -> None:
+    """Run the scaled job (+ the scan apartment) and print figures."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--scenes", type=int, default=2, help="default-world apartments (SD-OVON-3k: 8)")
+    ap.add_argument("--variants", type=int, default=6, help="variants per scene (SD-OVON-3k: ~45)")
+    ap.add_argument("--categories", type=int, default=8, help="object categories in the library")
+    ap.add_argument("--k-e", type=int, default=1, help="episodes per goal category per variant")
+    ap.add_argument("--width", type=int, default=320)
+    ap.add_argument("--height", type=int, default=240)
+    ap.add_argument("--jobs", type=int, default=2, help="local worker processes")
+    ap.add_argument("--config", default=None, help="base YAML config")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="extra config overrides")
+    ap.add_argument("--out", default=None, help="work folder (default: a temp folder)")
+    ap.add_argument("--scan-faces", type=int, default=500_000, help="triangles of the scan-mode apartment")
+    ap.add_argument("--no-scan", action="store_true", help="skip the scan-mode memory run")
+    args = ap.parse_args()
+    work = Path(args.out or tempfile.mkdtemp(prefix="bench_generate_"))
+    work.mkdir(parents=True, exist_ok=True)
+
+    # ---- the scaled SD-OVON-3k-shaped job
+    cfg = bench_config(args, list(range(args.scenes)), args.variants)
+    out = work / "job"
+    print(f"job: {args.scenes} scenes x {args.variants} variants, {args.categories} categories, k_e={args.k_e}, "
+          f"{args.width}x{args.height}, {args.jobs} workers -> {out}", flush=True)
+    timings, wall = run_job(out, cfg, args.jobs)
+    secs, peak, count = per_stage(timings)
+    n_var, n_eps = episodes_in(out)
+    conv = secs.get("objects", 0.0) + secs.get("world:objects", 0.0)
+    objects_wall = sum(sum(t["seconds"].values()) for t in timings["tasks"] if t["task"] == "objects")
+    wall_ex = wall - objects_wall  # the objects task runs alone, before the others
+    print(f"\nvariants {n_var}, episodes {n_eps} ({n_eps / max(n_var, 1):.1f} per variant; SD-OVON-3k: "
+          f"{FULL['episodes'] / FULL['variants']:.1f})")
+    print(f"wall {wall:.0f} s, of which object library + conversion {objects_wall:.0f} s (cached objects: fast)")
+    print(f"episodes per hour (wall, objects excluded): {3600 * n_eps / max(wall_ex, 1e-9):.0f}")
+    print("\nstage          tasks   seconds  s/task   peak MiB")
+    for k in sorted(secs, key=lambda k: -secs[k]):
+        print(f"  {k:<12} {count[k]:5d} {secs[k]:9.1f} {secs[k] / count[k]:7.2f} {peak.get(k, 0):9.0f}")
+    scene_s = sum(secs.get(k, 0.0) for k in SCENE_STAGES) / max(args.scenes, 1)
+    var_s = sum(secs.get(k, 0.0) for k in VARIANT_STAGES) / max(n_var, 1)
+    exp_s = sum(v for k, v in secs.items() if k.startswith("export")) / max(n_var, 1)
+    full_cpu = FULL["scenes"] * scene_s + FULL["variants"] * (var_s + exp_s)
+    print(f"\nper scene {scene_s:.1f} s, per variant {var_s:.2f} s (+ export {exp_s:.2f} s)")
+    print(f"extrapolated {FULL['name']} ({FULL['scenes']} scenes, {FULL['variants']} variants, "
+          f"~{FULL['episodes']} episodes): {full_cpu / 60:.1f} task-minutes = {full_cpu / 60 / args.jobs:.1f} min "
+          f"on {args.jobs} workers (goal: < 30 min on 2 cores), "
+          f"{3600 * FULL['episodes'] / max(full_cpu / args.jobs, 1e-9):.0f} episodes per hour")
+    where = sorted(((k, v) for k, v in secs.items() if k not in ("objects", "world:objects")), key=lambda kv: -kv[1])
+    full_split = {k: (FULL["scenes"] / args.scenes if k in SCENE_STAGES else FULL["variants"] / max(n_var, 1)) * v
+                  for k, v in where}
+    tot = sum(full_split.values()) or 1.0
+    print("where the time goes at full size: " + ", ".join(f"{k} {100 * v / tot:.0f}%" for k, v in
+                                                            sorted(full_split.items(), key=lambda kv: -kv[1])))
+    print(f"peak memory, any stage: {max(peak.values()):.0f} MiB (main process {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB)")
+
+    if args.no_scan:
+        return
+    # ---- peak memory of a scan-mode apartment of ~500k triangles through the scene pipeline
+    from sdovon_mj.pipeline import peak_rss_mb, reset_peak_rss
+    from sdovon_mj.world import generate_apartment, write_apartment
+
+    scan_dir = work / "scan_input"
+    reset_peak_rss()
+    t0 = time.perf_counter()
+    mesh = write_apartment(generate_apartment(0, floors=1), scan_dir, mode="scan", name="scan_0000",
+                           max_faces=args.scan_faces)
+    write_s, write_mb = time.perf_counter() - t0, peak_rss_mb()
+    import trimesh
+
+    faces = len(trimesh.load(mesh, process=False).faces)
+    print(f"\nscan apartment {mesh.name}: {faces} triangles, written in {write_s:.0f} s, peak {write_mb:.0f} MiB")
+    scfg = bench_config(args, [0], 1)
+    timings, wall = run_job(work / "scan_job", scfg, 1, scenes=[str(mesh)])
+    secs, peak, count = per_stage(timings)
+    print("stage          seconds   peak MiB  (scan mode, one process)")
+    for k in sorted(secs, key=lambda k: -secs[k]):
+        print(f"  {k:<12} {secs[k]:9.1f} {peak.get(k, 0):9.0f}")
+    top = max(list(peak.values()) + [write_mb])
+    print(f"scan-mode peak memory {top:.0f} MiB = {top / 1024:.2f} GiB (goal < 4 GB): "
+          f"{'OK' if top < 4 * 1024**3 / 2**20 else 'OVER'}")
+
+
+if __name__ == "__main__":
+    main()
