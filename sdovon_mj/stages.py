@@ -90,6 +90,13 @@ def _object_inputs(store: Store, cfg: RunConfig, runner: Any) -> list[tuple[Path
     return [(store.path(o), _meta_category(store.path(o))) for o in mark.outputs if o.endswith((".obj", ".glb", ".ply"))]
 
 
+def _converter_version() -> str:
+    """Return the converter's output version (a new converter invalidates converted scenes and objects)."""
+    from assets_convert.cache import CONVERTER_VERSION
+
+    return CONVERTER_VERSION
+
+
 def _input_name(store: Store, path: Path) -> str:
     """Return an input file's name for fingerprints: store-relative inside the run folder, else absolute."""
     try:
@@ -118,7 +125,7 @@ def objects_task(store: Store, cfg: RunConfig, runner: Any) -> None:
     items = _object_inputs(store, cfg, runner)
     # Inputs inside the run folder are named relative to it, so the fingerprint (and the manifest) does
     # not depend on where the run folder lives.
-    fp = ["objects", to_dict(cfg.convert), [(_input_name(store, p), c, file_hash(p)) for p, c in items]]
+    fp = ["objects", _converter_version(), to_dict(cfg.convert), [(_input_name(store, p), c, file_hash(p)) for p, c in items]]
 
     def make() -> list[str]:
         assets: list[ObjectAsset] = []
@@ -169,7 +176,8 @@ def scene_task(store: Store, cfg: RunConfig, runner: Any, scene: str) -> None:
         save_json(asset, store.path(f"{sdir}/scene.json"))
         return [f"{sdir}/scene.json", asset.mjcf, asset.mesh]
 
-    runner.run(f"{sdir}/convert", ["convert-scene", file_hash(src_path), to_dict(cfg.convert)], convert)
+    runner.run(f"{sdir}/convert", ["convert-scene", _converter_version(), file_hash(src_path), to_dict(cfg.convert)],
+               convert)
     asset = load_json(store.path(f"{sdir}/scene.json"), SceneAsset)
 
     def observe() -> list[str]:
