@@ -1,8 +1,11 @@
 """Perceive + receptacle benchmark: fusion time per observation, plane detection time per receptacle.
 
-Runs on the hand-built test room (tests/test_perceive_scenes.py) rendered from --views poses, with the
-gt detector, optionally with depth noise; prints timings and the quality figures of the tests.
+Default: the hand-built test room (tests/test_perceive_scenes.py), gt detector, optionally with depth
+noise; prints timings and the quality figures of the tests. With --world SEED: a default-world
+apartment observed by the observe stage (default viewpoints and cameras), then receptacle P/R, height
+errors and polygon IoUs per receptacle type (and how much of each true surface the views showed).
     python bench/bench_perceive.py [--width 320 --height 240] [--sigma 0.005] [--preset paper]
+    python bench/bench_perceive.py --world 0 [--sigma 0.005]
 """
 
 from __future__ import annotations
@@ -26,7 +29,11 @@ def main() -> int:
     ap.add_argument("--sigma", type=float, default=0.0, help="depth noise std (m)")
     ap.add_argument("--preset", default="paper", help="fusion preset: paper, conceptgraphs")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--world", type=int, default=None, metavar="SEED", help="a default-world apartment instead of the test room")
+    ap.add_argument("--out", default=None, help="work folder for --world (default: a temporary folder)")
     args = ap.parse_args()
+    if args.world is not None:
+        return world(args)
 
     from test_perceive_scenes import (camera_poses, default_instances, match_instances, match_surfaces, mjcf,
                                       render_observations, scene_asset)
@@ -75,6 +82,58 @@ def main() -> int:
     tol = 0.02 if args.sigma <= 0 else 0.03
     for iid, h, err, iou in match_surfaces(planes, scene, tol):
         print(f"surface of instance {iid} at {h:.2f} m: height error {100 * err:.1f} cm, polygon IoU {iou:.3f}")
+    return 0
+
+
+def world(args: argparse.Namespace) -> int:
+    """Observe + perceive + planes on one default-world apartment; print timings and quality figures."""
+    import tempfile
+
+    import test_perceive_world as W
+
+    from sdovon_mj.config import ObserveConfig, PerceiveConfig, ReceptacleConfig
+    from sdovon_mj.observe import load_shards, observe_scene
+    from sdovon_mj.perceive import perceive_scene
+    from sdovon_mj.perceive.fusion import embed_labels
+    from sdovon_mj.receptacles import find_receptacle_planes
+    from sdovon_mj.receptacles.polygon import ensure_ccw
+
+    root = Path(args.out or tempfile.mkdtemp(prefix="bench_perceive_"))
+    scene = W.scene_from_apartment(args.world, root)
+    t = time.perf_counter()
+    ocfg = ObserveConfig(width=args.width, height=args.height)
+    s = observe_scene(scene, root, "observe", ocfg, seed=args.world)
+    obs = list(load_shards([root / p for p in s["shards"]]))
+    t_obs = time.perf_counter() - t
+    embed_labels(sorted({i.label for i in scene.instances}))  # model load: a one-off
+    t = time.perf_counter()
+    fused = perceive_scene(obs, scene, PerceiveConfig(depth_noise_sigma=args.sigma, fusion_preset=args.preset), seed=args.world)
+    t_per = time.perf_counter() - t
+    rcfg = ReceptacleConfig()
+    t = time.perf_counter()
+    planes = find_receptacle_planes(fused, rcfg)
+    t_pl = time.perf_counter() - t
+    n_rec = len({p.instance_id for p in planes}) or 1
+    print(f"apartment {args.world}: {len(scene.floors)} floor(s), {s['viewpoints']} viewpoints x {s['views_per_viewpoint']} views "
+          f"= {len(obs)} observations {args.width}x{args.height} (camera heights {ocfg.agent_height} + {list(ocfg.camera_heights)})")
+    print(f"observe {t_obs:.1f} s; perceive {t_per:.1f} s = {1e3 * t_per / max(len(obs), 1):.0f} ms per observation; "
+          f"planes {t_pl:.2f} s = {1e3 * t_pl / n_rec:.0f} ms per receptacle")
+    p, r = W.instance_scores(scene, fused, rcfg.labels)
+    print(f"{len(fused)} fused instances; receptacles precision {p:.2f} recall {r:.2f} (3D box IoU >= 0.5)")
+    tol = 0.02 if args.sigma <= 0 else 0.03
+    by_type: dict[str, list] = {}
+    for (iid, label, h, err, iou), (_i, _h, poly) in zip(W.surface_scores(scene, planes, tol), W.true_regions(scene)):
+        seen = W.observed_fraction(obs, iid, h, ensure_ccw(poly))
+        by_type.setdefault(label, []).append((err, iou, seen))
+        print(f"  {label:<13s} #{iid:<3d} at {h:.3f} m: height error {100 * err:5.2f} cm, polygon IoU {iou:.2f}, seen {seen:.2f}")
+    print(f"{'type':<13s} {'regions':>7s} {'found':>5s} {'max err cm':>10s} {'mean IoU':>8s} {'IoU>=0.8':>8s} {'well seen':>9s} {'IoU>=0.8 of well seen':>21s}")
+    for label, rows in sorted(by_type.items()):
+        e = np.array([x[0] for x in rows])
+        u = np.array([x[1] for x in rows])
+        w = np.array([x[2] >= W.WELL_SEEN for x in rows])
+        found = e <= tol
+        print(f"{label:<13s} {len(rows):7d} {found.sum():5d} {100 * e[found].max() if found.any() else float('nan'):10.2f} "
+              f"{u.mean():8.2f} {(u >= 0.8).sum():8d} {w.sum():9d} {((u >= 0.8) & w).sum():21d}")
     return 0
 
 

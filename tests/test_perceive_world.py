@@ -1,8 +1,12 @@
-"""Perceive + receptacle planes on default-world apartments (gt detector, observe-stage views). Slow."""
+"""Perceive + receptacle planes on default-world apartments 0-2 (gt detector, observe-stage views, default cameras). Slow.
+
+Ground truth: every receptacle instance and every support surface of the world's sidecar; same-height faces
+of one instance closer than JOIN_GAP form one region (seat cushions), parts a sink or hob keeps apart stay
+apart. Each region also gets the fraction of its area the observations showed (gt segmentation + depth).
+"""
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 from pathlib import Path
 
@@ -61,7 +65,7 @@ def scene_from_apartment(seed: int, root: Path) -> SceneAsset:
 
 @functools.lru_cache(maxsize=None)
 def world_observations(seed: int, root: str) -> tuple[SceneAsset, list]:
-    """Observe-stage views (320x240) of one default-world apartment (cached per process)."""
+    """Observe-stage views (default viewpoints and cameras, 320x240) of one default-world apartment (cached per process)."""
     from sdovon_mj.observe import load_shards, observe_scene
 
     r = Path(root) / f"w{seed}"
@@ -138,15 +142,61 @@ def surface_scores(scene: SceneAsset, planes: list, tol: float) -> list[tuple[in
     return out
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="open gap (see issue 5 report): wall shelves/counters above the 0.88 m camera are never "
-                   "seen from above, some bookshelf levels are missed, receptacle P/R 0.82 on apartment 0")
-@pytest.mark.parametrize("sigma,tol", [(0.0, 0.02), (0.005, 0.03)])
-def test_default_world_receptacles_and_planes(tmp_path_factory, sigma: float, tol: float) -> None:
-    root = str(tmp_path_factory.getbasetemp() / "perceive_world")
-    scene, fused, planes = world_result(0, root, sigma)
+def observed_fraction(obs: list, iid: int, height: float, polygon: np.ndarray, cell: float = 0.02) -> float:
+    """Return the fraction of a true region's cells that some observation's depth pixel of that instance lands on
+    (ground-truth segmentation, noise-free depth, within 1 cm of the surface): what the views showed of it."""
+    from matplotlib.path import Path as MplPath
+
+    from sdovon_mj.sim.camera import backproject
+
+    lo, hi = polygon.min(axis=0), polygon.max(axis=0)
+    xs, ys = np.arange(lo[0] + cell / 2, hi[0], cell), np.arange(lo[1] + cell / 2, hi[1], cell)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    inside = MplPath(polygon).contains_points(np.stack([gx.ravel(), gy.ravel()], 1)).reshape(gx.shape)
+    seen = np.zeros_like(inside)
+    for o in obs:
+        m = o.segmentation == iid
+        if not m.any():
+            continue
+        p = backproject(o.depth, o.K, o.T_cam, mask=m)
+        p = p[np.abs(p[:, 2] - height) < 0.01]
+        i = np.floor((p[:, 0] - lo[0]) / cell).astype(int)
+        j = np.floor((p[:, 1] - lo[1]) / cell).astype(int)
+        ok = (i >= 0) & (i < len(xs)) & (j >= 0) & (j < len(ys))
+        seen[i[ok], j[ok]] = True
+    return float((seen & inside).sum() / max(inside.sum(), 1))
+
+
+WELL_SEEN = 0.9  # regions the views showed less of than this cannot be expected at polygon IoU 0.8
+
+
+def region_report(seed: int, root: str, sigma: float, tol: float) -> dict:
+    """Score one apartment: instance P/R, and per true support region (height error, IoU, observed fraction)."""
+    scene, fused, planes = world_result(seed, root, sigma)
+    _scene, obs = world_observations(seed, root)
     p, r = instance_scores(scene, fused, ReceptacleConfig().labels)
-    assert p >= 0.9 and r >= 0.9, (p, r)
-    res = surface_scores(scene, planes, tol)
-    bad = [x for x in res if x[3] > tol or x[4] < 0.8]
-    assert len(bad) <= 0.1 * len(res), bad
+    from sdovon_mj.receptacles.polygon import ensure_ccw
+
+    rows = []
+    for (iid, label, h, err, iou), (_i, _h, poly) in zip(surface_scores(scene, planes, tol), true_regions(scene)):
+        rows.append((iid, label, h, err, iou, observed_fraction(obs, iid, h, ensure_ccw(poly))))
+    return {"precision": p, "recall": r, "regions": rows}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2])  # seed 2 has two storeys
+@pytest.mark.parametrize("sigma,tol", [(0.0, 0.02), (0.005, 0.03)])
+def test_default_world_receptacles_and_planes(tmp_path_factory, seed: int, sigma: float, tol: float) -> None:
+    root = str(tmp_path_factory.getbasetemp() / "perceive_world")
+    rep = region_report(seed, root, sigma, tol)
+    assert rep["precision"] >= 0.9 and rep["recall"] >= 0.9, rep
+    rows = rep["regions"]
+    # Every true support region (every bookshelf level included) is found: a plane of its instance within tol.
+    assert all(err <= tol for _i, _l, _h, err, _u, _f in rows), [x for x in rows if x[3] > tol]
+    # Regions the views showed well (>= WELL_SEEN of their area) match at polygon IoU >= 0.8, up to 10% of them
+    # (rounded seat and mattress edges: the true faces stop 3.5 cm short of the edge). Partly seen ones (side
+    # panels hide a bookshelf's back corners from every sampled viewpoint) are in bench_perceive --world.
+    well = [x for x in rows if x[5] >= WELL_SEEN]
+    assert len(well) >= 0.5 * len(rows), rows
+    bad = [x for x in well if x[4] < 0.8]
+    assert len(bad) <= 0.1 * len(well), bad
