@@ -247,6 +247,9 @@ class NavConfig:
     agent_height: float = _p(0.88, "m", "agent cylinder height (camera at the top)")
     max_tilt: float = _p(60.0, "deg", "LOOK_UP/LOOK_DOWN camera pitch limit")
     success_distance: float = _p(0.1, "m", "STOP within this geodesic distance of a view point succeeds")
+    fn_viewpoint_radius: float = _p(1.0, "m", "FN: inferred view points lie within this distance of the detected object")
+    fn_viewpoint_step: float = _p(0.25, "m", "FN: lattice step of inferred view points (as the episode generator's)")
+    fn_max_checks: int = _p(4, "-", "FN: inferred view points walked to and checked by looking, at most")
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,8 @@ import pytest
 from sdovon_mj import suite
 from sdovon_mj.config import NavConfig
 from sdovon_mj.nav.agents import OracleAgent, RandomAStar, SemanticAStar
-from sdovon_mj.nav.astar import astar, plan
+from sdovon_mj.nav.astar import astar, plan, plan_cells
+from sdovon_mj.nav.goal import goal_points, infer_view_points
 from sdovon_mj.nav.eval_cli import run_agent, summarize
 from sdovon_mj.nav.grid import GeodesicField, GridFrame
 from sdovon_mj.records import Episode, Goal, ViewPoint, load_json, save_json
@@ -95,6 +96,53 @@ def test_astar_and_geodesic_on_a_wall_grid():
     blocked = mask.copy()
     blocked[:, 20] = False
     assert math.isinf(GeodesicField(blocked, frame, np.array([[1.55, 3.55]])).distance(np.array([3.55, 0.55])))
+
+
+def _cost(path):
+    return sum(math.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(path[:-1], path[1:]))
+
+
+def test_dijkstra_planner_matches_astar():
+    """plan_cells (scipy Dijkstra on the cached graph) finds paths as short as the textbook A*, tolerance included."""
+    rng = np.random.default_rng(0)
+    for trial in range(6):
+        mask = rng.random((40, 50)) > 0.25
+        free = np.argwhere(mask)
+        s, g = (tuple(int(v) for v in free[k]) for k in rng.choice(len(free), 2, replace=False))
+        for tol in (0.0, 3.0):
+            a, b = astar(mask, s, g, tol), plan_cells(mask, s, g, tol)
+            assert (a is None) == (b is None)
+            if a is not None:
+                assert b[0] == s and (b[-1][0] - g[0]) ** 2 + (b[-1][1] - g[1]) ** 2 <= tol ** 2 + 1e-9
+                assert all(mask[r, c] for r, c in b)
+                assert _cost(b) == pytest.approx(_cost(a), abs=1e-9)
+
+
+def test_inferred_view_points_follow_the_generator_lattice():
+    """FN candidates: grid-anchored 0.25 m lattice cells within 1 m of the object's footprint, nearest by path first."""
+    mask = np.ones((80, 80), bool)
+    mask[:, 45] = False  # a wall east of the object, with a gap far south
+    mask[:10, 45] = True
+    frame = GridFrame(np.array([-0.03, 0.02]), 0.05, mask.shape)
+    obj = np.array([[1.9, 2.0, 0.8], [2.1, 2.1, 0.85], [2.0, 1.9, 0.75]])
+    pos = np.array([1.0, 2.0])
+    xy, d = infer_view_points(obj, mask, frame, pos, radius=1.0, step=0.25)
+    cells = frame.to_cell(xy)
+    assert len(xy) > 20 and np.all(cells % 5 == 0)
+    dx = np.maximum(np.maximum(1.9 - xy[:, 0], 0), xy[:, 0] - 2.1)
+    dy = np.maximum(np.maximum(1.9 - xy[:, 1], 0), xy[:, 1] - 2.1)
+    assert np.all(np.hypot(dx, dy) <= 1.0 + 1e-9)
+    assert np.all(np.diff(d) >= -1e-12) and np.linalg.norm(xy[0] - pos) < 0.2
+    assert np.all(xy[:, 0] < 2.22 + 1e-9) or d[xy[:, 0] > 2.22].min() > 2.0  # beyond the wall means the long way round
+    # depth pixels clipped at the sensor's near limit carry no range: the ray at the limit stands in
+    K = np.array([[50.0, 0, 32], [0, 50.0, 24], [0, 0, 1]])
+    depth = np.full((48, 64), 0.5, np.float32)
+    m = np.zeros((48, 64), bool)
+    m[20:28, 28:36] = True
+    T = np.eye(4)
+    assert np.allclose(goal_points(depth, m, K, T, 0.5, 5.0)[:, 2], 0.5)
+    depth[m] = 2.0
+    assert np.allclose(goal_points(depth, m, K, T, 0.5, 5.0)[:, 2], 2.0)
 
 
 def test_oracle_agent_succeeds(fixture_root):

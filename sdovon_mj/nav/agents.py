@@ -10,6 +10,7 @@ Protocol (what `eval_cli` and any plugin agent follow):
 
 from __future__ import annotations
 
+import hashlib
 import math
 from typing import Callable, Generator
 
@@ -18,14 +19,20 @@ import numpy as np
 from ..config import NavConfig, ReceptacleConfig
 from ..errors import InputError
 from ..records import Relevance, ReceptaclePlane
-from ..sim.camera import backproject, pose_cv
+from ..sim.camera import pose_cv
 from ..sim.model import object_segment_id
 from .control import Navigator, lattice_approach, segment_checker
 from .frontier import explore
-from .grid import GeodesicField, GridFrame, nearest_true
+from .goal import goal_points, infer_view_points, object_centre
+from .grid import GeodesicField, GridFrame
 from .memory import SceneMemory, build_memory
 
 STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN = range(6)
+
+# Scene memories built by exploration, shared by every A* agent of a process (eval runs four agents
+# over the same scenes); keyed by scene, navmap, labels and exploration settings.
+_MEMORY_CACHE: dict[tuple, tuple[SceneMemory, dict]] = {}
+_MEMORY_CACHE_SIZE = 32
 
 
 class Agent:
@@ -51,15 +58,19 @@ class Agent:
         self.info = {}
         self._gen = self._run(env)
         self._started = False
+        self.frame_fresh = False  # whether the current observation's images were rendered
+        self._render_next = False
 
     def act(self, ts) -> int:
         """Return the next action for the current timestep (STOP once the policy is done)."""
         self.ts = ts
+        self.frame_fresh = self._render_next
         try:
             a = next(self._gen) if not self._started else self._gen.send(ts)
         except StopIteration:
             a = STOP
         self._started = True
+        self._render_next = bool(self.wants_frame)
         return int(a)
 
     def _run(self, env) -> Generator[int, object, None]:
@@ -179,8 +190,17 @@ class ReceptacleAStar(Agent):
         labels = bundle.instance_labels()
         if not labels and self.planes is None:
             raise InputError(bundle.root, "no instance labels (scene*.json SceneAsset) and no receptacle planes given")
+        key = None
+        if self.planes is None and self.region_of is None:  # memories of the built-in stages are shared by agents
+            nm = bundle.navmap(bundle.episodes[0].floor if bundle.episodes else 0)
+            key = (scene, hashlib.sha1(np.ascontiguousarray(nm.navigable).tobytes()).hexdigest(),
+                   tuple(sorted(labels.items())), tuple(self.receptacle_labels), self.explore_steps,
+                   tuple(self.explore_size), self.planning, self.nav)
+            if key in _MEMORY_CACHE:
+                self.memories[scene], self.explored = _MEMORY_CACHE[key]
+                return
         w, h = self.explore_size
-        env = make_env(bundle, semantic=True, width=w, height=h, max_steps=self.explore_steps + 100)
+        env = make_env(bundle, nav=self.nav, semantic=True, width=w, height=h, max_steps=self.explore_steps + 100)
         frames, occ = explore(env, env.task.nav, max_steps=self.explore_steps)
         frame = GridFrame.of(env.task.navmap)
         trav = occ.traversable() if self.planning == "explored" else env.task.navmap.navigable
@@ -189,8 +209,13 @@ class ReceptacleAStar(Agent):
             region_of = bundle.region_map().region_at
         self.memories[scene] = build_memory(scene, frames, labels, trav, frame, self.receptacle_labels, self.planes,
                                             region_of, env.task.nav.depth_max)
-        self.explored = {"frames": len(frames), "free_cells": int((occ.state == 1).sum())}
+        self.explored = {"frames": len(frames), "free_cells": int((occ.state == 1).sum()),
+                         "steps": int(env.task.steps)}
         env.task.close()
+        if key is not None:
+            while len(_MEMORY_CACHE) >= _MEMORY_CACHE_SIZE:
+                _MEMORY_CACHE.pop(next(iter(_MEMORY_CACHE)))
+            _MEMORY_CACHE[key] = (self.memories[scene], self.explored)
 
     def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
         """Return the memory entries in visiting order."""
@@ -198,29 +223,115 @@ class ReceptacleAStar(Agent):
 
     # -- one episode ---------------------------------------------------------------------------------
 
+    def _detect(self) -> np.ndarray | None:
+        """Return the goal mask in the current observation (None when not detected or not rendered)."""
+        if not self.frame_fresh:
+            return None
+        return self.detector(self.ts.observation, str(self.ts.observation["objectgoal_text"]))
+
+    def _rendered(self, action: int) -> Generator[int, object, None]:
+        """Yield one action whose observation is rendered."""
+        self.wants_frame = True
+        yield action
+        self.wants_frame = False
+
     def _observe(self) -> Generator[int, object, np.ndarray | None]:
-        """Look down and back up, rendering both frames; return the goal mask of a detection (or None)."""
-        cat = str(self.ts.observation["objectgoal_text"])
-        for a in (LOOK_DOWN, LOOK_UP):
-            self.wants_frame = True
-            yield a
-            self.wants_frame = False
-            mask = self.detector(self.ts.observation, cat)
+        """Detect at pitches 0 and -tilt (current frame first); return the goal mask of a detection (or None)."""
+        mask = self._detect()
+        if mask is not None:
+            return mask
+        pitch = math.degrees(float(self.ts.observation["pitch"][0]))
+        low = -self.nav.tilt_angle
+        if self.frame_fresh:  # the current pitch is seen: look at the other one
+            seq = [LOOK_DOWN] if pitch > low / 2 else [LOOK_UP]
+        else:
+            seq = [LOOK_DOWN, LOOK_UP] if pitch > low / 2 else [LOOK_UP, LOOK_DOWN]
+        for a in seq:
+            yield from self._rendered(a)
+            mask = self._detect()
             if mask is not None:
-                pts = self._reconstruct(mask)
-                if pts is not None:
-                    return pts
+                return mask
         return None
 
-    def _reconstruct(self, mask: np.ndarray) -> np.ndarray | None:
-        """Return the goal object's 3D position from the masked depth (median of back-projected points)."""
+    def _camera(self) -> np.ndarray:
         o = self.ts.observation
         pos = np.asarray(o["position"], float)
-        T = pose_cv(pos + np.array([0.0, 0.0, self.nav.agent_height]), math.degrees(float(o["heading"][0])),
-                    math.degrees(float(o["pitch"][0])))
-        K = self.env.task.K
-        pts = backproject(o["depth"][..., 0], K, T, mask=mask, depth_max=self.nav.depth_max - 1e-3)
-        return np.median(pts, axis=0) if len(pts) else None
+        return pose_cv(pos + np.array([0.0, 0.0, self.nav.agent_height]), math.degrees(float(o["heading"][0])),
+                       math.degrees(float(o["pitch"][0])))
+
+    def _reconstruct(self, mask: np.ndarray) -> np.ndarray:
+        """Return the goal object's world points (N, 3) from the masked depth (paper eq. 1-2)."""
+        o = self.ts.observation
+        return goal_points(o["depth"], mask, self.env.task.K, self._camera(), self.nav.depth_min, self.nav.depth_max)
+
+    def _face(self, nv: Navigator, point: np.ndarray) -> Generator[int, object, None]:
+        """Turn towards a point, rendering every turn's observation."""
+        self.wants_frame = True
+        yield from nv.face(np.asarray(point, float)[:2], self.ts)
+        self.wants_frame = False
+
+    def _reach(self, target: np.ndarray, nv: Navigator, memory: SceneMemory) -> Generator[int, object, bool]:
+        """Walk onto a point within a few centimetres (A* then an exact forward/turn lattice); return success."""
+        radius = 0.45 * self.nav.success_distance
+        pos = np.asarray(self.ts.observation["position"], float)[:2]
+        if np.linalg.norm(pos - target) > 2 * self.nav.forward_step:
+            yield from nv.goto(target, self.nav.forward_step, self.ts)
+        check = segment_checker(memory.traversable, memory.frame)
+        for _ in range(3):
+            pos = np.asarray(self.ts.observation["position"], float)[:2]
+            if np.linalg.norm(pos - target) <= radius:
+                return True
+            yaw = math.degrees(float(self.ts.observation["heading"][0]))
+            acts = lattice_approach(pos, yaw, target, check, self.nav, radius=radius)
+            if not acts:
+                return False
+            for a in acts:
+                before = np.asarray(self.ts.observation["position"], float)[:2]
+                yield a
+                if a == MOVE_FORWARD and np.linalg.norm(np.asarray(self.ts.observation["position"], float)[:2] - before) < 1e-4:
+                    break  # blocked (the map and the world disagree): plan again from here
+        pos = np.asarray(self.ts.observation["position"], float)[:2]
+        return bool(np.linalg.norm(pos - target) <= radius)
+
+    def _verify(self, centre: np.ndarray, nv: Navigator) -> Generator[int, object, bool]:
+        """Face the goal, tilt towards it and look: return whether the detector sees it from here."""
+        self.frame_fresh = False
+        yield from self._face(nv, centre)
+        o = self.ts.observation
+        cam = np.asarray(o["position"], float) + np.array([0.0, 0.0, self.nav.agent_height])
+        want = math.degrees(math.atan2(centre[2] - cam[2], float(np.linalg.norm(centre[:2] - cam[:2]))))
+        t = self.nav.tilt_angle
+        want = float(np.clip(round(want / t) * t, -self.nav.max_tilt, self.nav.max_tilt))
+        for _ in range(int(2 * self.nav.max_tilt / t) + 1):
+            pitch = math.degrees(float(self.ts.observation["pitch"][0]))
+            if abs(pitch - want) < t / 2:
+                break
+            yield from self._rendered(LOOK_UP if want > pitch else LOOK_DOWN)
+        if self._detect() is not None:
+            return True
+        pitch = math.degrees(float(self.ts.observation["pitch"][0]))
+        for a in ((LOOK_DOWN, LOOK_UP) if pitch > -self.nav.max_tilt + 1e-6 else (LOOK_UP,)):
+            yield from self._rendered(a)
+            if self._detect() is not None:
+                return True
+        return False
+
+    def _final_nav(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
+        """FN: walk to the nearest inferred view point of the detected goal that the detector confirms."""
+        centre = object_centre(pts)
+        pos = np.asarray(self.ts.observation["position"], float)[:2]
+        cands, _d = infer_view_points(pts, memory.traversable, memory.frame, pos, self.nav.fn_viewpoint_radius,
+                                      self.nav.fn_viewpoint_step)
+        tried = 0
+        for c in cands:
+            if tried >= self.nav.fn_max_checks:
+                break
+            if not (yield from self._reach(c, nv, memory)):
+                continue
+            tried += 1
+            if (yield from self._verify(centre, nv)):
+                return {"fn_candidates": int(len(cands)), "fn_checks": tried, "fn_verified": True}
+        return {"fn_candidates": int(len(cands)), "fn_checks": tried, "fn_verified": False}
 
     def _run(self, env) -> Generator[int, object, None]:
         scene = env.task.episode.scene
@@ -228,29 +339,25 @@ class ReceptacleAStar(Agent):
         if memory is None:
             raise InputError(scene, "agent.prepare(bundle, make_env) was not called for this scene")
         rng = np.random.default_rng([self.seed, int(env.task.episode_index)])
-        cat = str(self.ts.observation["objectgoal_text"])
         nv = Navigator(self.nav, lambda: memory.traversable, memory.frame)
         visited = 0
-        for entry in self.order(memory, cat, rng):
+        for entry in self.order(memory, str(self.ts.observation["objectgoal_text"]), rng):
             pts = [p for p in entry.nav_points]
             while pts:
                 pos = np.asarray(self.ts.observation["position"], float)[:2]
                 k = int(np.argmin([np.linalg.norm(p - pos) for p in pts]))
                 p_nav = pts.pop(k)
                 yield from nv.goto(p_nav, self.nav.eps_nav, self.ts)
-                yield from nv.face(entry.centre, self.ts)
+                self.frame_fresh = False
+                yield from self._face(nv, entry.centre)
                 visited += 1
-                goal = yield from self._observe()
-                if goal is not None:
-                    self.info = {"detected": True, "goal": goal.tolist(), "nav_points": visited}
-                    if self.final_nav:
-                        cell = nearest_true(memory.traversable, memory.frame.to_cell(goal[None, :2])[0])
-                        if cell is not None:
-                            near = memory.frame.to_world(cell[None])[0]
-                            if float(np.linalg.norm(near - goal[:2])) <= self.nav.eps_nav:
-                                yield from nv.goto(goal[:2], self.nav.eps_nav, self.ts)
-                            else:  # the goal is farther than eps_nav from any free cell: go to the closest one
-                                yield from nv.goto(near, memory.frame.resolution * 2, self.ts)
+                mask = yield from self._observe()
+                if mask is not None:
+                    goal = self._reconstruct(mask)
+                    self.info = {"detected": True, "goal": object_centre(goal).tolist() if len(goal) else None,
+                                 "nav_points": visited, "receptacle": entry.plane.label, "region": entry.region}
+                    if self.final_nav and len(goal):
+                        self.info.update((yield from self._final_nav(memory, nv, goal)))
                     yield STOP
                     return
                 pos = np.asarray(self.ts.observation["position"], float)[:2]

@@ -65,11 +65,17 @@ def lookup(mask: np.ndarray, frame: GridFrame, xy: np.ndarray) -> np.ndarray:
 
 def segment_free(mask: np.ndarray, frame: GridFrame, a: np.ndarray, b: np.ndarray, step: float | None = None) -> bool:
     """Return whether every sample of the straight segment a -> b (world XY) lies on True cells."""
-    a, b = np.asarray(a, dtype=float)[:2], np.asarray(b, dtype=float)[:2]
-    step = frame.resolution / 2.0 if step is None else step
-    n = max(1, int(math.ceil(np.linalg.norm(b - a) / step)))
-    t = np.linspace(0.0, 1.0, n + 1)[:, None]
-    return bool(lookup(mask, frame, a[None] + t * (b - a)[None]).all())
+    ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
+    res = frame.resolution
+    step = res / 2.0 if step is None else step
+    n = max(1, int(math.ceil(math.hypot(bx - ax, by - ay) / step)))
+    t = np.arange(n + 1, dtype=float) / n
+    col = np.floor((ax + t * (bx - ax) - frame.origin[0]) / res).astype(np.intp)
+    row = np.floor((ay + t * (by - ay) - frame.origin[1]) / res).astype(np.intp)
+    h, w = mask.shape
+    if col.min() < 0 or row.min() < 0 or col.max() >= w or row.max() >= h:
+        return False
+    return bool(mask[row, col].all())
 
 
 def erode(mask: np.ndarray, radius: float, resolution: float) -> np.ndarray:

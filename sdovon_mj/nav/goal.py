@@ -1,0 +1,90 @@
+"""Goal reconstruction and view point inference for the final point-goal navigation (FN).
+
+`Reconstruct` (paper eq. 1-2): the detected mask's depth pixels are back-projected to world points;
+pixels clipped at the sensor's near limit carry no range and are dropped (when every pixel is
+clipped, the object is closer than the near limit: the mask's ray at that range stands in).
+
+FN then needs a place to STOP. Success is judged against the episode's view points: navigable
+cells on a `step` lattice (anchored to the map grid) within `radius` of the object's footprint from
+which the agent camera sees the object (episodes/viewpoints.py). The agent infers the same set from
+what it knows: lattice cells of its own planning map within `radius` of the reconstructed points'
+footprint, ranked by path length from where it stands; it verifies each by looking (detector).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..sim.camera import backproject
+from .grid import GeodesicField, GridFrame, nearest_true
+
+
+def goal_points(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, T_cam: np.ndarray, depth_min: float,
+                depth_max: float) -> np.ndarray:
+    """Return world points (N, 3) of a detection mask (ray at the near limit when no pixel has range)."""
+    d = np.asarray(depth, dtype=np.float64)
+    if d.ndim == 3:
+        d = d[..., 0]
+    m = np.asarray(mask, dtype=bool)
+    pts = backproject(d, K, T_cam, mask=m, depth_min=depth_min + 1e-3, depth_max=depth_max - 1e-3)
+    if len(pts) or not m.any():
+        return pts
+    return backproject(np.full_like(d, depth_min), K, T_cam, mask=m, depth_min=0.0)
+
+
+def object_centre(points: np.ndarray) -> np.ndarray:
+    """Return a robust centre (3,) of an object's points (median)."""
+    return np.median(np.asarray(points, float), axis=0)
+
+
+def footprint(points: np.ndarray, trim: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """Return the XY box (lo, hi) of an object's points, trimming `trim` percent outliers per side."""
+    p = np.asarray(points, float)[:, :2]
+    if len(p) < 20:
+        return p.min(axis=0), p.max(axis=0)
+    return np.percentile(p, trim, axis=0), np.percentile(p, 100.0 - trim, axis=0)
+
+
+def lattice_cells(mask: np.ndarray, frame: GridFrame, lo: np.ndarray, hi: np.ndarray, radius: float,
+                  step: float) -> np.ndarray:
+    """Return True cells (K, 2) of `mask` on a `step` lattice anchored to the grid within `radius` of box lo..hi."""
+    stride = max(1, int(round(step / frame.resolution)))
+    h, w = mask.shape
+    rc_lo = frame.to_cell((np.asarray(lo, float)[:2] - radius)[None])[0]
+    rc_hi = frame.to_cell((np.asarray(hi, float)[:2] + radius)[None])[0]
+    r0 = max(0, int(np.ceil(rc_lo[0] / stride)) * stride)
+    c0 = max(0, int(np.ceil(rc_lo[1] / stride)) * stride)
+    rows = np.arange(r0, min(h - 1, rc_hi[0]) + 1, stride)
+    cols = np.arange(c0, min(w - 1, rc_hi[1]) + 1, stride)
+    if len(rows) == 0 or len(cols) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    rr, cc = np.meshgrid(rows, cols, indexing="ij")
+    cells = np.stack([rr.ravel(), cc.ravel()], axis=1)
+    cells = cells[mask[cells[:, 0], cells[:, 1]]]
+    xy = frame.to_world(cells)
+    dx = np.maximum(np.maximum(lo[0] - xy[:, 0], 0.0), xy[:, 0] - hi[0])
+    dy = np.maximum(np.maximum(lo[1] - xy[:, 1], 0.0), xy[:, 1] - hi[1])
+    return cells[np.hypot(dx, dy) <= radius]
+
+
+def infer_view_points(points: np.ndarray, traversable: np.ndarray, frame: GridFrame, position: np.ndarray,
+                      radius: float = 1.0, step: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
+    """Return candidate view points (K, 2) around an object's points, nearest by path first, and path lengths (K,)."""
+    lo, hi = footprint(points)
+    cells = lattice_cells(traversable, frame, lo, hi, radius, step)
+    if len(cells) == 0:
+        return np.zeros((0, 2)), np.zeros(0)
+    pos = np.asarray(position, float)[:2]
+    rc = frame.to_cell(pos[None])[0]
+    if not (frame.inside(rc[None])[0] and traversable[rc[0], rc[1]]):
+        near = nearest_true(traversable, rc)
+        if near is None:
+            return np.zeros((0, 2)), np.zeros(0)
+        pos = frame.to_world(near[None])[0]
+    field = GeodesicField(traversable, frame, pos[None])
+    xy = frame.to_world(cells)
+    d = field.field[cells[:, 0], cells[:, 1]] + np.linalg.norm(xy - pos, axis=1) * 1e-6
+    ok = np.isfinite(d)
+    xy, d = xy[ok], d[ok]
+    order = np.lexsort((xy[:, 1], xy[:, 0], d))
+    return xy[order], d[order]
