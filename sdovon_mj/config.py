@@ -119,12 +119,6 @@ class PerceiveConfig:
     vocabulary: tuple[str, ...] = _p((), "-", "text prompts of open-vocabulary detectors (empty: the receptacle labels)")
     owl_weights: str = _p("owlv2", "path", "box model subfolder of detector_weights (OWLv2 or Grounding DINO, transformers format)")
     sam_weights: str = _p("sam", "path", "mask model subfolder of detector_weights (SAM, transformers format)")
-    depth_min: float = _p(0.1, "m", "depth below this is not back-projected")
-    depth_max: float = _p(10.0, "m", "depth above this is not back-projected")
-    label_similarity: str = _p("minilm", "-", "label term of fusion: minilm (cosine of all-MiniLM-L6-v2 sentence embeddings, clipped to [0, 1]) or exact (1 if equal else 0)")
-    vocabulary: tuple[str, ...] = _p((), "-", "text prompts of open-vocabulary detectors (empty: the receptacle labels)")
-    owl_weights: str = _p("owlv2", "path", "box model subfolder of detector_weights (OWLv2 or Grounding DINO, transformers format)")
-    sam_weights: str = _p("sam", "path", "mask model subfolder of detector_weights (SAM, transformers format)")
 
 
 @dataclass(frozen=True)
@@ -150,10 +144,6 @@ class ReceptacleConfig:
     fit_band: float = _p(0.01, "m", "final fit and polygon use the densest layer of this half-thickness (vertical faces within eps_t excluded); 0: off")
     min_width: float = _p(0.15, "m", "support regions narrower than this are cut off (strips around a sink, points seen through a gap); real shelves are >= 0.2 m deep")
     open_cell: float = _p(0.025, "m", "XY grid cell of the min_width opening")
-    coverage_cell: float = _p(0.05, "m", "XY grid cell for plane connectivity, hull coverage and clearance tests")
-    min_coverage: float = _p(0.5, "-", "planes whose hull cells hold inlier points less often than this are rejected (slabs through legs or walls)")
-    min_clearance: float = _p(0.10, "m", "free height needed above a plane; receptacle points in (eps_t, this] above it count as covering")
-    max_covered: float = _p(0.5, "-", "planes with more than this fraction of their points covered from just above are rejected (undersides)")
 
 
 @dataclass(frozen=True)
