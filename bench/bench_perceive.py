@@ -96,7 +96,7 @@ def world(args: argparse.Namespace) -> int:
     from sdovon_mj.perceive import perceive_scene
     from sdovon_mj.perceive.fusion import embed_labels
     from sdovon_mj.receptacles import find_receptacle_planes
-    from sdovon_mj.receptacles.polygon import ensure_ccw
+    from sdovon_mj.polygons import ensure_ccw
 
     root = Path(args.out or tempfile.mkdtemp(prefix="bench_perceive_"))
     scene = W.scene_from_apartment(args.world, root)

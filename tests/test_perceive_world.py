@@ -109,7 +109,7 @@ def true_regions(scene: SceneAsset) -> list[tuple[int, float, np.ndarray]]:
     than JOIN_GAP united into their convex hull (seat cushions); parts a sink or hob keeps apart stay apart."""
     from shapely.ops import unary_union
 
-    from sdovon_mj.receptacles.polygon import _shapely
+    from sdovon_mj.polygons import _shapely
 
     groups: dict[tuple[int, float], list] = {}
     for s in scene.support_surfaces:
@@ -130,7 +130,7 @@ def true_regions(scene: SceneAsset) -> list[tuple[int, float, np.ndarray]]:
 def surface_scores(scene: SceneAsset, planes: list, tol: float) -> list[tuple[int, str, float, float, float]]:
     """Per true support region: (instance, label, height, height error, best polygon IoU of a plane within tol)."""
     from sdovon_mj.receptacles import polygon_iou
-    from sdovon_mj.receptacles.polygon import ensure_ccw
+    from sdovon_mj.polygons import ensure_ccw
 
     out = []
     for iid, h, truth in true_regions(scene):
@@ -175,7 +175,7 @@ def region_report(seed: int, root: str, sigma: float, tol: float) -> dict:
     scene, fused, planes = world_result(seed, root, sigma)
     _scene, obs = world_observations(seed, root)
     p, r = instance_scores(scene, fused, ReceptacleConfig().labels)
-    from sdovon_mj.receptacles.polygon import ensure_ccw
+    from sdovon_mj.polygons import ensure_ccw
 
     rows = []
     for (iid, label, h, err, iou), (_i, _h, poly) in zip(surface_scores(scene, planes, tol), true_regions(scene)):

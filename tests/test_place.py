@@ -12,7 +12,7 @@ import pytest
 
 from sdovon_mj.config import PlaceConfig
 from sdovon_mj.place.check import check_variant, format_report, per_category
-from sdovon_mj.place.polygon_sampling import inset_convex_polygon, points_in_convex_polygon, sample_in_polygon, triangle_fan
+from sdovon_mj.polygons import fan_triangles, points_in_convex_polygon, sample_in_polygon, shrink_polygon
 from sdovon_mj.place.sample import category_distribution, sample_placements, top_pair_share
 from sdovon_mj.place.synthetic import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene
 from sdovon_mj.place.variants import place_variant, place_variants, run_variant, variant_seed
@@ -33,7 +33,7 @@ def test_polygon_sampling_is_uniform_and_inside():
     poly = np.array([[0, 0], [3, 0], [4, 1], [2, 3], [0, 2]], dtype=float)
     pts = sample_in_polygon(poly, 20000, rng)
     assert points_in_convex_polygon(poly, pts).all()
-    tris, areas = triangle_fan(poly)
+    tris, areas = fan_triangles(poly)
     # Each fan triangle receives points in proportion to its area (paper appendix B).
     counts = np.zeros(len(tris))
     for k, t in enumerate(tris):
@@ -42,9 +42,9 @@ def test_polygon_sampling_is_uniform_and_inside():
     # Uniform in x on a unit square: the mean and variance of a uniform law.
     sq = sample_in_polygon(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float), 20000, rng)
     assert abs(sq[:, 0].mean() - 0.5) < 0.01 and abs(sq[:, 0].var() - 1 / 12) < 0.004
-    inner = inset_convex_polygon(poly, 0.3)
+    inner = shrink_polygon(poly, 0.3)
     assert len(inner) >= 3 and points_in_convex_polygon(poly, inner).all()
-    assert len(inset_convex_polygon(np.array([[0, 0], [0.1, 0], [0.1, 0.1], [0, 0.1]], float), 0.06)) == 0
+    assert len(shrink_polygon(np.array([[0, 0], [0.1, 0], [0.1, 0.1], [0, 0.1]], float), 0.06)) == 0
 
 
 def test_category_distribution_top_k_and_temperature():

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..config import PlaceConfig
 from ..records import ObjectAsset, Placement, ReceptaclePlane, Relevance
-from .polygon_sampling import inset_convex_polygon, sample_in_polygon
+from ..polygons import sample_in_polygon, shrink_polygon
 
 POSITION_TRIES = 40  # candidate positions per object before giving up on a plane
 _INSET_CACHE: dict[tuple[bytes, float], np.ndarray] = {}
@@ -25,7 +25,7 @@ def _inset(polygon: np.ndarray, r: float) -> np.ndarray:
     if hit is None:
         if len(_INSET_CACHE) > 100_000:
             _INSET_CACHE.clear()
-        hit = _INSET_CACHE[key] = inset_convex_polygon(polygon, r)
+        hit = _INSET_CACHE[key] = shrink_polygon(polygon, r)
     return hit
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from ..config import PlaceConfig
 from ..records import ReceptaclePlane, SceneAsset
 from ..sim import GROUP_SUPPORT
-from .polygon_sampling import convex_hull_ccw
+from ..polygons import convex_hull_ccw
 
 SUPPORT_FRICTION = (1.0, 0.02, 0.002)  # sliding, torsional, rolling
 SUPPORT_CONDIM = 6

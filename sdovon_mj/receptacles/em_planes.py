@@ -18,7 +18,7 @@ import numpy as np
 
 from ..config import ReceptacleConfig
 from ..records import Instance, ReceptaclePlane
-from .polygon import convex_hull_ccw, polygon_area
+from ..polygons import convex_hull_ccw, polygon_area
 
 
 def fit_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -154,7 +154,7 @@ def refine_plane(points: np.ndarray, idx: np.ndarray, centroid: np.ndarray, norm
 
 def drop_covered_planes(planes: list[ReceptaclePlane], cfg: ReceptacleConfig) -> list[ReceptaclePlane]:
     """Drop planes with another plane of the same instance less than min_clearance above over most of their area (undersides of boards)."""
-    from .polygon import _shapely
+    from ..polygons import _shapely
 
     def covers(q: ReceptaclePlane, p: ReceptaclePlane) -> bool:
         if q is p or q.instance_id != p.instance_id or not (cfg.fit_band < q.height - p.height <= cfg.min_clearance):

@@ -1,4 +1,8 @@
-"""Convex polygons in world XY: CCW hulls, area, IoU, shrinking and uniform sampling (paper appendix B)."""
+"""Convex polygons in world XY: CCW hulls, area, IoU, shrinking and uniform sampling (paper appendix B).
+
+Shared geometry (like `records`): receptacle planes are detected as these polygons and objects are
+placed by sampling in them, so the receptacles and place stages both use this one module.
+"""
 
 from __future__ import annotations
 
@@ -71,16 +75,16 @@ def shrink_polygon(polygon: np.ndarray, distance: float) -> np.ndarray:
 
 
 def points_in_convex_polygon(polygon: np.ndarray, points: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    """Return whether each 2D point (N, 2) lies inside (or on) a CCW convex polygon."""
+    """Return whether 2D points (N, 2) lie inside (or within `tol` metres outside) a convex polygon."""
     p = ensure_ccw(polygon)
     q = np.asarray(points, dtype=float).reshape(-1, 2)
-    a = p
-    b = np.roll(p, -1, axis=0)
-    edge = b - a  # (M, 2)
-    rel = q[:, None, :] - a[None, :, :]  # (N, M, 2)
-    cross = edge[None, :, 0] * rel[..., 1] - edge[None, :, 1] * rel[..., 0]
-    scale = np.linalg.norm(edge, axis=1)[None, :]
-    return np.all(cross >= -tol * np.maximum(scale, 1.0), axis=1)
+    if len(p) < 3:
+        return np.zeros(len(q), dtype=bool)
+    edge = np.roll(p, -1, axis=0) - p  # (M, 2)
+    rel = q[:, None, :] - p[None, :, :]  # (N, M, 2)
+    length = np.maximum(np.linalg.norm(edge, axis=1), 1e-12)[None, :]
+    inward = (edge[None, :, 0] * rel[..., 1] - edge[None, :, 1] * rel[..., 0]) / length  # signed distance inside
+    return np.all(inward >= -tol, axis=1)
 
 
 def fan_triangles(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -97,6 +101,8 @@ def fan_triangles(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def sample_in_polygon(polygon: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
     """Return `n` points (n, 2) drawn uniformly from a convex polygon (paper appendix B, algorithm 3)."""
+    if int(n) <= 0:
+        return np.zeros((0, 2))
     tri, areas = fan_triangles(polygon)
     total = float(areas.sum())
     if total <= 0:
