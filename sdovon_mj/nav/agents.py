@@ -10,6 +10,7 @@ Protocol (what `eval_cli` and any plugin agent follow):
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import math
 from typing import Callable, Generator
@@ -21,7 +22,7 @@ from ..errors import InputError
 from ..records import Relevance, ReceptaclePlane
 from ..sim.camera import pose_cv
 from ..sim.model import object_segment_id
-from .control import Navigator, lattice_approach, segment_checker
+from .control import Navigator, blocked_cells, lattice_approach, segment_checker
 from .frontier import explore
 from .goal import goal_points, infer_view_points, object_centre
 from .grid import GeodesicField, GridFrame
@@ -197,7 +198,8 @@ class ReceptacleAStar(Agent):
                    tuple(sorted(labels.items())), tuple(self.receptacle_labels), self.explore_steps,
                    tuple(self.explore_size), self.planning, self.nav)
             if key in _MEMORY_CACHE:
-                self.memories[scene], self.explored = _MEMORY_CACHE[key]
+                mem, self.explored = _MEMORY_CACHE[key]
+                self.memories[scene] = copy.copy(mem)  # own planning map: cells learned blocked stay with this agent
                 return
         w, h = self.explore_size
         env = make_env(bundle, nav=self.nav, semantic=True, width=w, height=h, max_steps=self.explore_steps + 100)
@@ -215,7 +217,7 @@ class ReceptacleAStar(Agent):
         if key is not None:
             while len(_MEMORY_CACHE) >= _MEMORY_CACHE_SIZE:
                 _MEMORY_CACHE.pop(next(iter(_MEMORY_CACHE)))
-            _MEMORY_CACHE[key] = (self.memories[scene], self.explored)
+            _MEMORY_CACHE[key] = (copy.copy(self.memories[scene]), self.explored)
 
     def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
         """Return the memory entries in visiting order."""
@@ -270,28 +272,22 @@ class ReceptacleAStar(Agent):
         yield from nv.face(np.asarray(point, float)[:2], self.ts)
         self.wants_frame = False
 
-    def _reach(self, target: np.ndarray, nv: Navigator, memory: SceneMemory) -> Generator[int, object, bool]:
-        """Walk onto a point within a few centimetres (A* then an exact forward/turn lattice); return success."""
+    def _reach(self, target: np.ndarray, nv: Navigator) -> Generator[int, object, bool]:
+        """Walk onto a point within a few centimetres (exact forward/turn lattice plan); return success."""
         radius = 0.45 * self.nav.success_distance
+        ok = yield from nv.goto(target, radius, self.ts)
         pos = np.asarray(self.ts.observation["position"], float)[:2]
-        if np.linalg.norm(pos - target) > 2 * self.nav.forward_step:
-            yield from nv.goto(target, self.nav.forward_step, self.ts)
-        check = segment_checker(memory.traversable, memory.frame)
-        for _ in range(3):
-            pos = np.asarray(self.ts.observation["position"], float)[:2]
-            if np.linalg.norm(pos - target) <= radius:
-                return True
-            yaw = math.degrees(float(self.ts.observation["heading"][0]))
-            acts = lattice_approach(pos, yaw, target, check, self.nav, radius=radius)
-            if not acts:
-                return False
-            for a in acts:
-                before = np.asarray(self.ts.observation["position"], float)[:2]
-                yield a
-                if a == MOVE_FORWARD and np.linalg.norm(np.asarray(self.ts.observation["position"], float)[:2] - before) < 1e-4:
-                    break  # blocked (the map and the world disagree): plan again from here
-        pos = np.asarray(self.ts.observation["position"], float)[:2]
-        return bool(np.linalg.norm(pos - target) <= radius)
+        return bool(ok and np.linalg.norm(pos - target) <= radius + 1e-6)
+
+    def _navigator(self, memory: SceneMemory) -> Navigator:
+        """Return a navigator on the memory's planning map that learns cells the world refuses."""
+        def blocked(pos: np.ndarray, yaw: float) -> None:
+            cells = blocked_cells(memory.frame, pos, yaw, self.nav.forward_step)
+            trav = memory.traversable.copy()  # a new array: planners cache graphs per mask object
+            trav[cells[:, 0], cells[:, 1]] = False
+            memory.traversable = trav
+
+        return Navigator(self.nav, lambda: memory.traversable, memory.frame, on_blocked=blocked)
 
     def _verify(self, centre: np.ndarray, nv: Navigator) -> Generator[int, object, bool]:
         """Face the goal, tilt towards it and look: return whether the detector sees it from here."""
@@ -326,7 +322,7 @@ class ReceptacleAStar(Agent):
         for c in cands:
             if tried >= self.nav.fn_max_checks:
                 break
-            if not (yield from self._reach(c, nv, memory)):
+            if not (yield from self._reach(c, nv)):
                 continue
             tried += 1
             if (yield from self._verify(centre, nv)):
@@ -339,7 +335,7 @@ class ReceptacleAStar(Agent):
         if memory is None:
             raise InputError(scene, "agent.prepare(bundle, make_env) was not called for this scene")
         rng = np.random.default_rng([self.seed, int(env.task.episode_index)])
-        nv = Navigator(self.nav, lambda: memory.traversable, memory.frame)
+        nv = self._navigator(memory)
         visited = 0
         for entry in self.order(memory, str(self.ts.observation["objectgoal_text"]), rng):
             pts = [p for p in entry.nav_points]

@@ -30,14 +30,46 @@ def _wrap(a: float) -> float:
 class Navigator:
     """Follows A* paths on a planning mask with MOVE_FORWARD / TURN_LEFT / TURN_RIGHT."""
 
-    def __init__(self, nav, mask_fn: Callable[[], np.ndarray], frame: GridFrame, max_replans: int = 4) -> None:
+    def __init__(self, nav, mask_fn: Callable[[], np.ndarray], frame: GridFrame, max_replans: int = 4,
+                 on_blocked: Callable[[np.ndarray, float], None] | None = None) -> None:
         self.nav = nav
         self.mask_fn = mask_fn
         self.frame = frame
         self.max_replans = max_replans
+        self.on_blocked = on_blocked  # called with (position, yaw deg) when a forward move did not move
 
     def goto(self, target: np.ndarray, tolerance: float, ts) -> Generator[int, object, bool]:
-        """Yield actions until within `tolerance` (m) of target; return whether it got there."""
+        """Yield actions until within `tolerance` (m) of target; return whether it got there.
+
+        Plans exact action sequences with `lattice_plan` (A* over the agent's reachable poses, guided
+        by the grid's geodesic distance), replanning when the world refuses a move; falls back to
+        pure pursuit of a grid path when the lattice search gives up.
+        """
+        target = np.asarray(target, dtype=float)[:2]
+        tol = max(tolerance, 1e-3)
+        for _ in range(self.max_replans + 1):
+            pos, yaw = _pose(ts)
+            if np.linalg.norm(pos - target) <= tol:
+                return True
+            mask = self.mask_fn()
+            acts = lattice_plan(pos, yaw, target, tol, mask, self.frame, self.nav)
+            if acts is None:
+                break
+            blocked = False
+            for a in acts:
+                before = _pose(ts)[0]
+                ts = yield a
+                if a == MOVE_FORWARD and np.linalg.norm(_pose(ts)[0] - before) < 1e-4:
+                    if self.on_blocked is not None:
+                        self.on_blocked(before, _pose(ts)[1])
+                    blocked = True
+                    break
+            if not blocked:
+                return bool(np.linalg.norm(_pose(ts)[0] - target) <= tol + 1e-6)
+        return (yield from self._pursue(target, tolerance, ts))
+
+    def _pursue(self, target: np.ndarray, tolerance: float, ts) -> Generator[int, object, bool]:
+        """Pure pursuit of a smoothed grid path with replanning (fallback of `goto`)."""
         target = np.asarray(target, dtype=float)[:2]
         stop_r = max(tolerance, self.nav.forward_step / 2.0)
         replans = 0
@@ -69,6 +101,8 @@ class Navigator:
             new_pos, _ = _pose(ts)
             if np.linalg.norm(new_pos - last_pos) < 1e-4:  # blocked: replan from here
                 replans += 1
+                if self.on_blocked is not None:
+                    self.on_blocked(new_pos, yaw)
                 if replans > self.max_replans:
                     return False
                 path = plan(self.mask_fn(), self.frame, new_pos, target, tolerance)
@@ -87,6 +121,96 @@ class Navigator:
             if abs(diff) <= self.nav.turn_angle / 2.0 + 1e-6:
                 return
             ts = yield (TURN_LEFT if diff > 0 else TURN_RIGHT)
+
+
+def goal_field(mask: np.ndarray, frame: GridFrame, target: np.ndarray, tolerance: float) -> np.ndarray:
+    """Return the grid geodesic distance (m) of every cell to the mask cells within `tolerance` of target."""
+    from scipy.sparse.csgraph import dijkstra
+
+    from .astar import _graph
+
+    g, index = _graph(mask)
+    field = np.full(mask.shape, np.inf)
+    c = frame.to_cell(np.asarray(target, float)[None, :2])[0]
+    r = int(math.ceil(tolerance / frame.resolution)) + 1
+    h, w = mask.shape
+    rr, cc = np.mgrid[max(0, c[0] - r):min(h, c[0] + r + 1), max(0, c[1] - r):min(w, c[1] + r + 1)]
+    if rr.size == 0:
+        return field
+    xy = frame.to_world(np.stack([rr.ravel(), cc.ravel()], 1))
+    near = (np.linalg.norm(xy - np.asarray(target, float)[None, :2], axis=1) <= tolerance) & mask[rr.ravel(), cc.ravel()]
+    nodes = index[rr.ravel()[near], cc.ravel()[near]]
+    if len(nodes) == 0 or g.shape[0] == 0:
+        return field
+    d = dijkstra(g, directed=False, indices=nodes, min_only=True)
+    field[mask] = d * frame.resolution
+    return field
+
+
+def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: float, mask: np.ndarray,
+                 frame: GridFrame, nav, max_nodes: int = 20000) -> list[int] | None:
+    """Return an action list (forward/turn) ending within `tolerance` of target with every move on the mask, or None.
+
+    A* over the poses the agent can reach (0.25 m steps, 30-degree headings, positions keyed at 1 cm);
+    the heuristic is the grid geodesic distance to the goal region in steps, so the search hugs the
+    shortest grid path and threads doorways the agent's heading lattice can pass.
+    """
+    step, turn = nav.forward_step, nav.turn_angle
+    n_head = int(round(360.0 / turn))
+    target = np.asarray(target, float)[:2]
+    field = goal_field(mask, frame, target, tolerance)
+    h_, w_ = mask.shape
+
+    def heur(x: float, y: float) -> float:
+        if math.hypot(target[0] - x, target[1] - y) <= tolerance:
+            return 0.0
+        col = int(math.floor((x - frame.origin[0]) / frame.resolution))
+        row = int(math.floor((y - frame.origin[1]) / frame.resolution))
+        if not (0 <= row < h_ and 0 <= col < w_):
+            return math.inf
+        return field[row, col] / step
+
+    x0, y0 = float(pos[0]), float(pos[1])
+    if math.hypot(target[0] - x0, target[1] - y0) <= tolerance:
+        return []
+    h0 = heur(x0, y0)
+    if not math.isfinite(h0):
+        return None
+    dirs = [(step * math.cos(math.radians(yaw + k * turn)), step * math.sin(math.radians(yaw + k * turn))) for k in range(n_head)]
+    key = lambda x, y, k: (round(x * 100.0), round(y * 100.0), k)  # noqa: E731
+    start = (x0, y0, 0)
+    heap = [(h0, 0, 0, start)]
+    parent: dict[tuple, tuple] = {key(*start): (None, -1)}
+    gbest = {key(*start): 0}
+    counter = 0
+    nodes = 0
+    while heap and nodes < max_nodes:
+        _f, g, _c, (x, y, k) = heapq.heappop(heap)
+        kk = key(x, y, k)
+        if gbest.get(kk, math.inf) < g:
+            continue
+        nodes += 1
+        if math.hypot(target[0] - x, target[1] - y) <= tolerance:
+            acts = []
+            while parent[kk][0] is not None:
+                kk, a = parent[kk]
+                acts.append(a)
+            return acts[::-1]
+        nx, ny = x + dirs[k][0], y + dirs[k][1]
+        succ = [((x, y, (k + 1) % n_head), TURN_LEFT), ((x, y, (k - 1) % n_head), TURN_RIGHT)]
+        if segment_free(mask, frame, (x, y), (nx, ny)):
+            succ.append(((nx, ny, k), MOVE_FORWARD))
+        for st, act in succ:
+            hs = heur(st[0], st[1])
+            if not math.isfinite(hs):
+                continue
+            sk = key(*st)
+            if g + 1 < gbest.get(sk, math.inf):
+                gbest[sk] = g + 1
+                parent[sk] = (kk, act)
+                counter += 1
+                heapq.heappush(heap, (g + 1 + hs, g + 1, counter, st))
+    return None
 
 
 def lattice_approach(pos: np.ndarray, yaw: float, target: np.ndarray, can_stand: Callable[[np.ndarray, np.ndarray], bool],
@@ -123,6 +247,18 @@ def lattice_approach(pos: np.ndarray, yaw: float, target: np.ndarray, can_stand:
             seen.add(k)
             heapq.heappush(heap, (g + 1 + heur(s[0], s[1]), g + 1, s, acts + (act,)))
     return None
+
+
+def blocked_cells(frame: GridFrame, pos: np.ndarray, yaw: float, step: float, radius: float = 0.05) -> np.ndarray:
+    """Return the cells (N, 2) near the end of a forward move from pos along yaw that the world refused."""
+    a = math.radians(yaw)
+    end = np.asarray(pos, float)[:2] + step * np.array([math.cos(a), math.sin(a)])
+    c = frame.to_cell(end[None])[0]
+    r = max(0, int(math.ceil(radius / frame.resolution)))
+    rr, cc = np.mgrid[-r:r + 1, -r:r + 1]
+    keep = rr ** 2 + cc ** 2 <= r * r
+    cells = np.stack([c[0] + rr[keep], c[1] + cc[keep]], axis=1)
+    return cells[frame.inside(cells)]
 
 
 def segment_checker(mask: np.ndarray, frame: GridFrame) -> Callable[[np.ndarray, np.ndarray], bool]:

@@ -19,7 +19,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from ..records import Observation
 from ..sim.camera import backproject, pose_cv
-from .grid import GridFrame, cell_graph, dilate, erode, lookup
+from .grid import GridFrame, cell_graph, dilate, erode, lookup, nearest_true
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 
@@ -34,6 +34,9 @@ class OccupancyMap:
     agent_radius: float = 0.18
     obstacle_min: float = 0.1
     state: np.ndarray = field(default=None)  # type: ignore[assignment]
+    blocked: np.ndarray | None = None
+    stop_reason: str = ""  # why exploration ended (set by `explore`)
+    targets: list = field(default_factory=list)  # frontier targets driven to, in order (set by `explore`)
 
     def __post_init__(self) -> None:
         if self.state is None:
@@ -93,10 +96,18 @@ class OccupancyMap:
         sel = self.state[rows[ok], cols[ok]] != OCCUPIED
         self.state[rows[ok][sel], cols[ok][sel]] = FREE
 
+    def mark_blocked(self, cells: np.ndarray) -> None:
+        """Record cells where the world refused the agent's base (a forward move that did not move)."""
+        if self.blocked is None:
+            self.blocked = np.zeros(self.frame.shape, dtype=bool)
+        c = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+        self.blocked[c[:, 0], c[:, 1]] = True
+
     def traversable(self) -> np.ndarray:
-        """Return cells the agent's base may plan through: free and at least a radius from obstacles."""
+        """Return cells the agent's base may plan through: free, at least a radius from obstacles, not refused."""
         occ = self.state == OCCUPIED
-        return (self.state == FREE) & ~dilate(occ, self.agent_radius, self.frame.resolution)
+        trav = (self.state == FREE) & ~dilate(occ, self.agent_radius, self.frame.resolution)
+        return trav if self.blocked is None else trav & ~self.blocked
 
     def frontiers(self, min_cells: int = 4) -> list[np.ndarray]:
         """Return clusters (each (N, 2) cells) of traversable cells next to unknown cells."""
@@ -120,7 +131,7 @@ def scan_actions(turn_angle: float) -> int:
 
 def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random.Generator | None = None) -> tuple[list[Observation], OccupancyMap]:
     """Explore from the environment's current episode start; return the frames seen and the occupancy map."""
-    from .control import Navigator
+    from .control import Navigator, blocked_cells
 
     ts = env.reset()
     task = env.task
@@ -153,33 +164,38 @@ def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random
     occ.mark_free_disc(np.asarray(ts.observation["position"]), nav.agent_radius + 0.05)
     record(ts)
     scan()
-    tried: list[np.ndarray] = []
+    tried: list[np.ndarray] = occ.targets
     while state["steps"] < max_steps and not state["ts"].last():
         pos = np.asarray(state["ts"].observation["position"], float)[:2]
         occ.mark_free_disc(pos, nav.agent_radius + 0.05)
         trav = occ.traversable()
         clusters = occ.frontiers()
         if not clusters:
+            occ.stop_reason = "no frontiers"
             break
         g, index = cell_graph(trav)
         rc = frame.to_cell(pos[None])[0]
-        if not trav[rc[0], rc[1]]:
-            break
+        if not (frame.inside(rc[None])[0] and trav[rc[0], rc[1]]):
+            rc = nearest_true(trav, rc)  # standing at the rim of the planning map
+            if rc is None or np.linalg.norm(frame.to_world(rc[None])[0] - pos) > 0.5:
+                occ.stop_reason = "off the planning map"
+                break
         dist = dijkstra(g, indices=int(index[rc[0], rc[1]]))
         best, best_d = None, math.inf
         for cells in clusters:
-            nodes = index[cells[:, 0], cells[:, 1]]
-            dd = dist[nodes]
+            xy = frame.to_world(cells)
+            dd = dist[index[cells[:, 0], cells[:, 1]]].copy()
+            for t in tried:  # cells near a target already driven to are not offered again
+                dd[np.linalg.norm(xy - t[None], axis=1) < 0.5] = np.inf
             k = int(np.argmin(dd))
-            target = frame.to_world(cells[k][None])[0]
-            if not math.isfinite(dd[k]) or any(np.linalg.norm(target - t) < 0.5 for t in tried):
-                continue
-            if dd[k] < best_d:
-                best, best_d = target, dd[k]
+            if math.isfinite(dd[k]) and dd[k] < best_d:
+                best, best_d = xy[k], dd[k]
         if best is None:
+            occ.stop_reason = "no reachable untried frontier"
             break
         tried.append(best)
-        nv = Navigator(nav, lambda: trav, frame)
+        nv = Navigator(nav, occ.traversable, frame,
+                       on_blocked=lambda p, yaw: occ.mark_blocked(blocked_cells(frame, p, yaw, nav.forward_step)))
         gen = nv.goto(best, tolerance=0.25, ts=state["ts"])
         try:
             action = next(gen)
