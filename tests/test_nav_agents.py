@@ -12,7 +12,9 @@ from sdovon_mj import suite
 from sdovon_mj.config import NavConfig
 from sdovon_mj.nav.agents import OracleAgent, RandomAStar, SemanticAStar
 from sdovon_mj.nav.astar import astar, plan, plan_cells
+from sdovon_mj.nav.control import lattice_plan
 from sdovon_mj.nav.goal import goal_points, infer_view_points
+from sdovon_mj.nav.grid import segment_free
 from sdovon_mj.nav.eval_cli import run_agent, summarize
 from sdovon_mj.nav.grid import GeodesicField, GridFrame
 from sdovon_mj.records import Episode, Goal, ViewPoint, load_json, save_json
@@ -114,6 +116,28 @@ def test_dijkstra_planner_matches_astar():
                 assert b[0] == s and (b[-1][0] - g[0]) ** 2 + (b[-1][1] - g[1]) ** 2 <= tol ** 2 + 1e-9
                 assert all(mask[r, c] for r, c in b)
                 assert _cost(b) == pytest.approx(_cost(a), abs=1e-9)
+
+
+def test_lattice_plan_threads_a_narrow_doorway():
+    """The pose-lattice A* passes a 0.5 m doorway in a 0.4 m thick wall from an awkward heading; every move stays on the mask."""
+    mask = np.ones((60, 100), bool)
+    mask[:, 46:54] = False  # wall at x = 2.3 .. 2.7
+    mask[26:36, 46:54] = True  # doorway y = 1.3 .. 1.8
+    frame = GridFrame(np.zeros(2), 0.05, mask.shape)
+    nav = NavConfig()
+    start, goal = np.array([1.0, 0.6]), np.array([4.0, 2.4])
+    acts = lattice_plan(start, 17.0, goal, 0.045, mask, frame, nav)
+    assert acts is not None
+    x, y, yaw = start[0], start[1], 17.0
+    for a in acts:
+        if a == suite.MOVE_FORWARD:
+            nx, ny = x + 0.25 * math.cos(math.radians(yaw)), y + 0.25 * math.sin(math.radians(yaw))
+            assert segment_free(mask, frame, (x, y), (nx, ny))
+            x, y = nx, ny
+        else:
+            yaw += 30.0 if a == suite.TURN_LEFT else -30.0
+    assert math.hypot(x - goal[0], y - goal[1]) <= 0.045
+    assert acts.count(suite.MOVE_FORWARD) <= math.hypot(*(goal - start)) / 0.25 * 1.5
 
 
 def test_inferred_view_points_follow_the_generator_lattice():
