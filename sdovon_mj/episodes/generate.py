@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -79,10 +80,17 @@ def generate_episodes_with_report(variant: SceneVariant, navmaps: list[NavMap], 
     for g in goals:
         by_cat.setdefault(g.category, []).append(g)
     episodes: list[Episode] = []
+    goal_fields: dict[str, GeodesicField] = {}  # one field per goal, shared by start sampling and closest goal
+
+    def goal_field(g: Goal) -> GeodesicField:
+        """Return (and memoise) the geodesic field of one goal's view points."""
+        if g.object_id not in goal_fields:
+            goal_fields[g.object_id] = GeodesicField(by_floor[floors[g.object_id]], _vp_xy(g))
+        return goal_fields[g.object_id]
+
     for cat in sorted(by_cat):
         cat_goals = by_cat[cat]
         fields: dict[int, GeodesicField] = {}
-        goal_fields: dict[str, GeodesicField] = {}
         for k in range(cfg.k_e):
             chosen = cat_goals[int(rng.integers(len(cat_goals)))]
             floor = floors[chosen.object_id]
@@ -90,14 +98,12 @@ def generate_episodes_with_report(variant: SceneVariant, navmaps: list[NavMap], 
             if floor not in fields:
                 same_floor = [g for g in cat_goals if floors[g.object_id] == floor]
                 fields[floor] = GeodesicField(nm, np.concatenate([_vp_xy(g) for g in same_floor]))
-            if chosen.object_id not in goal_fields:
-                goal_fields[chosen.object_id] = GeodesicField(nm, _vp_xy(chosen))
-            start = _sample_start(rng, nm, fields[floor], goal_fields[chosen.object_id], cfg)
+            start = _sample_start(rng, nm, fields[floor], goal_field(chosen), cfg)
             if start is None:
                 continue
             xy, geo = start
             start_pos = np.array([xy[0], xy[1], nm.height])
-            closest = _closest_goal(nm, xy, [g for g in cat_goals if floors[g.object_id] == floor])
+            closest = _closest_goal(nm, xy, [g for g in cat_goals if floors[g.object_id] == floor], goal_field)
             yaw = float(rng.uniform(0.0, 360.0))
             episodes.append(Episode(
                 episode_id=f"{variant.name}_{len(episodes):04d}", scene=variant.scene, variant=variant.name,
@@ -127,11 +133,13 @@ def _sample_start(rng: np.random.Generator, nm: NavMap, cat_field: GeodesicField
     return None
 
 
-def _closest_goal(nm: NavMap, xy: np.ndarray, goals: list[Goal]) -> Goal:
+def _closest_goal(nm: NavMap, xy: np.ndarray, goals: list[Goal],
+                  field: Callable[[Goal], GeodesicField] | None = None) -> Goal:
     """Return the goal whose nearest view point is geodesically closest to a start point."""
     best, best_d = goals[0], math.inf
     for g in goals:
-        d = float(GeodesicField(nm, _vp_xy(g)).at(xy[None])[0])
+        f = field(g) if field is not None else GeodesicField(nm, _vp_xy(g))
+        d = float(f.at(xy[None])[0])
         if d < best_d:
             best, best_d = g, d
     return best

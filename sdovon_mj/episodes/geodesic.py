@@ -14,9 +14,24 @@ from ..records import NavMap
 _STEPS = ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2.0)), (1, -1, math.sqrt(2.0)))
 
 
+_GRAPHS: dict[tuple[tuple[int, ...], bytes], tuple] = {}
+_GRAPHS_MAX = 4  # a variant's floors; every field of a variant shares its floor's graph
+
+
 def _graph(navigable: np.ndarray):
-    """Return the sparse cell graph of the navigable cells and the cell -> node index map."""
-    nav = np.asarray(navigable, dtype=bool)
+    """Return the sparse cell graph of the navigable cells and the cell -> node index map (memoised per grid)."""
+    nav = np.ascontiguousarray(navigable, dtype=bool)
+    key = (nav.shape, nav.tobytes())
+    hit = _GRAPHS.get(key)
+    if hit is None:
+        if len(_GRAPHS) >= _GRAPHS_MAX:
+            _GRAPHS.pop(next(iter(_GRAPHS)))
+        hit = _GRAPHS[key] = _build_graph(nav)
+    return hit
+
+
+def _build_graph(nav: np.ndarray):
+    """Build the sparse cell graph of a boolean grid and its cell -> node index map."""
     h, w = nav.shape
     index = np.full((h, w), -1, dtype=np.int64)
     index[nav] = np.arange(int(nav.sum()))
@@ -39,6 +54,8 @@ def _graph(navigable: np.ndarray):
         g = coo_matrix((np.concatenate(costs), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
     else:
         g = coo_matrix((n, n)).tocsr()
+    g.sort_indices()
+    index.setflags(write=False)
     return g, index
 
 
@@ -55,7 +72,9 @@ def distance_field(navigable: np.ndarray, sources: np.ndarray, resolution: float
     nodes = nodes[nodes >= 0]
     if len(nodes) == 0:
         return out
-    d = dijkstra(g, directed=False, indices=nodes, min_only=True)
+    # The graph holds both directions of every edge: a directed search gives the undirected distances
+    # (byte-identical) without scipy transposing the graph on every call.
+    d = dijkstra(g, directed=True, indices=nodes, min_only=True)
     out[nav] = d * float(resolution)
     return out
 
