@@ -24,7 +24,7 @@ import mujoco  # noqa: E402
 from ..config import EpisodeConfig
 from ..errors import InputError
 from ..records import NavMap, SceneVariant, ViewPoint
-from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from ..sim import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from ..sim.camera import pose_cv, yaw_quat
 from ..sim.model import geom_segment_ids, object_segment_id, segment_image
 from ..sim.render import SceneRenderer
@@ -139,6 +139,9 @@ class VisibilityChecker:
         self._scene_groups = np.zeros(6, dtype=np.uint8)
         for g in (GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL):
             self._scene_groups[g] = 1
+        # Geoms the segmentation render draws (candidates for culling) and their bounding radii.
+        self._drawn = np.nonzero(np.isin(model.geom_group, (GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL)))[0]
+        self._rbound = np.asarray(model.geom_rbound)[self._drawn].copy()
 
     def close(self) -> None:
         """Free the renderer."""
@@ -163,20 +166,55 @@ class VisibilityChecker:
                 return True
         return False
 
+    def occluder_candidates(self, camera: np.ndarray, box: ObjectBox) -> np.ndarray:
+        """Return a mask over the drawn geoms: those that may cover a pixel of the object seen from `camera`.
+
+        A geom can only put its id on (or hide) a pixel of the object if it meets the cone from the
+        camera around the object box's bounding sphere, between the camera and the far side of the box.
+        The test uses each geom's bounding sphere (conservative), so hiding the others leaves the
+        object's pixel count exactly as a render of everything gives.
+        """
+        c = box.center
+        R = 0.5 * float(np.linalg.norm(box.hi - box.lo))
+        D = float(np.linalg.norm(c - camera))
+        keep = np.ones(len(self._drawn), dtype=bool)
+        if D <= R + 1e-6:
+            return keep  # the camera is inside the object's bounding sphere: draw everything
+        u = (c - camera) / D
+        sin_a = R / D
+        cos_a = math.sqrt(max(1.0 - sin_a * sin_a, 0.0))
+        p = self.data.geom_xpos[self._drawn] - camera
+        t = p @ u
+        q = np.sqrt(np.maximum(np.einsum("ij,ij->i", p, p) - t * t, 0.0))
+        r = self._rbound + 1e-3
+        keep = (t + r >= 0.0) & (t - r <= D + R) & (q * cos_a - t * sin_a <= r)
+        keep |= self._rbound <= 0.0  # planes (infinite extent)
+        own = np.asarray(self.model.geom_bodyid)[self._drawn]
+        keep |= own == box.body
+        return keep
+
     def visible_fraction(self, camera: np.ndarray, box: ObjectBox) -> tuple[float, float, float]:
         """Return (best pixel fraction, yaw, pitch) of the object seen from a camera position."""
         yaw, pitch0 = facing(camera, box.center)
         seg_id = object_segment_id(box.object_id)
         best = (0.0, yaw, pitch0)
         pitches = [float(np.clip(pitch0, -80.0, 80.0))] + [float(p) for p in self.cfg.pitches]
-        for k, pitch in enumerate(dict.fromkeys(round(p, 6) for p in pitches)):
-            frame = self.renderer.render(pose_cv(camera, yaw, pitch), rgb=False, depth=False, segmentation=True)
-            seg = segment_image(frame.segmentation, self.lut)
-            frac = float(np.count_nonzero(seg == seg_id)) / seg.size
-            if frac > best[0]:
-                best = (frac, yaw, pitch)
-            if frac >= self.cfg.eta_gt and k == 0:
-                break  # the pitch aimed at the centre already sees it
+        # Geoms that cannot touch the object's pixels are not drawn (same counts, cheaper renders).
+        hidden = self._drawn[~self.occluder_candidates(camera, box)]
+        groups = self.model.geom_group
+        saved = groups[hidden].copy()
+        groups[hidden] = GROUP_AGENT  # a group the visibility renderer does not show
+        try:
+            for k, pitch in enumerate(dict.fromkeys(round(p, 6) for p in pitches)):
+                frame = self.renderer.render(pose_cv(camera, yaw, pitch), rgb=False, depth=False, segmentation=True)
+                seg = segment_image(frame.segmentation, self.lut)
+                frac = float(np.count_nonzero(seg == seg_id)) / seg.size
+                if frac > best[0]:
+                    best = (frac, yaw, pitch)
+                if frac >= self.cfg.eta_gt and k == 0:
+                    break  # the pitch aimed at the centre already sees it
+        finally:
+            groups[hidden] = saved
         return best
 
 
