@@ -148,68 +148,88 @@ def goal_field(mask: np.ndarray, frame: GridFrame, target: np.ndarray, tolerance
 
 
 def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: float, mask: np.ndarray,
-                 frame: GridFrame, nav, max_nodes: int = 20000) -> list[int] | None:
+                 frame: GridFrame, nav, max_nodes: int = 20000, weight: float = 1.2) -> list[int] | None:
     """Return an action list (forward/turn) ending within `tolerance` of target with every move on the mask, or None.
 
     A* over the poses the agent can reach (0.25 m steps, 30-degree headings, positions keyed at 1 cm);
-    the heuristic is the grid geodesic distance to the goal region in steps, so the search hugs the
-    shortest grid path and threads doorways the agent's heading lattice can pass.
+    the heuristic is the grid geodesic distance to the goal region in steps (weighted by `weight`,
+    ties to the deeper node), so the search hugs the shortest grid path and threads doorways the
+    agent's heading lattice can pass.
     """
     step, turn = nav.forward_step, nav.turn_angle
     n_head = int(round(360.0 / turn))
-    target = np.asarray(target, float)[:2]
-    field = goal_field(mask, frame, target, tolerance)
+    tx, ty = float(target[0]), float(target[1])
+    field = goal_field(mask, frame, np.array([tx, ty]), tolerance)
     h_, w_ = mask.shape
+    ox, oy, res = float(frame.origin[0]), float(frame.origin[1]), float(frame.resolution)
+    fl = (field / step).tolist()
+    ml = np.asarray(mask, dtype=bool).tolist()
+    tol2 = tolerance * tolerance
+    floor = math.floor
 
     def heur(x: float, y: float) -> float:
-        if math.hypot(target[0] - x, target[1] - y) <= tolerance:
+        if (tx - x) ** 2 + (ty - y) ** 2 <= tol2:
             return 0.0
-        col = int(math.floor((x - frame.origin[0]) / frame.resolution))
-        row = int(math.floor((y - frame.origin[1]) / frame.resolution))
+        col, row = floor((x - ox) / res), floor((y - oy) / res)
         if not (0 <= row < h_ and 0 <= col < w_):
             return math.inf
-        return field[row, col] / step
+        return fl[row][col]
+
+    n_s = max(1, int(math.ceil(step / (res / 2.0))))
+    dirs, samples = [], []
+    for k in range(n_head):
+        c, s_ = math.cos(math.radians(yaw + k * turn)), math.sin(math.radians(yaw + k * turn))
+        dirs.append((step * c, step * s_))
+        samples.append([(step * c * i / n_s, step * s_ * i / n_s) for i in range(n_s + 1)])
+
+    def free(x: float, y: float, k: int) -> bool:
+        for dx, dy in samples[k]:
+            col, row = floor((x + dx - ox) / res), floor((y + dy - oy) / res)
+            if not (0 <= row < h_ and 0 <= col < w_) or not ml[row][col]:
+                return False
+        return True
 
     x0, y0 = float(pos[0]), float(pos[1])
-    if math.hypot(target[0] - x0, target[1] - y0) <= tolerance:
+    if (tx - x0) ** 2 + (ty - y0) ** 2 <= tol2:
         return []
     h0 = heur(x0, y0)
     if not math.isfinite(h0):
         return None
-    dirs = [(step * math.cos(math.radians(yaw + k * turn)), step * math.sin(math.radians(yaw + k * turn))) for k in range(n_head)]
-    key = lambda x, y, k: (round(x * 100.0), round(y * 100.0), k)  # noqa: E731
-    start = (x0, y0, 0)
-    heap = [(h0, 0, 0, start)]
-    parent: dict[tuple, tuple] = {key(*start): (None, -1)}
-    gbest = {key(*start): 0}
+    start = (round(x0 * 100.0), round(y0 * 100.0), 0)
+    pose = {start: (x0, y0)}
+    parent: dict[tuple, tuple] = {start: (None, -1)}
+    gbest = {start: 0}
+    heap = [(weight * h0, 0, 0, start)]
     counter = 0
     nodes = 0
     while heap and nodes < max_nodes:
-        _f, g, _c, (x, y, k) = heapq.heappop(heap)
-        kk = key(x, y, k)
+        _f, ng, _c, kk = heapq.heappop(heap)
+        g = -ng
         if gbest.get(kk, math.inf) < g:
             continue
         nodes += 1
-        if math.hypot(target[0] - x, target[1] - y) <= tolerance:
+        x, y = pose[kk]
+        k = kk[2]
+        if (tx - x) ** 2 + (ty - y) ** 2 <= tol2:
             acts = []
             while parent[kk][0] is not None:
                 kk, a = parent[kk]
                 acts.append(a)
             return acts[::-1]
-        nx, ny = x + dirs[k][0], y + dirs[k][1]
-        succ = [((x, y, (k + 1) % n_head), TURN_LEFT), ((x, y, (k - 1) % n_head), TURN_RIGHT)]
-        if segment_free(mask, frame, (x, y), (nx, ny)):
-            succ.append(((nx, ny, k), MOVE_FORWARD))
-        for st, act in succ:
-            hs = heur(st[0], st[1])
-            if not math.isfinite(hs):
+        succ = [(x, y, (k + 1) % n_head, TURN_LEFT), (x, y, (k - 1) % n_head, TURN_RIGHT)]
+        if free(x, y, k):
+            succ.append((x + dirs[k][0], y + dirs[k][1], k, MOVE_FORWARD))
+        for sx, sy, sk_, act in succ:
+            hs = heur(sx, sy)
+            if hs == math.inf:
                 continue
-            sk = key(*st)
+            sk = (round(sx * 100.0), round(sy * 100.0), sk_)
             if g + 1 < gbest.get(sk, math.inf):
                 gbest[sk] = g + 1
                 parent[sk] = (kk, act)
+                pose[sk] = (sx, sy)
                 counter += 1
-                heapq.heappush(heap, (g + 1 + hs, g + 1, counter, st))
+                heapq.heappush(heap, (g + 1 + weight * hs, -(g + 1), counter, sk))
     return None
 
 
