@@ -23,6 +23,7 @@ from ..sim import GROUP_OBJECT_COLLISION
 from .support import SupportInfo, add_support
 
 _SPEC_CACHE: dict[tuple[str, bool, float], mujoco.MjSpec] = {}
+_SCENE_CACHE: dict[tuple[str, str, float], mujoco.MjSpec] = {}
 _FILE_ATTR = re.compile(r'(\sfile=")([^"]*)(")')
 
 
@@ -103,16 +104,20 @@ def load_object_spec(asset: ObjectAsset, store_root: str | Path, visual: bool = 
 
 
 def load_scene_spec(scene: SceneAsset, store_root: str | Path) -> mujoco.MjSpec:
-    """Return the scene's visual-only spec with absolute asset paths."""
+    """Return a fresh copy of the scene's visual-only spec with absolute asset paths (parsed once per file)."""
     path = (Path(store_root) / scene.mjcf).resolve()
     if not path.exists():
         raise InputError(path, f"scene model of {scene.name} not found")
-    try:
-        spec = mujoco.MjSpec.from_file(str(path))
-    except Exception as e:
-        raise InputError(path, f"scene model does not parse: {e}") from None
-    _absolutise(spec, path.parent)
-    return spec
+    key = (str(path), "scene", path.stat().st_mtime)
+    if key not in _SCENE_CACHE:
+        try:
+            spec = mujoco.MjSpec.from_file(str(path))
+        except Exception as e:
+            raise InputError(path, f"scene model does not parse: {e}") from None
+        _absolutise(spec, path.parent)
+        _SCENE_CACHE.clear()  # one scene at a time: a worker's variants mostly share it
+        _SCENE_CACHE[key] = spec
+    return _SCENE_CACHE[key].copy()
 
 
 def set_physics_options(spec: mujoco.MjSpec, cfg: PlaceConfig) -> None:
@@ -170,11 +175,14 @@ def write_mjcf(spec: mujoco.MjSpec, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     xml = spec.to_xml()
     base = path.parent.resolve()
+    done: dict[str, str] = {}  # a scene names the same few files many times
 
     def rel(m: re.Match[str]) -> str:
         f = m.group(2)
         if os.path.isabs(f):
-            f = Path(os.path.relpath(f, base)).as_posix()
+            if f not in done:
+                done[f] = Path(os.path.relpath(f, base)).as_posix()
+            f = done[f]
         return m.group(1) + f + m.group(3)
 
     atomic_write_text(path, _FILE_ATTR.sub(rel, xml))

@@ -152,6 +152,21 @@ def plane_headroom(plane: ReceptaclePlane, planes: list[ReceptaclePlane], thickn
     return best
 
 
+_HEADROOMS: dict[tuple, dict[int, float]] = {}
+
+
+def plane_headrooms(planes: list[ReceptaclePlane], thickness: float) -> dict[int, float]:
+    """Return plane id -> plane_headroom for a scene's planes (memoised: every variant of a scene asks again)."""
+    key = (float(thickness), tuple((p.id, p.floor, float(p.height), np.asarray(p.polygon, dtype=float).tobytes())
+                                   for p in planes))
+    hit = _HEADROOMS.get(key)
+    if hit is None:
+        if len(_HEADROOMS) > 64:
+            _HEADROOMS.clear()
+        hit = _HEADROOMS[key] = {p.id: plane_headroom(p, planes, thickness) for p in planes}
+    return dict(hit)
+
+
 def _fits(xy: np.ndarray, r: float, taken: list[tuple[np.ndarray, float]], gap: float) -> bool:
     """Return whether a footprint circle keeps `gap` from every taken one."""
     return all(float(np.hypot(*(xy - c))) >= r + rc + gap for c, rc in taken)
@@ -180,7 +195,7 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
         res.notes.append(f"categories unknown to the relevance table are never placed: {', '.join(unknown)}")
     min_r = min(object_radius(a, cfg.spawn_mode) for c in categories for a in by_cat[c])
     taken: dict[int, list[tuple[np.ndarray, float]]] = {}
-    headroom = {p.id: plane_headroom(p, planes, cfg.support_thickness) for p in planes}
+    headroom = plane_headrooms(planes, cfg.support_thickness)
     order = sorted(planes, key=lambda p: p.id)
     order = [order[i] for i in rng.permutation(len(order))]
     n = 0

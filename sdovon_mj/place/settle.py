@@ -76,6 +76,11 @@ class Settler:
         self.conaffinity0 = self.m.geom_conaffinity.copy()
         self.gravcomp0 = self.m.body_gravcomp.copy()
         self.still = np.zeros(len(placements))
+        self.obj_of_body = np.full(self.m.nbody, -1, dtype=np.int64)  # body id -> placement index (-1: none)
+        for b, i in self.body_index.items():
+            self.obj_of_body[b] = i
+        self._state = 0  # bumped whenever the contact list changes (mj_step / mj_forward)
+        self._touching: tuple[int, list[set[int]]] | None = None
         mujoco.mj_forward(self.m, self.d)
 
     # -- state ---------------------------------------------------------------------------------
@@ -125,21 +130,23 @@ class Settler:
         flags = int(self.m.opt.enableflags)
         self.m.opt.enableflags = flags & ~sleep
         mujoco.mj_forward(self.m, self.d)
+        self._state += 1
         self.m.opt.enableflags = flags
 
     def _contacts(self) -> list[set[int]]:
-        """Return, per object, the set of geom ids it touches (other bodies only)."""
+        """Return, per object, the set of geom ids it touches (other bodies only; computed once per state)."""
+        if self._touching is not None and self._touching[0] == self._state:
+            return self._touching[1]
         out: list[set[int]] = [set() for _ in self.placements]
         n = self.d.ncon
-        if n == 0:
-            return out
-        g = np.asarray(self.d.contact.geom[:n])
-        for g1, g2 in g:
-            b1, b2 = int(self.geom_body[g1]), int(self.geom_body[g2])
-            if b1 in self.body_index:
-                out[self.body_index[b1]].add(int(g2))
-            if b2 in self.body_index:
-                out[self.body_index[b2]].add(int(g1))
+        if n:
+            g = np.asarray(self.d.contact.geom[:n])
+            for a, b in ((0, 1), (1, 0)):
+                obj = self.obj_of_body[self.geom_body[g[:, a]]]
+                mine = obj >= 0
+                for i, other in zip(obj[mine].tolist(), g[mine, b].tolist()):
+                    out[i].add(other)
+        self._touching = (self._state, out)
         return out
 
     def support_penetration(self, i: int) -> float:
@@ -166,6 +173,7 @@ class Settler:
         settled = False
         while steps < steps_cap:
             mujoco.mj_step(m, d, nstep=n)
+            self._state += 1
             steps += n
             if len(self.va) == 0:
                 settled = True

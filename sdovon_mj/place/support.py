@@ -49,9 +49,24 @@ class SupportInfo:
     hfields: list[int] = field(default_factory=list)  # plane ids supported by a heightfield
 
 
+_HULLS: dict[bytes, np.ndarray] = {}
+
+
+def _hull(polygon: np.ndarray) -> np.ndarray:
+    """Return convex_hull_ccw of a polygon (memoised: every variant of a scene brings the same planes)."""
+    key = np.ascontiguousarray(polygon, dtype=float).tobytes()
+    hit = _HULLS.get(key)
+    if hit is None:
+        if len(_HULLS) > 10_000:
+            _HULLS.clear()
+        hit = _HULLS[key] = convex_hull_ccw(np.asarray(polygon, dtype=float))
+        hit.setflags(write=False)
+    return hit
+
+
 def prism_vertices(polygon: np.ndarray, top: float, thickness: float) -> np.ndarray:
     """Return the vertices (2M, 3) of a convex prism whose top face is `polygon` at height `top`."""
-    p = convex_hull_ccw(np.asarray(polygon, dtype=float))
+    p = _hull(polygon)
     upper = np.column_stack([p, np.full(len(p), top)])
     lower = np.column_stack([p, np.full(len(p), top - thickness)])
     return np.vstack([upper, lower])
@@ -59,7 +74,7 @@ def prism_vertices(polygon: np.ndarray, top: float, thickness: float) -> np.ndar
 
 def rectangle_box(polygon: np.ndarray, tol: float = 1e-4) -> tuple[tuple[float, float], tuple[float, float], float] | None:
     """Return (centre, half sizes, yaw) when a polygon is a rectangle (within tol metres), else None."""
-    p = convex_hull_ccw(np.asarray(polygon, dtype=float))
+    p = _hull(polygon)
     if len(p) != 4:
         return None
     e = np.roll(p, -1, axis=0) - p
@@ -118,7 +133,7 @@ def add_support(spec: mujoco.MjSpec, planes: list[ReceptaclePlane], scene: Scene
         info.floors[index] = g.name
     mesh_cache = None
     for plane in sorted(planes, key=lambda p: p.id):
-        if len(convex_hull_ccw(plane.polygon)) < 3:
+        if len(_hull(plane.polygon)) < 3:
             continue
         name = plane_geom_name(plane.id)
         if cfg.support_hfield and scene is not None and scene.mesh and store_root is not None:

@@ -14,7 +14,7 @@ import numpy as np
 from ..config import PlaceConfig
 from ..records import ObjectAsset, Placement, ReceptaclePlane, Relevance, SceneAsset, SceneVariant, save_json
 from .compose import compose, write_mjcf
-from .sample import object_radius, plane_headroom, resample_pose, sample_placements
+from .sample import object_radius, plane_headrooms, resample_pose, sample_placements
 from .settle import RESTING, Settler
 
 
@@ -90,7 +90,7 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
                 if p.attempts <= cfg.resample_attempts:
                     others = _occupied(settler, placements, assets, cfg, p.plane_id, exclude=i)
                     plane = plane_by_id[p.plane_id]
-                    pose = resample_pose(assets[p.asset], plane, others, cfg, rng, plane_headroom(plane, planes, cfg.support_thickness))
+                    pose = resample_pose(assets[p.asset], plane, others, cfg, rng, plane_headrooms(planes, cfg.support_thickness)[plane.id])
                     if pose is not None:
                         settler.unpark(i)
                         settler.set_pose(i, *pose)
