@@ -9,7 +9,6 @@ Measures are habitat-lab's own code.
 from __future__ import annotations
 
 import json
-import math
 import os
 import subprocess
 import sys

@@ -33,7 +33,8 @@ import mujoco  # noqa: E402
 from sdovon_mj.errors import InputError  # noqa: E402
 from sdovon_mj.records import Episode, Goal, SceneVariant  # noqa: E402
 from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE  # noqa: E402
-from sdovon_mj.store import atomic_write_bytes, atomic_write_text  # noqa: E402
+from sdovon_mj.sim.model import pose_settled  # noqa: E402
+from sdovon_mj.store import atomic_write_bytes  # noqa: E402
 
 from ..base import ExportOptions, ExportReport, Exporter, RunView  # noqa: E402
 from . import frames  # noqa: E402
@@ -81,12 +82,7 @@ def _compile(path: Path) -> tuple[mujoco.MjModel, mujoco.MjData]:
 def _variant_model(run: RunView, variant: SceneVariant) -> tuple[mujoco.MjModel, mujoco.MjData]:
     path = run.path(variant.mjcf)
     model, data = _compile(path)
-    if variant.qpos is not None:
-        q = np.asarray(variant.qpos, dtype=float).ravel()
-        if q.size != model.nq:
-            raise InputError(path, f"qpos has {q.size} values, model has nq={model.nq}")
-        data.qpos[:] = q
-    mujoco.mj_forward(model, data)
+    pose_settled(model, data, variant.qpos, path)
     return model, data
 
 

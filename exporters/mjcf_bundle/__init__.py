@@ -15,6 +15,7 @@ import mujoco  # noqa: E402
 
 from sdovon_mj.errors import InputError  # noqa: E402
 from sdovon_mj.records import SceneVariant, dumps  # noqa: E402
+from sdovon_mj.sim.model import pose_settled  # noqa: E402
 from sdovon_mj.store import atomic_copy, atomic_write_text  # noqa: E402
 
 from ..base import ExportOptions, ExportReport, Exporter, RunView  # noqa: E402
@@ -57,12 +58,7 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path) ->
     except ValueError as e:
         raise InputError(path, f"MJCF does not load: {e}") from None
     data = mujoco.MjData(model)
-    if variant.qpos is not None:
-        q = np.asarray(variant.qpos, dtype=float).ravel()
-        if q.size != model.nq:
-            raise InputError(path, f"qpos has {q.size} values, model has nq={model.nq}")
-        data.qpos[:] = q
-    mujoco.mj_forward(model, data)
+    pose_settled(model, data, variant.qpos, path)
     spec_dir = path.parent
     used: dict[str, Path] = {}
     copied: list[Path] = []

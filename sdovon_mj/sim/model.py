@@ -75,3 +75,15 @@ def save_scene_mesh(path: str | Path, vertices: np.ndarray, faces: np.ndarray, f
     _savez_deterministic(buf, {"vertices": np.asarray(vertices, np.float32), "faces": np.asarray(faces, np.int32),
                                "face_instance": np.asarray(face_instance, np.int32)})
     atomic_write_bytes(Path(path), buf.getvalue())
+
+
+def pose_settled(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray | None, source: str | Path) -> None:
+    """Set a variant's settled qpos on `data` and run forward kinematics (InputError naming `source` on a size mismatch)."""
+    from ..errors import InputError
+
+    if qpos is not None:
+        q = np.asarray(qpos, dtype=float).ravel()
+        if q.size != model.nq:
+            raise InputError(source, f"qpos has {q.size} values, model has nq={model.nq}")
+        data.qpos[:] = q
+    mujoco.mj_forward(model, data)
