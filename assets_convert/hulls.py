@@ -75,10 +75,13 @@ def decompose(vertices: np.ndarray, faces: np.ndarray, cfg: ConvertConfig | None
 
     cfg = cfg or ConvertConfig()
     coacd.set_log_level("error")
+    box = np.asarray(vertices, dtype=np.float64).min(axis=0), np.asarray(vertices, dtype=np.float64).max(axis=0)
     if preprocess_mode == "auto":
-        # our own manifold remesh (level set of a voxel SDF, then simplified): CoACD's preprocessing
-        # makes ~100k triangles that slow its search 2-4x for the same hulls
-        vertices, faces = manifold_remesh(vertices, faces, int(cfg.coacd_preprocess_resolution))
+        # a closed manifold goes to CoACD as it is; anything else becomes the surface a fraction of a grid
+        # step outside its triangles (exact distances, so thin walls stay thin); CoACD's own preprocessing
+        # makes ~100k triangles that slow its search 2-4x and fattens thin walls by a voxel
+        vertices, faces, _how = solid_for_coacd(vertices, faces, int(cfg_get(cfg, "remesh_resolution", 80)),  # type: ignore[arg-type]
+                                                float(cfg_get(cfg, "remesh_offset", 0.45)))  # type: ignore[arg-type]
         preprocess_mode = "off"
     mesh = coacd.Mesh(np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int32))
     parts = coacd.run_coacd(
@@ -94,45 +97,6 @@ def decompose(vertices: np.ndarray, faces: np.ndarray, cfg: ConvertConfig | None
         seed=int(cfg.coacd_seed),
     )
     return clean_hulls([(np.asarray(v), np.asarray(f)) for v, f in parts], int(cfg.coacd_max_hull_vertices))
-
-
-def manifold_remesh(vertices: np.ndarray, faces: np.ndarray, resolution: int = 50) -> tuple[np.ndarray, np.ndarray]:
-    """Return a watertight manifold remesh of any triangle soup (voxel SDF level set, simplified)."""
-    import manifold3d
-    import scipy.ndimage as ndi
-    import trimesh
-
-    tm = trimesh.Trimesh(vertices, faces, process=True)
-    pitch = float(tm.extents.max()) / max(int(resolution), 8)
-    vox = tm.voxelized(pitch)
-    occ = np.pad(vox.fill().matrix, 2)
-    origin = np.asarray(vox.transform[:3, 3]) - 2 * pitch
-    d = ndi.distance_transform_edt(occ) - ndi.distance_transform_edt(~occ)
-    d = ndi.gaussian_filter(d.astype(np.float64), 0.6) * pitch
-    hi_idx = np.array(d.shape) - 1
-
-    def sdf(x: float, y: float, z: float) -> float:
-        i, j, k = (x - origin[0]) / pitch, (y - origin[1]) / pitch, (z - origin[2]) / pitch
-        i0, j0, k0 = int(np.floor(i)), int(np.floor(j)), int(np.floor(k))
-        if i0 < 0 or j0 < 0 or k0 < 0 or i0 >= hi_idx[0] or j0 >= hi_idx[1] or k0 >= hi_idx[2]:
-            return -pitch
-        fi, fj, fk = i - i0, j - j0, k - k0
-        c = d[i0:i0 + 2, j0:j0 + 2, k0:k0 + 2]
-        c = c[0] * (1 - fi) + c[1] * fi
-        c = c[0] * (1 - fj) + c[1] * fj
-        return float(c[0] * (1 - fk) + c[1] * fk)
-
-    lo = origin
-    hi = origin + hi_idx * pitch
-    # occupied voxels reach about half a voxel past the true surface: take the level set a quarter voxel in (half a voxel thins chair legs until chairs tip)
-    man = manifold3d.Manifold.level_set(sdf, [*lo, *hi], pitch, 0.25 * pitch)
-    man = man.simplify(pitch * 0.25)
-    mesh = man.to_mesh()
-    v = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
-    f = np.asarray(mesh.tri_verts, dtype=np.int64)
-    if len(f) < 4:
-        return np.asarray(tm.vertices), np.asarray(tm.faces)
-    return v, f
 
 
 def cfg_get(cfg: object, name: str, default: object) -> object:
@@ -168,3 +132,127 @@ def mass_properties(hulls: list[tuple[np.ndarray, np.ndarray]], density: float) 
     com = first / mass
     inertia = second - mass * (np.dot(com, com) * np.eye(3) - np.outer(com, com))
     return mass, com, 0.5 * (inertia + inertia.T)
+
+
+def solid_for_coacd(vertices: np.ndarray, faces: np.ndarray, resolution: int = 80,
+                    offset: float = 0.45) -> tuple[np.ndarray, np.ndarray, str]:
+    """Return a watertight manifold (vertices, faces, how) standing for a mesh's solid, for CoACD."""
+    import trimesh
+
+    tm = trimesh.Trimesh(vertices, faces, process=True)
+    if tm.is_watertight and tm.is_winding_consistent:
+        got = _closed_manifold(tm)
+        if got is not None:
+            return got[0], got[1], "closed"
+    v, f = offset_remesh(np.asarray(tm.vertices), np.asarray(tm.faces), resolution, offset)
+    return v, f, "offset"
+
+
+def _closed_manifold(tm: object) -> tuple[np.ndarray, np.ndarray] | None:
+    """Return a closed mesh as a valid, lightly simplified manifold (outward faces), or None when it is not one."""
+    import manifold3d
+
+    v = np.asarray(tm.vertices, dtype=np.float64)  # type: ignore[attr-defined]
+    f = np.asarray(tm.faces, dtype=np.int64)  # type: ignore[attr-defined]
+    if float(tm.volume) < 0:  # type: ignore[attr-defined]
+        f = f[:, ::-1]
+    try:
+        man = manifold3d.Manifold(manifold3d.Mesh(np.ascontiguousarray(v, dtype=np.float32),
+                                                  np.ascontiguousarray(f, dtype=np.uint32)))
+    except Exception:  # noqa: BLE001 - not a manifold
+        return None
+    if man.status() != manifold3d.Error.NoError or man.is_empty() or man.volume() <= 0:
+        return None
+    ext = float(np.ptp(v, axis=0).max())
+    man = man.simplify(ext * 1e-3)
+    mesh = man.to_mesh()
+    out_v = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
+    out_f = np.asarray(mesh.tri_verts, dtype=np.int64)
+    return (out_v, out_f) if len(out_f) >= 4 else None
+
+
+def offset_remesh(vertices: np.ndarray, faces: np.ndarray, resolution: int = 80,
+                  offset: float = 0.45, simplify: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Return the watertight surface `offset` grid steps outside any triangle soup (thin sheets become thin slabs)."""
+    import manifold3d
+    import scipy.ndimage as ndi
+    from scipy.spatial import cKDTree
+
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    lo0, hi0 = v.min(axis=0), v.max(axis=0)
+    s = float((hi0 - lo0).max()) / max(int(resolution), 8)
+    h = 0.5 * s
+    lo = lo0 - 2 * s
+    n = np.ceil((hi0 + 2 * s - lo) / s).astype(int)  # corner lattice: lo + i s, i in [0, n]
+    # dense surface samples (spacing <= 0.4 grid step) give the occupied half-step voxels and the
+    # unsigned distance near the surface; half-grid point g sits at lo + g h, and the body-centred lattice
+    # that manifold's level set samples is its even points (cell corners) and odd points (cell centres)
+    pts = surface_samples(v, f, 0.4 * s)
+    m2 = 2 * n + 1
+    gidx = np.clip(np.floor((pts - lo) / h + 0.5).astype(np.int64), 0, m2 - 1)
+    surf = np.zeros(tuple(m2), dtype=np.uint8)
+    surf[gidx[:, 0], gidx[:, 1], gidx[:, 2]] = 1
+    closed = ndi.minimum_filter(ndi.maximum_filter(surf, size=3, mode="constant"), size=3, mode="constant")
+    inside = ndi.binary_fill_holes(closed) & (surf == 0)  # holes narrower than a grid step are bridged
+    near = ndi.maximum_filter(surf, size=9, mode="constant") > 0  # within 2 grid steps of the surface
+    cell = np.floor((pts - lo) / (0.2 * s)).astype(np.int64)  # one sample per 0.2-step cell is enough for distances
+    dims = cell.max(axis=0) + 1
+    _, first = np.unique(np.ravel_multi_index(cell.T, dims), return_index=True)
+    tree = cKDTree(pts[np.sort(first)])
+    fields = []
+    for par in (0, 1):  # distance near the surface, 3 grid steps elsewhere, positive inside
+        sub = (slice(par, None, 2),) * 3
+        ins, nr = inside[sub], near[sub]
+        dist = np.full(ins.shape, 3.0 * s)
+        q = lo + h * (2 * np.argwhere(nr) + par)
+        if len(q):
+            dist[nr] = np.minimum(tree.query(q, distance_upper_bound=3.0 * s, workers=-1)[0], 3.0 * s)
+        fields.append(np.where(ins, dist, -dist))
+    sc = fields[0].reshape(-1).tolist()
+    sm = fields[1][:n[0], :n[1], :n[2]].reshape(-1).tolist()
+    nc1, nc2 = int(n[1] + 1), int(n[2] + 1)
+    nm1, nm2 = int(n[1]), int(n[2])
+    ox, oy, oz = (float(x) for x in lo)
+    inv = 1.0 / h
+    far = -4.0 * s
+
+    def sdf(x: float, y: float, z: float) -> float:
+        gi, gj, gk = int((x - ox) * inv + 0.5), int((y - oy) * inv + 0.5), int((z - oz) * inv + 0.5)
+        if gi & 1:
+            i, j, k = gi >> 1, gj >> 1, gk >> 1
+            if 0 <= i < n[0] and 0 <= j < nm1 and 0 <= k < nm2:
+                return sm[(i * nm1 + j) * nm2 + k]
+            return far
+        i, j, k = gi >> 1, gj >> 1, gk >> 1
+        if 0 <= i <= n[0] and 0 <= j < nc1 and 0 <= k < nc2:
+            return sc[(i * nc1 + j) * nc2 + k]
+        return far
+
+    hi = lo + n * s
+    man = manifold3d.Manifold.level_set(sdf, [*lo, *hi], s * (1 - 1e-7), -float(offset) * s)
+    man = man.simplify(float(simplify) * s)
+    out = man.to_mesh()
+    ov = np.asarray(out.vert_properties, dtype=np.float64)[:, :3]
+    of = np.asarray(out.tri_verts, dtype=np.int64)
+    if len(of) < 4:
+        return v, f
+    return ov, of
+
+
+def surface_samples(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> np.ndarray:
+    """Return points covering every triangle on a barycentric lattice no coarser than `spacing` (deterministic)."""
+    tri = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]
+    edge = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    steps = np.clip(np.ceil(edge / max(spacing, 1e-12)), 1, 512).astype(np.int64)
+    out = [tri.reshape(-1, 3)]
+    for k in np.unique(steps):
+        if k < 2:
+            continue
+        i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
+        keep = i + j <= k
+        b = np.stack([i[keep], j[keep]], axis=1).astype(np.float64) / k  # barycentric (u, v)
+        t = tri[steps == k]
+        p = t[:, None, 0] + b[None, :, 0:1] * (t[:, None, 1] - t[:, None, 0]) + b[None, :, 1:2] * (t[:, None, 2] - t[:, None, 0])
+        out.append(p.reshape(-1, 3))
+    return np.concatenate(out)

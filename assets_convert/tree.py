@@ -93,9 +93,21 @@ def _work(task: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
+STARTED = "started"
+STARTUP_GRACE_S = 120.0  # a fresh worker may take this long to import before its first task's clock starts
+
+
 def _worker_main(conn: Any) -> None:
     """Worker loop: receive tasks, send rows, until None."""
     os.environ.setdefault("MUJOCO_GL", "egl")
+    # import the converters before the first task, so a task's timeout does not count start-up
+    import coacd  # noqa: F401
+    import mujoco  # noqa: F401
+    import scipy.ndimage  # noqa: F401
+    import trimesh  # noqa: F401
+
+    from . import object as _object, scene as _scene  # noqa: F401
+
     while True:
         try:
             task = conn.recv()
@@ -103,6 +115,7 @@ def _worker_main(conn: Any) -> None:
             return
         if task is None:
             return
+        conn.send(STARTED)  # the parent's per-task clock starts here
         conn.send(_work(task))
 
 
@@ -115,10 +128,12 @@ class _Worker:
         self.proc.start()
         child.close()
         self.task: dict[str, Any] | None = None
+        self.started = False
         self.t0 = 0.0
 
     def submit(self, task: dict[str, Any]) -> None:
         self.task = task
+        self.started = False
         self.t0 = time.perf_counter()
         self.conn.send(task)
 
@@ -179,10 +194,13 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
                 if w.conn in ready:
                     try:
                         row = w.conn.recv()
+                        if row == STARTED:
+                            w.t0, w.started = now, True
+                            continue
                     except (EOFError, OSError):
                         row = {"file": tasks[idx]["display"], "status": "error",
                                "error": f"worker crashed (exit code {w.proc.exitcode})", "seconds": round(now - w.t0, 3)}
-                elif now - w.t0 > timeout:
+                elif now - w.t0 > timeout + (0.0 if w.started else STARTUP_GRACE_S):
                     row = {"file": tasks[idx]["display"], "status": "error",
                            "error": f"timeout: conversion took longer than {timeout:g} s", "seconds": round(now - w.t0, 3)}
                 if row is None:
