@@ -163,12 +163,18 @@ def _mjcf(objects: list[tuple[str, str, np.ndarray, tuple]]) -> str:
 
 
 def _view_points(model: mujoco.MjModel, data: mujoco.MjData, nm: NavMap, oid: str, centre: np.ndarray,
-                 rng: np.random.Generator, cap: int) -> list[ViewPoint]:
+                 rng: np.random.Generator, cap: int, half: np.ndarray | None = None) -> list[ViewPoint]:
+    """View points as the episode generator makes them: navigable cells of a 0.25 m grid-anchored lattice
+    within 1 m of the object's footprint, from which a ray at camera height reaches the object."""
     frame = GridFrame.of(nm)
+    stride = max(1, int(round(0.25 / nm.resolution)))
     rc = np.argwhere(nm.navigable)
+    rc = rc[(rc[:, 0] % stride == 0) & (rc[:, 1] % stride == 0)]
     xy = frame.to_world(rc)
-    d = np.linalg.norm(xy - centre[None, :2], axis=1)
-    cand = xy[d <= 1.0]
+    hx, hy = (float(half[0]), float(half[1])) if half is not None else (0.0, 0.0)
+    dx = np.maximum(np.abs(xy[:, 0] - centre[0]) - hx, 0.0)
+    dy = np.maximum(np.abs(xy[:, 1] - centre[1]) - hy, 0.0)
+    cand = xy[np.hypot(dx, dy) <= 1.0]
     bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, oid)
     groups = np.array([1, 0, 1, 0, 0, 0], np.uint8)
     geomid = np.zeros(1, np.int32)
@@ -205,7 +211,7 @@ def build_fixture(out_dir: str | Path, variants: int = 2, seed: int = 0, episode
         mujoco.mj_forward(model, data)
         goals_by_cat: dict[str, list[Goal]] = {}
         for oid, cat, c, size in objects:
-            vps = _view_points(model, data, nm, oid, c, rng, max_viewpoints)
+            vps = _view_points(model, data, nm, oid, c, rng, max_viewpoints, np.array(size) / 2)
             if vps:
                 half = np.array(size) / 2
                 goals_by_cat.setdefault(cat, []).append(Goal(oid, cat, c.copy(), vps, np.stack([c - half, c + half])))
