@@ -63,7 +63,7 @@ def fixture_bundle(root: str | Path | None = None, variants: int = 2, seed: int 
     """Return the folder of the built-in fixture dataset, writing it on first use."""
     from .fixture import build_fixture
 
-    root = Path(root) if root else Path(os.environ.get("SDOVON_CACHE", Path(tempfile.gettempdir()) / "sdovon_mj_cache")) / f"fixture_s{seed}_v{variants}_vp2"
+    root = Path(root) if root else Path(os.environ.get("SDOVON_CACHE", Path(tempfile.gettempdir()) / "sdovon_mj_cache")) / f"fixture_s{seed}_v{variants}_vp3"
     if not all((root / f"fixture_apartment_v{v:03d}" / "episodes.json").exists() for v in range(variants)):
         build_fixture(root, variants=variants, seed=seed)
     return root

@@ -179,13 +179,17 @@ def _view_points(model: mujoco.MjModel, data: mujoco.MjData, nm: NavMap, oid: st
     groups = np.array([1, 0, 1, 0, 0, 0], np.uint8)
     geomid = np.zeros(1, np.int32)
     out = []
+    hz = 0.0 if half is None else float(half[2])
+    corners = [np.zeros(3)] + [0.9 * np.array([sx * hx, sy * hy, sz * hz]) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
     for p in cand:
         cam = np.array([p[0], p[1], 0.88])
-        vec = centre - cam
-        dist = mujoco.mj_ray(model, data, cam, vec, groups, 1, -1, geomid)
-        if dist >= 0 and int(model.geom_bodyid[geomid[0]]) == bid:
-            yaw = math.degrees(math.atan2(vec[1], vec[0]))
-            out.append(ViewPoint(np.array([p[0], p[1], 0.0]), yaw_quat(yaw), 0.0))
+        for off in corners:  # like the generator's ray test: the centre or a corner of the box is reached first
+            vec = centre + off - cam
+            dist = mujoco.mj_ray(model, data, cam, vec / np.linalg.norm(vec), groups, 1, -1, geomid)
+            if dist >= 0 and int(model.geom_bodyid[geomid[0]]) == bid:
+                yaw = math.degrees(math.atan2(centre[1] - cam[1], centre[0] - cam[0]))
+                out.append(ViewPoint(np.array([p[0], p[1], 0.0]), yaw_quat(yaw), 0.0))
+                break
     if len(out) > cap:
         keep = np.sort(rng.choice(len(out), cap, replace=False))
         out = [out[i] for i in keep]
