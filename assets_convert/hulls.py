@@ -7,6 +7,8 @@ import numpy as np
 from sdovon_mj.config import ConvertConfig
 
 MIN_HULL_THICKNESS = 1e-4  # m: a hull thinner than this along its smallest principal axis is dropped
+THIN_GROWTH = 0.12  # closed meshes that an offset surface would grow by more than this fraction go to CoACD as they are
+CLOSE_HALF_STEPS = 1  # open meshes: holes up to about this many half grid steps are bridged before the inside is filled
 
 
 def _convex(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -140,7 +142,12 @@ def solid_for_coacd(vertices: np.ndarray, faces: np.ndarray, resolution: int = 8
     import trimesh
 
     tm = trimesh.Trimesh(vertices, faces, process=True)
-    if tm.is_watertight and tm.is_winding_consistent:
+    # a closed mesh goes in as it is when the offset surface would thicken it noticeably (thin walls: bowls,
+    # plates, chairs); chunky closed scans take the offset surface, whose even triangles CoACD cuts into
+    # fewer hulls, much faster (a raw torus scan took CoACD > 5 min)
+    step = float(tm.extents.max()) / max(int(resolution), 8)
+    thin = tm.is_volume and offset * step * float(tm.area) > THIN_GROWTH * abs(float(tm.volume))
+    if thin and tm.is_watertight and tm.is_winding_consistent:
         got = _closed_manifold(tm)
         if got is not None:
             return got[0], got[1], "closed"
@@ -188,18 +195,23 @@ def offset_remesh(vertices: np.ndarray, faces: np.ndarray, resolution: int = 80,
     # dense surface samples (spacing <= 0.4 grid step) give the occupied half-step voxels and the
     # unsigned distance near the surface; half-grid point g sits at lo + g h, and the body-centred lattice
     # that manifold's level set samples is its even points (cell corners) and odd points (cell centres)
-    pts = surface_samples(v, f, 0.4 * s)
+    pts, pid = surface_samples(v, f, 0.4 * s)
     m2 = 2 * n + 1
     gidx = np.clip(np.floor((pts - lo) / h + 0.5).astype(np.int64), 0, m2 - 1)
     surf = np.zeros(tuple(m2), dtype=np.uint8)
     surf[gidx[:, 0], gidx[:, 1], gidx[:, 2]] = 1
-    closed = ndi.minimum_filter(ndi.maximum_filter(surf, size=3, mode="constant"), size=3, mode="constant")
-    inside = ndi.binary_fill_holes(closed) & (surf == 0)  # holes narrower than a grid step are bridged
+    # close the shell by CLOSE_HALF_STEPS half steps before filling, so small holes do not leak the fill (a wider
+    # closing fills concave gaps with voxel staircases that CoACD cuts endlessly: a torus took > 2 min)
+    k = 2 * CLOSE_HALF_STEPS + 1
+    closed = ndi.minimum_filter(ndi.maximum_filter(surf, size=k, mode="constant"), size=k, mode="constant")
+    inside = ndi.binary_fill_holes(closed) & (surf == 0)
     near = ndi.maximum_filter(surf, size=9, mode="constant") > 0  # within 2 grid steps of the surface
     cell = np.floor((pts - lo) / (0.2 * s)).astype(np.int64)  # one sample per 0.2-step cell is enough for distances
     dims = cell.max(axis=0) + 1
     _, first = np.unique(np.ravel_multi_index(cell.T, dims), return_index=True)
-    tree = cKDTree(pts[np.sort(first)])
+    first = np.sort(first)
+    tree = cKDTree(pts[first])
+    tris = v[f]
     fields = []
     for par in (0, 1):  # distance near the surface, 3 grid steps elsewhere, positive inside
         sub = (slice(par, None, 2),) * 3
@@ -207,7 +219,7 @@ def offset_remesh(vertices: np.ndarray, faces: np.ndarray, resolution: int = 80,
         dist = np.full(ins.shape, 3.0 * s)
         q = lo + h * (2 * np.argwhere(nr) + par)
         if len(q):
-            dist[nr] = np.minimum(tree.query(q, distance_upper_bound=3.0 * s, workers=-1)[0], 3.0 * s)
+            dist[nr] = _exact_distance(q, tree, pid[first], tris, 3.0 * s)
         fields.append(np.where(ins, dist, -dist))
     sc = fields[0].reshape(-1).tolist()
     sm = fields[1][:n[0], :n[1], :n[2]].reshape(-1).tolist()
@@ -240,19 +252,37 @@ def offset_remesh(vertices: np.ndarray, faces: np.ndarray, resolution: int = 80,
     return ov, of
 
 
-def surface_samples(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> np.ndarray:
-    """Return points covering every triangle on a barycentric lattice no coarser than `spacing` (deterministic)."""
+def _exact_distance(q: np.ndarray, tree: object, tri_of: np.ndarray, tris: np.ndarray, cap: float) -> np.ndarray:
+    """Return distances (capped) from points to the triangles of their 4 nearest surface samples."""
+    from trimesh.triangles import closest_point
+
+    d, nn = tree.query(q, k=4, distance_upper_bound=cap, workers=-1)  # type: ignore[attr-defined]
+    out = np.full(len(q), cap)
+    for c in range(nn.shape[1]):
+        ok = np.isfinite(d[:, c])
+        if not ok.any():
+            continue
+        cp = closest_point(tris[tri_of[nn[ok, c]]], q[ok])
+        out[ok] = np.minimum(out[ok], np.linalg.norm(cp - q[ok], axis=1))
+    return out
+
+
+def surface_samples(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return points covering every triangle on a barycentric lattice no coarser than `spacing`, and their triangles."""
     tri = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]
     edge = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
     steps = np.clip(np.ceil(edge / max(spacing, 1e-12)), 1, 512).astype(np.int64)
     out = [tri.reshape(-1, 3)]
+    ids = [np.repeat(np.arange(len(tri)), 3)]
     for k in np.unique(steps):
         if k < 2:
             continue
         i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
         keep = i + j <= k
         b = np.stack([i[keep], j[keep]], axis=1).astype(np.float64) / k  # barycentric (u, v)
-        t = tri[steps == k]
+        sel = np.flatnonzero(steps == k)
+        t = tri[sel]
         p = t[:, None, 0] + b[None, :, 0:1] * (t[:, None, 1] - t[:, None, 0]) + b[None, :, 1:2] * (t[:, None, 2] - t[:, None, 0])
         out.append(p.reshape(-1, 3))
-    return np.concatenate(out)
+        ids.append(np.repeat(sel, len(b)))
+    return np.concatenate(out), np.concatenate(ids)
