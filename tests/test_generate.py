@@ -28,7 +28,7 @@ world:
   scene_seeds: [0]
   floors: 1
   object_variants: 1
-  object_categories: [mug, bowl, book, apple]
+  object_categories: [can, remote, book, apple]
 observe:
   yaw_steps: 4
   pitch_angles: [-30.0, 0.0]
@@ -116,7 +116,7 @@ def test_generate_default_world_end_to_end(reference_run) -> None:
     assert manifest["failures"] == []
     # --set overrides reach the resolved config (and so every stage fingerprint).
     assert manifest["config"]["observe"]["width"] == 160 and manifest["config"]["observe"]["height"] == 120
-    assert manifest["config"]["world"]["object_categories"] == ["mug", "bowl", "book", "apple"]
+    assert manifest["config"]["world"]["object_categories"] == ["can", "remote", "book", "apple"]
     for stage in ("objects", "inputs/scenes/apt_0000", "scenes/apt_0000/convert", "scenes/apt_0000/observe",
                   "scenes/apt_0000/perceive", "scenes/apt_0000/semantics",
                   "scenes/apt_0000/variants/apt_0000_v000/place", "scenes/apt_0000/variants/apt_0000_v000/episodes",
