@@ -2,9 +2,9 @@
 
 Scenes: a default-world apartment (when sdovon_mj.world and assets_convert.convert_scene are
 available; otherwise the synthetic two-storey apartment of sdovon_mj.observe.synthetic) and the
-shared furnished living room (convert_scene when available; otherwise composed from its
-placements.json, untextured). Frames are rendered from coverage viewpoints with the stage's yaw /
-pitch sweep, through the same SceneRenderer the stage uses (one update_scene per frame; RGB is one
+shared furnished living room (its glTF room plus the furniture listed in placements.json, textured,
+through convert_scene when available; otherwise composed from placements.json, untextured). Frames
+are rendered from coverage viewpoints with the stage's yaw / pitch sweep, through the same SceneRenderer the stage uses (one update_scene per frame; RGB is one
 pass, depth + segmentation one flat id-colour pass). Runs unchanged with MUJOCO_GL=egl on CPU
 (Mesa llvmpipe) or on a GPU.
 
@@ -63,12 +63,12 @@ def apartment_scene(work: Path):
 def living_room_scene(work: Path):
     """Return (label, SceneAsset, store root) of the shared furnished living room."""
     conv = _convert()
-    placements = SHARED / "scenes" / "furnished_living_room" / "placements.json"
-    if not placements.exists():
+    room = SHARED / "scenes" / "furnished_living_room" / "living_room.gltf"
+    if not room.exists():
         return None
     if conv is not None:
         try:
-            return "furnished living room (convert_scene)", conv(placements, work / "lr"), work / "lr"
+            return "furnished living room (convert_scene, textured)", conv(room, work / "lr"), work / "lr"
         except Exception as e:  # noqa: BLE001 - the fallback still measures the same geometry
             print(f"  convert_scene failed ({e}); composing the room from placements.json instead")
     return "furnished living room (untextured)", write_mesh_scene(living_room_parts(SHARED), work / "lr", "living_room"), work / "lr"
