@@ -14,7 +14,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-CONVERTER_VERSION = "assets_convert-6"  # bump whenever the output of a conversion changes
+CONVERTER_VERSION = "assets_convert-7"  # bump whenever the output of a conversion changes
 
 
 def cache_root(cache_dir: str | Path | None = None) -> Path | None:

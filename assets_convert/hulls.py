@@ -73,21 +73,32 @@ def _decimate_hull(v: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
 def decompose(vertices: np.ndarray, faces: np.ndarray, cfg: ConvertConfig | None = None,
               preprocess_mode: str = "auto") -> list[tuple[np.ndarray, np.ndarray]]:
     """Return CoACD convex hulls (vertices, faces) of a mesh, degenerate hulls dropped."""
-    import coacd
-
     cfg = cfg or ConvertConfig()
-    coacd.set_log_level("error")
-    box = np.asarray(vertices, dtype=np.float64).min(axis=0), np.asarray(vertices, dtype=np.float64).max(axis=0)
-    if preprocess_mode == "auto":
-        # a closed manifold goes to CoACD as it is; anything else becomes the surface a fraction of a grid
-        # step outside its triangles (exact distances, so thin walls stay thin); CoACD's own preprocessing
+    kwargs = _coacd_kwargs(cfg, preprocess_mode)
+    if preprocess_mode != "auto":
+        parts = _run_coacd(np.asarray(vertices), np.asarray(faces), kwargs)
+    else:
+        # a thin-walled closed manifold goes to CoACD as it is; anything else becomes the surface a fraction of a
+        # grid step outside its triangles (exact distances, so thin walls stay thin); CoACD's own preprocessing
         # makes ~100k triangles that slow its search 2-4x and fattens thin walls by a voxel
-        vertices, faces, _how = solid_for_coacd(vertices, faces, int(cfg_get(cfg, "remesh_resolution", 80)),  # type: ignore[arg-type]
-                                                float(cfg_get(cfg, "remesh_offset", 0.45)))  # type: ignore[arg-type]
-        preprocess_mode = "off"
-    mesh = coacd.Mesh(np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int32))
-    parts = coacd.run_coacd(
-        mesh,
+        res, off = int(cfg_get(cfg, "remesh_resolution", 80)), float(cfg_get(cfg, "remesh_offset", 0.45))  # type: ignore[arg-type]
+        kwargs["preprocess_mode"] = "off"
+        v, f, how = solid_for_coacd(vertices, faces, res, off)
+        parts = None
+        if how == "closed":
+            # CoACD on a raw shell can crash (a candle) or search for minutes (a lamp shade): it runs in a child
+            # process with a time budget, and the offset surface is used when it fails
+            parts = _run_isolated(v, f, kwargs, float(cfg_get(cfg, "coacd_closed_budget_s", 30.0)))  # type: ignore[arg-type]
+            if parts is None:
+                v, f, how = solid_for_coacd(vertices, faces, res, off, allow_closed=False)
+        if parts is None:
+            parts = _run_coacd(v, f, kwargs)
+    return clean_hulls([(np.asarray(v), np.asarray(f)) for v, f in parts], int(cfg.coacd_max_hull_vertices))
+
+
+def _coacd_kwargs(cfg: ConvertConfig, preprocess_mode: str) -> dict[str, object]:
+    """Return coacd.run_coacd keyword arguments from a convert config."""
+    return dict(
         threshold=float(cfg.coacd_threshold),
         max_convex_hull=int(cfg.coacd_max_hulls),
         preprocess_mode=preprocess_mode,
@@ -98,7 +109,41 @@ def decompose(vertices: np.ndarray, faces: np.ndarray, cfg: ConvertConfig | None
         resolution=int(cfg_get(cfg, "coacd_resolution", 1000)),  # type: ignore[arg-type]
         seed=int(cfg.coacd_seed),
     )
-    return clean_hulls([(np.asarray(v), np.asarray(f)) for v, f in parts], int(cfg.coacd_max_hull_vertices))
+
+
+def _run_coacd(vertices: np.ndarray, faces: np.ndarray, kwargs: dict[str, object]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Run CoACD in this process; return its parts as (vertices, faces) arrays."""
+    import coacd
+
+    coacd.set_log_level("error")
+    mesh = coacd.Mesh(np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int32))
+    return [(np.asarray(v), np.asarray(f)) for v, f in coacd.run_coacd(mesh, **kwargs)]
+
+
+def _run_isolated(vertices: np.ndarray, faces: np.ndarray, kwargs: dict[str, object],
+                  budget_s: float) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """Run CoACD in a child interpreter (``python -m assets_convert.coacd_child``); return its parts, or None
+    when it crashed or ran past budget_s. A fresh interpreter, so no caller's main module is re-imported."""
+    import json
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory(prefix="sdovon-coacd-") as tmp:
+        src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
+        np.savez(src, vertices=np.asarray(vertices, np.float64), faces=np.asarray(faces, np.int64))
+        try:
+            done = subprocess.run([sys.executable, "-m", "assets_convert.coacd_child", str(src), str(dst),
+                                   json.dumps(kwargs)], capture_output=True, timeout=budget_s,
+                                  cwd=str(Path(__file__).resolve().parents[1]))
+        except subprocess.TimeoutExpired:
+            return None
+        if done.returncode != 0 or not dst.exists():
+            return None
+        with np.load(dst) as z:
+            n = int(z["count"])
+            return [(np.array(z[f"v{k}"]), np.array(z[f"f{k}"])) for k in range(n)]
 
 
 def cfg_get(cfg: object, name: str, default: object) -> object:
@@ -137,8 +182,8 @@ def mass_properties(hulls: list[tuple[np.ndarray, np.ndarray]], density: float) 
 
 
 def solid_for_coacd(vertices: np.ndarray, faces: np.ndarray, resolution: int = 80,
-                    offset: float = 0.45) -> tuple[np.ndarray, np.ndarray, str]:
-    """Return a watertight manifold (vertices, faces, how) standing for a mesh's solid, for CoACD."""
+                    offset: float = 0.45, allow_closed: bool = True) -> tuple[np.ndarray, np.ndarray, str]:
+    """Return a watertight manifold (vertices, faces, how: 'closed' or 'offset') standing for a mesh's solid, for CoACD."""
     import trimesh
 
     tm = trimesh.Trimesh(vertices, faces, process=True)
@@ -147,7 +192,7 @@ def solid_for_coacd(vertices: np.ndarray, faces: np.ndarray, resolution: int = 8
     # fewer hulls, much faster (a raw torus scan took CoACD > 5 min)
     step = float(tm.extents.max()) / max(int(resolution), 8)
     thin = tm.is_volume and offset * step * float(tm.area) > THIN_GROWTH * abs(float(tm.volume))
-    if thin and tm.is_watertight and tm.is_winding_consistent:
+    if allow_closed and thin and tm.is_watertight and tm.is_winding_consistent:
         got = _closed_manifold(tm)
         if got is not None:
             return got[0], got[1], "closed"
@@ -156,7 +201,7 @@ def solid_for_coacd(vertices: np.ndarray, faces: np.ndarray, resolution: int = 8
 
 
 def _closed_manifold(tm: object) -> tuple[np.ndarray, np.ndarray] | None:
-    """Return a closed mesh as a valid, lightly simplified manifold (outward faces), or None when it is not one."""
+    """Return a closed mesh as a valid manifold (outward faces), or None when it is not one."""
     import manifold3d
 
     v = np.asarray(tm.vertices, dtype=np.float64)  # type: ignore[attr-defined]
@@ -170,8 +215,8 @@ def _closed_manifold(tm: object) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     if man.status() != manifold3d.Error.NoError or man.is_empty() or man.volume() <= 0:
         return None
-    ext = float(np.ptp(v, axis=0).max())
-    man = man.simplify(ext * 1e-3)
+    # not simplified: collapsing even a few edges of a thin-walled shell (the world's lamp shade, 8 of 592
+    # triangles) sent CoACD into a search of > 5 min; the mesh as it is took 5 s
     mesh = man.to_mesh()
     out_v = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
     out_f = np.asarray(mesh.tri_verts, dtype=np.int64)

@@ -63,6 +63,7 @@ class ConvertConfig:
     default_density: float = _p(500.0, "kg/m^3", "density for categories without a known one")
     texture_max_size: int = _p(1024, "px", "textures are downscaled to at most this edge length")
     timeout_s: float = _p(300.0, "s", "per-object conversion timeout in a batch")
+    coacd_closed_budget_s: float = _p(30.0, "s", "CoACD on a thin-walled closed mesh as it is runs in a child process this long at most; when it crashes or runs out, the offset surface goes to CoACD instead")
     jobs: int = _p(0, "-", "worker processes for batch conversion (0: number of cores)")
 
 
@@ -99,6 +100,13 @@ class ObserveConfig:
     frames_per_shard: int = _p(24, "-", "observations per compressed npz shard")
     camera_heights: tuple[float, ...] = _p((2.0,), "m", "extra camera heights above the floor, rendered at every viewpoint and yaw with camera_height_pitches besides agent_height (the agent camera cannot see the tops of shelves above it); empty: agent_height only")
     camera_height_pitches: tuple[float, ...] = _p((-40.0,), "deg", "camera pitch angles at the extra camera_heights (negative looks down)")
+    targeted_views: int = _p(2, "-", "targeted views per receptacle surface after a first perception pass: cameras around it that show most of what no view showed yet (0: coverage views only, as in the paper)")
+    targeted_distance: tuple[float, ...] = _p((0.4, 2.0), "m", "targeted cameras stand on navigable cells this far (min, max) from the surface's XY box")
+    targeted_spacing: float = _p(0.3, "m", "lattice spacing of targeted camera candidates")
+    targeted_candidates: int = _p(24, "-", "at most this many candidate positions per surface (each tried at every camera height)")
+    targeted_cell: float = _p(0.03, "m", "grid cell for what part of a surface a view shows")
+    targeted_min_gain: float = _p(0.03, "-", "a targeted view must show at least this fraction of the surface's box unseen so far")
+    targeted_width: int = _p(128, "px", "image width of the depth renders that score candidates (height keeps the aspect ratio)")
 
 
 @dataclass(frozen=True)

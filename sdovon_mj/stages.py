@@ -128,9 +128,25 @@ def objects_task(store: Store, cfg: RunConfig, runner: Any) -> None:
     fp = ["objects", _converter_version(), to_dict(cfg.convert), [(_input_name(store, p), c, file_hash(p)) for p, c in items]]
 
     def make() -> list[str]:
+        import tempfile
+
+        from assets_convert.load import display_path
+        from assets_convert.tree import convert_tree
+
         assets: list[ObjectAsset] = []
         failures: dict[str, str] = {}
+        # CoACD runs in convert_tree's process pool (convert.jobs workers, convert.timeout_s per object: a stuck
+        # decomposition is killed and reported) into a scratch folder; the loop below then writes each object
+        # into the run folder from the converter cache
+        with tempfile.TemporaryDirectory(prefix="sdovon-objects-") as scratch:
+            report = convert_tree([p for p, _c in items], scratch, jobs=cfg.convert.jobs, timeout=cfg.convert.timeout_s,
+                                  progress=False, config=cfg.convert, categories={str(p): c for p, c in items if c})
+        rows = {r["file"]: r for r in report["items"]}
         for path, category in items:
+            row = rows.get(display_path(path), {"status": "ok"})
+            if row["status"] != "ok":
+                failures[str(path)] = str(row["error"])
+                continue
             try:
                 asset, _report = convert_object_report(path, store.root, category=category, config=cfg.convert)
             except SdovonError as e:  # one bad object is reported; the library goes on
@@ -190,18 +206,24 @@ def scene_task(store: Store, cfg: RunConfig, runner: Any, scene: str) -> None:
 
     def perceive() -> list[str]:
         from .observe import load_shards
-        from .perceive import perceive_scene
-        from .receptacles import find_receptacle_planes
 
         shards = sorted(store.path(f"{sdir}/observe").glob("*.npz"))
-        instances = perceive_scene(load_shards(shards), asset, cfg.perceive, seed=seed)
+        backend = None
+        if not cfg.receptacles.labels:  # receptacles named by the LLM backend (prompt C.1), cached like semantics
+            from .semantics import get_backend
+
+            backend = get_backend(cfg.semantics, cache_dir=store.path("cache/llm") if cfg.semantics.cache else None)
+        instances, planes, views = perceive_and_find_planes(load_shards(shards), asset, store.root,
+                                                            load_navmaps(store, scene), cfg, seed, backend)
         save_npz(instances, store.path(f"{sdir}/perceive/instances.npz"))
-        planes = find_receptacle_planes(instances, cfg.receptacles)
         save_json(planes, store.path(f"{sdir}/perceive/planes.json"))
-        return [f"{sdir}/perceive/instances.npz", f"{sdir}/perceive/planes.json"]
+        save_targeted_views(views, store.path(f"{sdir}/perceive/targeted_views.json"))
+        return [f"{sdir}/perceive/instances.npz", f"{sdir}/perceive/planes.json",
+                f"{sdir}/perceive/targeted_views.json"]
 
     runner.run(f"{sdir}/perceive", ["perceive", _fp_of(store, f"{sdir}/observe"), to_dict(cfg.perceive),
-                                    to_dict(cfg.receptacles), seed], perceive)
+                                    to_dict(cfg.receptacles), seed,
+                                    None if cfg.receptacles.labels else to_dict(cfg.semantics)], perceive)
 
     def semantics() -> list[str]:
         from .semantics import get_backend, region_map, region_picture, relevance
@@ -252,6 +274,99 @@ def _write_world_scene(store: Store, cfg: RunConfig, runner: Any, scene: str) ->
     if not mesh:
         raise StageError(f"default-world apartment {scene} wrote no mesh")
     return str(store.path(mesh[0]))
+
+
+def _plane_floor(height: float, navmaps: list[NavMap]) -> NavMap | None:
+    """Return the navmap of the highest floor at or below a height (None when below every floor)."""
+    below = [nm for nm in navmaps if nm.height <= height + 0.05]
+    return max(below, key=lambda nm: nm.height) if below else None
+
+
+def view_targets(instances: list[Instance], planes: list[ReceptaclePlane], navmaps: list[NavMap],
+                 labels: tuple[str, ...]) -> list[Any]:
+    """Return a ViewTarget per receptacle plane, and per receptacle instance without planes (its top)."""
+    import numpy as np
+
+    from .observe.targeted import ViewTarget
+    from .receptacles import receptacle_instances
+
+    by_id = {i.id: i for i in instances}
+    out = []
+    surfaces = [(by_id[p.instance_id], float(p.height)) for p in planes if p.instance_id in by_id]
+    with_planes = {p.instance_id for p in planes}
+    for inst in receptacle_instances(instances, labels):
+        if inst.id not in with_planes and len(inst.points):
+            surfaces.append((inst, float(inst.world_points[:, 2].max())))
+    for inst, h in surfaces:
+        nm = _plane_floor(h, navmaps)
+        if nm is None:
+            continue
+        wp = inst.world_points
+        lo, hi = wp[:, :2].min(axis=0), wp[:, :2].max(axis=0)
+        out.append(ViewTarget(lo=lo, hi=hi, height=h, floor=nm.floor, seen_points=wp.astype(np.float64)))
+    return out
+
+
+def receptacle_labels(instances: list[Instance], cfg: RunConfig, backend: Any = None) -> tuple[str, ...]:
+    """Return the receptacle labels: the configured ones, or those the LLM backend picks among the instances' (C.1)."""
+    if cfg.receptacles.labels:
+        return tuple(cfg.receptacles.labels)
+    from .semantics import get_backend, identify_receptacles
+
+    return tuple(identify_receptacles(sorted({i.label for i in instances}), backend or get_backend(cfg.semantics)))
+
+
+def perceive_and_find_planes(observations: Any, scene: SceneAsset, store_root: str | Path, navmaps: list[NavMap],
+                             cfg: RunConfig, seed: int, backend: Any = None
+                             ) -> tuple[list[Instance], list[ReceptaclePlane], list[Any]]:
+    """Perceive a scene's observations, look again at its receptacle surfaces (targeted views), find their planes.
+
+    Returns the fused instances, the receptacle planes and the targeted camera poses (T_cam, world <- OpenCV).
+    With observe.targeted_views = 0 this is perceive + planes on the coverage views alone (the paper's). With
+    receptacles.labels empty the LLM `backend` (default: the semantics config's) names the receptacles.
+    """
+    from .observe import load_model, make_renderer
+    from .observe.targeted import plan_target_views, render_poses
+    from .perceive import perceive_scene
+    from .receptacles import find_receptacle_planes
+
+    ocfg = cfg.observe
+    poses: list[Any] = []
+
+    def look_again(first: list[Instance], next_view: int) -> Any:
+        labels = receptacle_labels(first, cfg, backend)
+        targets = view_targets(first, find_receptacle_planes(first, cfg.receptacles, labels), navmaps, labels)
+        if not targets:
+            return
+        model = load_model(scene, store_root)
+        small = dataclasses.replace(ocfg, width=int(ocfg.targeted_width),
+                                    height=max(1, round(ocfg.targeted_width * ocfg.height / ocfg.width)))
+        r = make_renderer(model, small)
+        try:
+            poses.extend(plan_target_views(r, navmaps, targets, ocfg))
+        finally:
+            r.close()
+        if not poses:
+            return
+        r = make_renderer(model, ocfg)
+        try:
+            yield from render_poses(r, poses, ocfg, start_view_id=next_view)
+        finally:
+            r.close()
+
+    instances = perceive_scene(observations, scene, cfg.perceive, seed=seed,
+                               look_again=look_again if ocfg.targeted_views > 0 else None)
+    return instances, find_receptacle_planes(instances, cfg.receptacles, receptacle_labels(instances, cfg, backend)), poses
+
+
+def save_targeted_views(poses: list[Any], path: Path) -> None:
+    """Write targeted camera poses (T_cam rows, rounded to 0.1 mm / 1e-6) as JSON."""
+    import numpy as np
+
+    from .store import atomic_write_text
+
+    rows = [[[round(float(x), 6) for x in row] for row in np.asarray(T, float)] for T in poses]
+    atomic_write_text(path, json.dumps({"T_cam": rows}, indent=None) + "\n")
 
 
 def _fp_of(store: Store, stage: str) -> str:

@@ -9,7 +9,6 @@ from test_perceive_scenes import fused_room, match_surfaces, rendered_room
 from sdovon_mj.config import ReceptacleConfig
 from sdovon_mj.perceive.backproject import make_instance
 from sdovon_mj.receptacles import detect_planes, find_receptacle_planes, polygon_iou, receptacle_instances
-from sdovon_mj.receptacles.identify import llm_receptacle_labels, parse_receptacle_reply
 
 CFG = ReceptacleConfig()
 
@@ -71,11 +70,20 @@ def test_receptacle_identification() -> None:
              for k, lab in enumerate(["Coffee_Table", "chair", "book shelf", "sofa"])]
     got = [i.label for i in receptacle_instances(insts, ("coffee table", "bookshelf", "sofa"))]
     assert got == ["Coffee_Table", "book shelf", "sofa"]
-    assert parse_receptacle_reply('sure: {"receptacles": ["bed", "Desk", "lamp?"]}', ["bed", "desk", "pen"]) == ["bed", "desk"]
-    replies = iter(["not json", '{"receptacles": ["shelf"]}'])
-    assert llm_receptacle_labels(["shelf", "pen"], lambda system, user: next(replies)) == ["shelf"]
-    with pytest.raises(ValueError):
-        llm_receptacle_labels(["shelf"], lambda system, user: "no", retries=2)
+
+
+def test_empty_receptacle_labels_are_named_by_the_llm_backend() -> None:
+    """With receptacles.labels empty, the pipeline asks the semantics backend (prompt C.1; offline here)."""
+    from sdovon_mj.config import ReceptacleConfig, RunConfig
+    from sdovon_mj.stages import receptacle_labels
+
+    insts = [make_instance(np.zeros((3, 3)) + k, lab, [1.0], [0], instance_id=k)
+             for k, lab in enumerate(["bed", "pillow", "desk", "curtain", "bed"])]
+    assert receptacle_labels(insts, RunConfig()) == RunConfig().receptacles.labels
+    cfg = RunConfig(receptacles=ReceptacleConfig(labels=()))
+    labels = receptacle_labels(insts, cfg)
+    assert labels == ("bed", "desk")
+    assert [i.label for i in receptacle_instances(insts, labels)] == ["bed", "desk", "bed"]
 
 
 @pytest.mark.parametrize("sigma,height_tol", [(0.0, 0.02), (0.005, 0.03)])

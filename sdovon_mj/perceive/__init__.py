@@ -5,13 +5,13 @@ Public API (plain functions over records):
     backproject_detections(obs, detections, cfg) -> list[Instance]
     fuse_instances(instances, cfg) -> list[Instance]
     correct_fusion(instances, cfg) -> list[Instance]
-    perceive_scene(observations, scene, cfg, seed) -> list[Instance]
+    perceive_scene(observations, scene, cfg, seed, look_again=None) -> list[Instance]
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 from ..config import PerceiveConfig
 from ..records import Instance, Observation, SceneAsset
@@ -32,24 +32,42 @@ def _perceive_cfg(cfg: Any) -> PerceiveConfig:
 
 
 def perceive_scene(observations: Iterable[Observation], scene: SceneAsset | None, cfg: Any, seed: int = 0,
-                   detector: Detector | None = None, batch_size: int = 8) -> list[Instance]:
-    """Return the fused, error-corrected 3D instances seen in a stream of observations (ids 0..n-1)."""
+                   detector: Detector | None = None, batch_size: int = 8,
+                   look_again: Callable[[list[Instance], int], Iterable[Observation]] | None = None) -> list[Instance]:
+    """Return the fused, error-corrected 3D instances seen in a stream of observations (ids 0..n-1).
+
+    ``look_again(instances, next_view_id)``, when given, is called once with the instances of the first
+    pass and returns more observations (targeted views); they are fused into the same instances.
+    """
     pcfg = _perceive_cfg(cfg)
     det = detector if detector is not None else make_detector(pcfg, scene, seed)
     fuser = InstanceFuser(pcfg)
-    batch: list[Observation] = []
+    next_view = 0
 
-    def flush() -> None:
-        for obs, dets in zip(batch, det.detect_batch(batch)):
-            keep = [d for d in dets if d.score >= pcfg.score_threshold]
-            fuser.add_view(backproject_detections(obs, keep, pcfg, seed))
-        batch.clear()
+    def fuse(stream: Iterable[Observation]) -> None:
+        nonlocal next_view
+        batch: list[Observation] = []
 
-    for obs in observations:
-        batch.append(obs)
-        if len(batch) >= batch_size:
+        def flush() -> None:
+            for obs, dets in zip(batch, det.detect_batch(batch)):
+                keep = [d for d in dets if d.score >= pcfg.score_threshold]
+                fuser.add_view(backproject_detections(obs, keep, pcfg, seed))
+            batch.clear()
+
+        for obs in stream:
+            next_view = max(next_view, int(obs.view_id) + 1)
+            batch.append(obs)
+            if len(batch) >= batch_size:
+                flush()
+        if batch:
             flush()
-    if batch:
-        flush()
-    kept = correct_fusion(fuser.instances(), pcfg)
-    return [dataclasses.replace(inst, id=k) for k, inst in enumerate(kept)]
+
+    def corrected() -> list[Instance]:
+        kept = correct_fusion(fuser.instances(), pcfg)
+        return [dataclasses.replace(inst, id=k) for k, inst in enumerate(kept)]
+
+    fuse(observations)
+    if look_again is None:
+        return corrected()
+    fuse(look_again(corrected(), next_view))
+    return corrected()

@@ -10,10 +10,10 @@ Public API:
 from __future__ import annotations
 
 from .em_planes import detect_planes, find_receptacle_planes
-from .identify import llm_receptacle_labels, receptacle_instances
+from .identify import receptacle_instances
 from ..polygons import convex_hull_ccw, polygon_area, polygon_iou, sample_in_polygon, shrink_polygon
 
 __all__ = [
-    "convex_hull_ccw", "detect_planes", "find_receptacle_planes", "llm_receptacle_labels", "polygon_area",
+    "convex_hull_ccw", "detect_planes", "find_receptacle_planes", "polygon_area",
     "polygon_iou", "receptacle_instances", "sample_in_polygon", "shrink_polygon",
 ]
