@@ -2,17 +2,11 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from ..gridgraph import cell_graph
 from ..records import NavMap
-
-# (drow, dcol, cost in cells); a diagonal needs both orthogonal neighbours free (no corner cutting).
-_STEPS = ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2.0)), (1, -1, math.sqrt(2.0)))
-
 
 _GRAPHS: dict[tuple[tuple[int, ...], bytes], tuple] = {}
 _GRAPHS_MAX = 4  # a variant's floors; every field of a variant shares its floor's graph
@@ -31,30 +25,8 @@ def _graph(navigable: np.ndarray):
 
 
 def _build_graph(nav: np.ndarray):
-    """Build the sparse cell graph of a boolean grid and its cell -> node index map."""
-    h, w = nav.shape
-    index = np.full((h, w), -1, dtype=np.int64)
-    index[nav] = np.arange(int(nav.sum()))
-    rows, cols, costs = [], [], []
-    for dr, dc, cost in _STEPS:
-        r0, r1 = max(0, -dr), h - max(0, dr)
-        c0, c1 = max(0, -dc), w - max(0, dc)
-        a = nav[r0:r1, c0:c1]
-        b = nav[r0 + dr:r1 + dr, c0 + dc:c1 + dc]
-        ok = a & b
-        if dr and dc:
-            ok &= nav[r0 + dr:r1 + dr, c0:c1] & nav[r0:r1, c0 + dc:c1 + dc]
-        ia = index[r0:r1, c0:c1][ok]
-        ib = index[r0 + dr:r1 + dr, c0 + dc:c1 + dc][ok]
-        rows += [ia, ib]
-        cols += [ib, ia]
-        costs += [np.full(len(ia), cost), np.full(len(ia), cost)]
-    n = int(nav.sum())
-    if rows:
-        g = coo_matrix((np.concatenate(costs), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
-    else:
-        g = coo_matrix((n, n)).tocsr()
-    g.sort_indices()
+    """Build the sparse cell graph of a boolean grid and its (read-only) cell -> node index map."""
+    g, index = cell_graph(nav)
     index.setflags(write=False)
     return g, index
 

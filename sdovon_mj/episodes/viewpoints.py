@@ -26,7 +26,7 @@ from ..errors import InputError
 from ..records import NavMap, SceneVariant, ViewPoint
 from ..sim import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from ..sim.camera import pose_cv, yaw_quat
-from ..sim.model import geom_segment_ids, object_segment_id, segment_image
+from ..sim.model import geom_segment_ids, object_segment_id, pose_settled, segment_image
 from ..sim.render import SceneRenderer
 
 
@@ -55,12 +55,7 @@ def load_variant_model(variant: SceneVariant, store_root: str | Path) -> tuple[m
     except ValueError as e:
         raise InputError(path, f"MJCF does not compile: {e}") from None
     data = mujoco.MjData(model)
-    if variant.qpos is not None:
-        q = np.asarray(variant.qpos, dtype=float).ravel()
-        if q.size != model.nq:
-            raise InputError(path, f"variant {variant.name}: qpos has {q.size} values, model has nq={model.nq}")
-        data.qpos[:] = q
-    mujoco.mj_forward(model, data)
+    pose_settled(model, data, variant.qpos, f"{path} (variant {variant.name})")
     return model, data
 
 

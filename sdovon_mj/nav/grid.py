@@ -1,8 +1,8 @@
 """Occupancy-grid helpers on NavMap-aligned grids: cell graphs, geodesic fields, free segments, erosion.
 
 Grids follow `records.NavMap`: cell (i, j) centre = origin + ((j + .5) * res, (i + .5) * res); rows
-grow with world Y, columns with world X. Graphs are 8-connected with sqrt(2) diagonals and no corner
-cutting (a diagonal needs both orthogonal neighbours free).
+grow with world Y, columns with world X. Graphs are `gridgraph.cell_graph` (8-connected, sqrt(2)
+diagonals, no corner cutting), the graph the episode generator measures geodesics on.
 """
 
 from __future__ import annotations
@@ -15,10 +15,9 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from ..gridgraph import cell_graph
 from ..records import NavMap
 
-# (drow, dcol, cost in cells) for the 4 "forward" neighbour directions; the graph adds both ways.
-_STEPS = ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2.0)), (1, -1, math.sqrt(2.0)))
 NEIGHBOURS8 = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
@@ -104,29 +103,6 @@ def nearest_true(mask: np.ndarray, cell: np.ndarray) -> np.ndarray | None:
         return np.array([r, c])
     _, idx = ndimage.distance_transform_edt(~m, return_indices=True)
     return np.array([idx[0][r, c], idx[1][r, c]])
-
-
-def cell_graph(mask: np.ndarray) -> tuple[csr_matrix, np.ndarray]:
-    """Return the 8-connected graph (costs in cells) of the True cells and the cell -> node index map."""
-    nav = np.asarray(mask, dtype=bool)
-    h, w = nav.shape
-    index = np.full((h, w), -1, dtype=np.int64)
-    n = int(nav.sum())
-    index[nav] = np.arange(n)
-    rows, cols, costs = [], [], []
-    for dr, dc, cost in _STEPS:
-        r0, r1 = max(0, -dr), h - max(0, dr)
-        c0, c1 = max(0, -dc), w - max(0, dc)
-        ok = nav[r0:r1, c0:c1] & nav[r0 + dr:r1 + dr, c0 + dc:c1 + dc]
-        if dr and dc:
-            ok &= nav[r0 + dr:r1 + dr, c0:c1] & nav[r0:r1, c0 + dc:c1 + dc]
-        ia = index[r0:r1, c0:c1][ok]
-        ib = index[r0 + dr:r1 + dr, c0 + dc:c1 + dc][ok]
-        rows += [ia, ib]
-        cols += [ib, ia]
-        costs += [np.full(len(ia), cost), np.full(len(ia), cost)]
-    g = coo_matrix((np.concatenate(costs), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
-    return g, index
 
 
 class GeodesicField:
