@@ -25,7 +25,7 @@ from sdovon_mj.store import atomic_write_text
 
 from . import cache
 from .hulls import clean_hulls, decompose, hull_volume, mass_properties
-from .load import FLAT_TOL, Part, display_path, load_mesh
+from .load import FLAT_TOL, display_path, load_mesh
 from .writer import AssetWriter, clean_part, fmt, merge_parts, render_template
 
 # Bulk densities (kg/m^3) of the solid hull volume: hollow things (boxes, bins, furniture) are light.

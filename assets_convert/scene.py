@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from sdovon_mj.errors import InputError
-from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, SupportSurface, dumps
+from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, SupportSurface
 from sdovon_mj.sim.model import instance_geom_name, save_scene_mesh
 from sdovon_mj.store import atomic_write_text
 

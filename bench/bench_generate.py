@@ -106,7 +106,6 @@ def main() -> None:
     timings, wall = run_job(out, cfg, args.jobs)
     secs, peak, count = per_stage(timings)
     n_var, n_eps = episodes_in(out)
-    conv = secs.get("objects", 0.0) + secs.get("world:objects", 0.0)
     objects_wall = sum(sum(t["seconds"].values()) for t in timings["tasks"] if t["task"] == "objects")
     wall_ex = wall - objects_wall  # the objects task runs alone, before the others
     print(f"\nvariants {n_var}, episodes {n_eps} ({n_eps / max(n_var, 1):.1f} per variant; SD-OVON-3k: "

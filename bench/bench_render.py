@@ -26,8 +26,6 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import numpy as np  # noqa: E402
-
 from sdovon_mj.config import ObserveConfig  # noqa: E402
 from sdovon_mj.observe import coverage_viewpoints, scene_floors_and_maps, view_angles  # noqa: E402
 from sdovon_mj.observe.render_views import load_model, make_renderer  # noqa: E402

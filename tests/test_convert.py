@@ -113,7 +113,6 @@ def _check_texture_render(xml: Path, model: mujoco.MjModel) -> None:
     mujoco.mj_forward(model, data)
     r = mujoco.Renderer(model, 240, 320)
     cam = mujoco.MjvCamera()
-    lo, hi = model.stat.center - model.stat.extent, model.stat.center + model.stat.extent
     cam.lookat[:] = model.stat.center
     cam.distance = 2.2 * model.stat.extent
     pix, segs, poses = [], [], []
@@ -166,7 +165,7 @@ def _seen_texture_mean(xml: Path, model: mujoco.MjModel, data: mujoco.MjData, po
     import trimesh
     from PIL import Image
 
-    meshes, colours = [], []
+    meshes = []
     for g in range(model.ngeom):
         if model.geom_group[g] != 2:
             continue

@@ -249,7 +249,7 @@ def test_observe_scene_writes_everything_deterministically(two_storey, tmp_path)
     scene, root, *_ = two_storey
     cfg = dataclasses.replace(ObserveConfig(), width=96, height=72, yaw_steps=2, pitch_angles=(0.0,), frames_per_shard=5)
     s1 = observe_scene(scene, root, "observe", cfg, seed=3, out_root=tmp_path / "a")
-    s2 = observe_scene(scene, root, "observe", cfg, seed=3, out_root=tmp_path / "b")
+    observe_scene(scene, root, "observe", cfg, seed=3, out_root=tmp_path / "b")
     assert [fl["height"] for fl in s1["floors"]] == [0.0, 2.8]
     assert s1["frames"] == s1["viewpoints"] * 2 * (1 + len(cfg.camera_heights) * len(cfg.camera_height_pitches)) and len(s1["shards"]) == -(-s1["frames"] // 5)
     for rel in s1["outputs"]:

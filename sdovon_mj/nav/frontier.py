@@ -19,7 +19,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from ..records import Observation
 from ..sim.camera import backproject, pose_cv
-from .grid import GridFrame, cell_graph, dilate, erode, lookup, nearest_true
+from .grid import GridFrame, cell_graph, dilate, nearest_true
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 

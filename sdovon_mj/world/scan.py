@@ -225,7 +225,7 @@ def make_scan(apartment: Apartment, noise_sigma: float = 0.003, max_faces: int =
     vinst = inst_of_point[first].astype(np.int32)
     vcol = col_of_point[first].astype(np.float64)
     keep = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
-    faces, fsrc = faces[keep], src[keep]
+    faces = faces[keep]
     # surface noise along the normals
     normals = _vertex_normals(verts, faces)
     verts = verts + normals * rng.normal(0.0, noise_sigma, (len(verts), 1))
