@@ -1,4 +1,4 @@
-"""The owl-sam detector end to end with tiny random OWLv2 + SAM models saved to a local folder."""
+"""The owl-sam detector end to end with tiny random OWLv2 or Grounding DINO boxes + SAM masks saved to a local folder."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from sdovon_mj.perceive import backproject_detections, make_detector
 
 
 def build_tiny_weights(root: Path) -> Path:
-    """Save randomly initialised tiny OWLv2 and SAM models (+ processors) as transformers folders."""
+    """Save randomly initialised tiny OWLv2, Grounding DINO and SAM models (+ processors) as transformers folders."""
     import torch
     from transformers import (CLIPTokenizer, Owlv2Config, Owlv2ForObjectDetection, Owlv2ImageProcessorPil, Owlv2Processor,
                               SamConfig, SamImageProcessorPil, SamModel, SamProcessor)
@@ -46,7 +46,34 @@ def build_tiny_weights(root: Path) -> Path:
         mask_decoder_config=dict(hidden_size=16, num_hidden_layers=2, num_attention_heads=2, mlp_dim=32, iou_head_hidden_dim=16))
     SamModel(sam_cfg).eval().save_pretrained(root / "sam")
     SamProcessor(image_processor=SamImageProcessorPil(size={"longest_edge": 64}, pad_size={"height": 64, "width": 64})).save_pretrained(root / "sam")
+    build_tiny_grounding_dino(root / "gdino")
     return root
+
+
+def build_tiny_grounding_dino(folder: Path) -> Path:
+    """Save a randomly initialised tiny Grounding DINO (Swin + BERT, word-level vocabulary) with its processor."""
+    import torch
+    from transformers import (BertTokenizer, GroundingDinoConfig, GroundingDinoForObjectDetection,
+                              GroundingDinoImageProcessorPil, GroundingDinoProcessor, SwinConfig)
+
+    torch.manual_seed(0)
+    folder.mkdir(parents=True, exist_ok=True)
+    words = ["[PAD]", "[UNK]", "[CLS]", "[SEP]", "[MASK]", ".", "table", "sofa", "bookshelf", "a", "the"]
+    (folder / "vocab.txt").write_text("\n".join(words) + "\n")
+    tok = BertTokenizer(str(folder / "vocab.txt"))
+    backbone = SwinConfig(image_size=64, patch_size=4, embed_dim=8, depths=[1, 1, 1, 1], num_heads=[1, 1, 1, 1],
+                          window_size=2, out_features=["stage2", "stage3", "stage4"])
+    cfg = GroundingDinoConfig(
+        backbone_config=backbone,
+        text_config=dict(model_type="bert", vocab_size=len(words), hidden_size=32, num_hidden_layers=1, num_attention_heads=2,
+                         intermediate_size=32, max_position_embeddings=64),
+        d_model=32, encoder_layers=1, decoder_layers=2, encoder_attention_heads=2, decoder_attention_heads=2,  # 2 decoder layers:
+        encoder_ffn_dim=32, decoder_ffn_dim=32, num_queries=10, num_feature_levels=3, encoder_n_points=2,  # box heads are tied
+        decoder_n_points=2, max_text_len=32)
+    GroundingDinoForObjectDetection(cfg).eval().save_pretrained(folder)
+    GroundingDinoProcessor(image_processor=GroundingDinoImageProcessorPil(size={"shortest_edge": 64, "longest_edge": 96}),
+                           tokenizer=tok).save_pretrained(folder)
+    return folder
 
 
 @pytest.fixture(scope="module")
@@ -55,12 +82,14 @@ def tiny_weights(tmp_path_factory) -> Path:
     return build_tiny_weights(tmp_path_factory.mktemp("owl_sam"))
 
 
-def test_owl_sam_end_to_end(tiny_weights: Path) -> None:
+@pytest.mark.parametrize("box_folder,box_type", [("owlv2", "owlv2"), ("gdino", "grounding-dino")])
+def test_owl_sam_end_to_end(tiny_weights: Path, box_folder: str, box_type: str) -> None:
     _insts, scene, obs = rendered_room()
     vocab = ("table", "sofa", "bookshelf")
-    cfg = PerceiveConfig(detector="owl-sam", detector_weights=str(tiny_weights), vocabulary=vocab, score_threshold=0.0)
+    cfg = PerceiveConfig(detector="owl-sam", detector_weights=str(tiny_weights), owl_weights=box_folder, vocabulary=vocab,
+                         score_threshold=0.0)
     det = make_detector(cfg, scene)
-    assert det.name == "owl-sam"
+    assert det.name == "owl-sam" and det.box_type == box_type
     batches = det.detect_batch(obs[:2])
     assert len(batches) == 2
     dets = [d for b in batches for d in b]
