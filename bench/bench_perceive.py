@@ -3,7 +3,8 @@
 Default: the hand-built test room (tests/test_perceive_scenes.py), gt detector, optionally with depth
 noise; prints timings and the quality figures of the tests. With --world SEED: a default-world
 apartment observed by the observe stage (default viewpoints and cameras), then receptacle P/R, height
-errors and polygon IoUs per receptacle type (and how much of each true surface the views showed).
+errors and polygon IoUs per receptacle type (and how much of each true surface the coverage views
+showed), without and with the targeted views of the perceive stage.
     python bench/bench_perceive.py [--width 320 --height 240] [--sigma 0.005] [--preset paper]
     python bench/bench_perceive.py --world 0 [--sigma 0.005]
 """
@@ -86,17 +87,18 @@ def main() -> int:
 
 
 def world(args: argparse.Namespace) -> int:
-    """Observe + perceive + planes on one default-world apartment; print timings and quality figures."""
+    """Observe + perceive (+ targeted views) + planes on one default-world apartment; print timings and quality."""
+    import dataclasses
     import tempfile
 
     import test_perceive_world as W
 
-    from sdovon_mj.config import ObserveConfig, PerceiveConfig, ReceptacleConfig
+    from sdovon_mj.config import ObserveConfig, PerceiveConfig, ReceptacleConfig, RunConfig
     from sdovon_mj.observe import load_shards, observe_scene
-    from sdovon_mj.perceive import perceive_scene
     from sdovon_mj.perceive.fusion import embed_labels
-    from sdovon_mj.receptacles import find_receptacle_planes
     from sdovon_mj.polygons import ensure_ccw
+    from sdovon_mj.records import NavMap, load_json
+    from sdovon_mj.stages import perceive_and_find_planes
 
     root = Path(args.out or tempfile.mkdtemp(prefix="bench_perceive_"))
     scene = W.scene_from_apartment(args.world, root)
@@ -104,36 +106,45 @@ def world(args: argparse.Namespace) -> int:
     ocfg = ObserveConfig(width=args.width, height=args.height)
     s = observe_scene(scene, root, "observe", ocfg, seed=args.world)
     obs = list(load_shards([root / p for p in s["shards"]]))
+    navmaps = [load_json(p, NavMap) for p in sorted((root / "observe").glob("navmap_*.json"))]
     t_obs = time.perf_counter() - t
     embed_labels(sorted({i.label for i in scene.instances}))  # model load: a one-off
-    t = time.perf_counter()
-    fused = perceive_scene(obs, scene, PerceiveConfig(depth_noise_sigma=args.sigma, fusion_preset=args.preset), seed=args.world)
-    t_per = time.perf_counter() - t
     rcfg = ReceptacleConfig()
-    t = time.perf_counter()
-    planes = find_receptacle_planes(fused, rcfg)
-    t_pl = time.perf_counter() - t
-    n_rec = len({p.instance_id for p in planes}) or 1
-    print(f"apartment {args.world}: {len(scene.floors)} floor(s), {s['viewpoints']} viewpoints x {s['views_per_viewpoint']} views "
-          f"= {len(obs)} observations {args.width}x{args.height} (camera heights {ocfg.agent_height} + {list(ocfg.camera_heights)})")
-    print(f"observe {t_obs:.1f} s; perceive {t_per:.1f} s = {1e3 * t_per / max(len(obs), 1):.0f} ms per observation; "
-          f"planes {t_pl:.2f} s = {1e3 * t_pl / n_rec:.0f} ms per receptacle")
-    p, r = W.instance_scores(scene, fused, rcfg.labels)
-    print(f"{len(fused)} fused instances; receptacles precision {p:.2f} recall {r:.2f} (3D box IoU >= 0.5)")
     tol = 0.02 if args.sigma <= 0 else 0.03
-    by_type: dict[str, list] = {}
-    for (iid, label, h, err, iou), (_i, _h, poly) in zip(W.surface_scores(scene, planes, tol), W.true_regions(scene)):
-        seen = W.observed_fraction(obs, iid, h, ensure_ccw(poly))
-        by_type.setdefault(label, []).append((err, iou, seen))
-        print(f"  {label:<13s} #{iid:<3d} at {h:.3f} m: height error {100 * err:5.2f} cm, polygon IoU {iou:.2f}, seen {seen:.2f}")
-    print(f"{'type':<13s} {'regions':>7s} {'found':>5s} {'max err cm':>10s} {'mean IoU':>8s} {'IoU>=0.8':>8s} {'well seen':>9s} {'IoU>=0.8 of well seen':>21s}")
-    for label, rows in sorted(by_type.items()):
-        e = np.array([x[0] for x in rows])
-        u = np.array([x[1] for x in rows])
-        w = np.array([x[2] >= W.WELL_SEEN for x in rows])
-        found = e <= tol
-        print(f"{label:<13s} {len(rows):7d} {found.sum():5d} {100 * e[found].max() if found.any() else float('nan'):10.2f} "
-              f"{u.mean():8.2f} {(u >= 0.8).sum():8d} {w.sum():9d} {((u >= 0.8) & w).sum():21d}")
+    print(f"apartment {args.world}: {len(scene.floors)} floor(s), {s['viewpoints']} viewpoints x {s['views_per_viewpoint']} views "
+          f"= {len(obs)} observations {args.width}x{args.height} (camera heights {ocfg.agent_height} + {list(ocfg.camera_heights)}); "
+          f"observe {t_obs:.1f} s")
+    for views in (0, ocfg.targeted_views):
+        cfg = RunConfig(observe=dataclasses.replace(ocfg, targeted_views=views), receptacles=rcfg,
+                        perceive=PerceiveConfig(depth_noise_sigma=args.sigma, fusion_preset=args.preset))
+        t = time.perf_counter()
+        fused, planes, poses = perceive_and_find_planes(obs, scene, root, navmaps, cfg, args.world)
+        t_all = time.perf_counter() - t
+        from sdovon_mj.receptacles import find_receptacle_planes
+
+        t = time.perf_counter()
+        find_receptacle_planes(fused, rcfg)
+        t_pl = time.perf_counter() - t
+        n_rec = len({p.instance_id for p in planes}) or 1
+        n_obs = len(obs) + len(poses)
+        print(f"\n-- targeted views per surface: {views} -> {len(poses)} views added")
+        print(f"perceive + targeted views + planes {t_all:.1f} s = {1e3 * (t_all - t_pl) / n_obs:.0f} ms per observation "
+              f"(incl. view planning); planes {t_pl:.2f} s = {1e3 * t_pl / n_rec:.0f} ms per receptacle")
+        p, r = W.instance_scores(scene, fused, rcfg.labels)
+        print(f"{len(fused)} fused instances; receptacles precision {p:.2f} recall {r:.2f} (3D box IoU >= 0.5)")
+        by_type: dict[str, list] = {}
+        for (iid, label, h, err, iou), (_i, _h, poly) in zip(W.surface_scores(scene, planes, tol), W.true_regions(scene)):
+            seen = W.observed_fraction(obs, iid, h, ensure_ccw(poly))
+            by_type.setdefault(label, []).append((err, iou, seen))
+            print(f"  {label:<13s} #{iid:<3d} at {h:.3f} m: height error {100 * err:5.2f} cm, polygon IoU {iou:.2f}, "
+                  f"coverage views showed {seen:.2f}")
+        print(f"{'type':<13s} {'regions':>7s} {'found':>5s} {'max err cm':>10s} {'mean IoU':>8s} {'IoU>=0.8':>8s}")
+        for label, rows in sorted(by_type.items()):
+            e = np.array([x[0] for x in rows])
+            u = np.array([x[1] for x in rows])
+            found = e <= tol
+            print(f"{label:<13s} {len(rows):7d} {found.sum():5d} {100 * e[found].max() if found.any() else float('nan'):10.2f} "
+                  f"{u.mean():8.2f} {(u >= 0.8).sum():8d}")
     return 0
 
 
