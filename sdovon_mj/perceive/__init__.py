@@ -2,6 +2,7 @@
 
 Public API (plain functions over records):
     detect(observations, detector, score_threshold) -> list[Detection]
+    detect_stream(observations, detector, score_threshold) -> iterator of (Observation, detections)
     backproject_detections(obs, detections, cfg) -> list[Instance]
     fuse_instances(instances, cfg) -> list[Instance]
     correct_fusion(instances, cfg) -> list[Instance]
@@ -17,12 +18,12 @@ from ..config import PerceiveConfig
 from ..records import Instance, Observation, SceneAsset
 from .backproject import backproject_detections, voxel_downsample
 from .correction import box_iou_3d, correct_fusion
-from .detectors import BaseDetector, Detector, detect, make_detector
+from .detectors import BaseDetector, Detector, detect, detect_stream, make_detector
 from .fusion import InstanceFuser, fuse_instances, label_similarity
 
 __all__ = [
     "BaseDetector", "Detector", "InstanceFuser", "backproject_detections", "box_iou_3d", "correct_fusion",
-    "detect", "fuse_instances", "label_similarity", "make_detector", "perceive_scene", "voxel_downsample",
+    "detect", "detect_stream", "fuse_instances", "label_similarity", "make_detector", "perceive_scene", "voxel_downsample",
 ]
 
 
@@ -46,21 +47,9 @@ def perceive_scene(observations: Iterable[Observation], scene: SceneAsset | None
 
     def fuse(stream: Iterable[Observation]) -> None:
         nonlocal next_view
-        batch: list[Observation] = []
-
-        def flush() -> None:
-            for obs, dets in zip(batch, det.detect_batch(batch)):
-                keep = [d for d in dets if d.score >= pcfg.score_threshold]
-                fuser.add_view(backproject_detections(obs, keep, pcfg, seed))
-            batch.clear()
-
-        for obs in stream:
+        for obs, keep in detect_stream(stream, det, pcfg.score_threshold, batch_size):
             next_view = max(next_view, int(obs.view_id) + 1)
-            batch.append(obs)
-            if len(batch) >= batch_size:
-                flush()
-        if batch:
-            flush()
+            fuser.add_view(backproject_detections(obs, keep, pcfg, seed))
 
     def corrected() -> list[Instance]:
         kept = correct_fusion(fuser.instances(), pcfg)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Iterable, Protocol, runtime_checkable
+from typing import Iterable, Iterator, Protocol, runtime_checkable
 
 from ..config import PerceiveConfig, ReceptacleConfig
 from ..records import Detection, Observation, SceneAsset
@@ -52,21 +52,22 @@ def make_detector(cfg: PerceiveConfig, scene: SceneAsset | None = None, seed: in
     return factory(cfg=cfg, scene=scene, seed=seed)
 
 
-def detect(observations: Iterable[Observation], detector: Detector, score_threshold: float = 0.0,
-           batch_size: int = 8) -> list[Detection]:
-    """Run a detector over observations; return detections scoring at least `score_threshold`."""
-    out: list[Detection] = []
+def detect_stream(observations: Iterable[Observation], detector: Detector, score_threshold: float = 0.0,
+                  batch_size: int = 8) -> Iterator[tuple[Observation, list[Detection]]]:
+    """Yield each observation with its detections scoring at least `score_threshold` (detected in batches)."""
     batch: list[Observation] = []
-
-    def flush() -> None:
-        for dets in detector.detect_batch(batch):
-            out.extend(d for d in dets if d.score >= score_threshold)
-        batch.clear()
-
     for obs in observations:
         batch.append(obs)
         if len(batch) >= batch_size:
-            flush()
+            for o, dets in zip(batch, detector.detect_batch(batch)):
+                yield o, [d for d in dets if d.score >= score_threshold]
+            batch = []
     if batch:
-        flush()
-    return out
+        for o, dets in zip(batch, detector.detect_batch(batch)):
+            yield o, [d for d in dets if d.score >= score_threshold]
+
+
+def detect(observations: Iterable[Observation], detector: Detector, score_threshold: float = 0.0,
+           batch_size: int = 8) -> list[Detection]:
+    """Run a detector over observations; return detections scoring at least `score_threshold`."""
+    return [d for _obs, dets in detect_stream(observations, detector, score_threshold, batch_size) for d in dets]
