@@ -1,8 +1,7 @@
 """Must-show of the place stage on default-world apartments: objects end resting on their intended
 receptacle plane (independent ray + contact check), no interpenetration, figures per category.
 
-Scenes: `generate_apartment(seed)` written as GLB and converted by `assets_convert.convert_scene`
-(fallback without the converter: a visual MJCF written here, one mesh geom per instance), with its
+Scenes: `generate_apartment(seed)` written as GLB and converted by `assets_convert.convert_scene`, with its
 ground-truth support surfaces as receptacle planes. Objects: the primitive Menagerie-style models of
 `place.synthetic` (fast) and, in a slow test, the world's object library converted by assets_convert.
 """
@@ -17,8 +16,7 @@ import pytest
 from sdovon_mj.config import PlaceConfig
 from sdovon_mj.place import check_variant, format_report, per_category, planes_from_scene, run_variant, variant_seed
 from sdovon_mj.place.synthetic import write_primitive_object
-from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, SupportSurface
-from sdovon_mj.store import atomic_write_text
+from sdovon_mj.records import SceneAsset
 
 world = pytest.importorskip("sdovon_mj.world")
 
@@ -26,51 +24,11 @@ CATEGORIES = (("box", "book"), ("mug", "mug"), ("ball", "ball"), ("can", "soda c
 
 
 def scene_from_apartment(seed: int, root: Path) -> SceneAsset:
-    """Return a default-world apartment as a SceneAsset: converted by assets_convert when available."""
-    try:
-        from assets_convert.scene import convert_scene
-    except ImportError:
-        return write_scene_locally(seed, root)
+    """Return a default-world apartment as a SceneAsset, converted by assets_convert like the pipeline does."""
+    from assets_convert.scene import convert_scene
+
     glb = world.write_apartment(world.generate_apartment(seed), root / "inputs", mode="clean")
     return convert_scene(glb, root)
-
-
-def write_scene_locally(seed: int, root: Path) -> SceneAsset:
-    """Write an apartment's visual-only MJCF (one mesh per instance) and return its SceneAsset."""
-    import trimesh
-
-    apt = world.generate_apartment(seed)
-    name = f"apartment_{seed:04d}"
-    d = root / "scenes" / name
-    (d / "meshes").mkdir(parents=True, exist_ok=True)
-    m = apt.mesh
-    geoms, assets, instances = [], [], []
-    for inst in apt.instances:
-        sel = np.nonzero(m.face_instance == inst.id)[0]
-        if len(sel) == 0:
-            continue
-        tm = trimesh.Trimesh(m.vertices, m.faces[sel], process=False)
-        tm.remove_unreferenced_vertices()
-        atomic_write_text(d / "meshes" / f"inst_{inst.id}.obj", tm.export(file_type="obj"))
-        rgba = np.asarray(m.face_color[sel[0]], float) / 255.0
-        group = 1 if inst.label == "ceiling" else 0
-        assets.append(f'    <mesh name="inst_{inst.id}" file="inst_{inst.id}.obj" inertia="shell"/>')
-        geoms.append(f'    <geom name="inst_{inst.id}" type="mesh" mesh="inst_{inst.id}" group="{group}" contype="0" '
-                     f'conaffinity="0" rgba="{rgba[0]:.3f} {rgba[1]:.3f} {rgba[2]:.3f} 1"/>')
-        instances.append(SemanticInstance(id=inst.id, label=inst.label, geoms=[f"inst_{inst.id}"], room=inst.room,
-                                          floor=inst.floor, kind=inst.kind))
-    xml = (f'<mujoco model="{name}">\n  <compiler meshdir="meshes"/>\n  <asset>\n' + "\n".join(assets) + "\n  </asset>\n"
-           "  <worldbody>\n    <light pos=\"0 0 6\" dir=\"0 0 -1\" directional=\"true\"/>\n" + "\n".join(geoms) +
-           "\n  </worldbody>\n</mujoco>\n")
-    atomic_write_text(d / "scene.xml", xml)
-    surfaces = [SupportSurface(instance_id=i.id, height=float(s.height), polygon=np.asarray(s.polygon, float))
-                for i in apt.instances for s in i.support_surfaces]
-    lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
-    return SceneAsset(name=name, mjcf=f"scenes/{name}/scene.xml", source=f"default world seed {seed}",
-                      floors=[Floor(index=f.index, height=float(f.height)) for f in apt.floors],
-                      instances=instances, bounds=np.stack([lo, hi]),
-                      rooms=[Room(id=r.id, type=r.type, floor=r.floor, polygon=np.asarray(r.polygon, float)) for r in apt.rooms],
-                      support_surfaces=surfaces)
 
 
 @pytest.fixture(scope="module")
