@@ -139,9 +139,7 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
     hit = cache.lookup(root, key)
     if hit is not None:
         cache.link_tree(hit, target)
-        stored = json.loads((target / "asset.json").read_text(encoding="utf-8"))
-        asset = ObjectAsset.from_dict(stored)
-        asset.mjcf = (Path("objects") / name / "model.xml").as_posix()
+        asset = load_converted(out_dir, name)
         info = dict(_read_info(target))
         info.update(cache_hit=True, seconds=time.perf_counter() - t0)
         return asset, info
@@ -160,6 +158,14 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
     asset.mjcf = (Path("objects") / name / "model.xml").as_posix()
     info = dict(info, cache_hit=False, seconds=time.perf_counter() - t0)
     return asset, info
+
+
+def load_converted(out_dir: str | Path, name: str) -> ObjectAsset:
+    """Return the ObjectAsset of an object converted into `out_dir` (its mjcf relative to out_dir)."""
+    stored = json.loads((Path(out_dir) / "objects" / name / "asset.json").read_text(encoding="utf-8"))
+    asset = ObjectAsset.from_dict(stored)
+    asset.mjcf = (Path("objects") / name / "model.xml").as_posix()
+    return asset
 
 
 def _read_info(folder: Path) -> dict[str, Any]:

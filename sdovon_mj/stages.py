@@ -118,10 +118,6 @@ def _meta_category(path: Path) -> str | None:
 
 def objects_task(store: Store, cfg: RunConfig, runner: Any) -> None:
     """Convert the object library into `objects/<name>/` (+ object.json) and `objects/objects.json`."""
-    from assets_convert.object import convert_object_report
-
-    from .errors import SdovonError
-
     items = _object_inputs(store, cfg, runner)
     # Inputs inside the run folder are named relative to it, so the fingerprint (and the manifest) does
     # not depend on where the run folder lives.
@@ -130,30 +126,30 @@ def objects_task(store: Store, cfg: RunConfig, runner: Any) -> None:
     def make() -> list[str]:
         import tempfile
 
+        from assets_convert.cache import link_tree
         from assets_convert.load import display_path
+        from assets_convert.object import load_converted
         from assets_convert.tree import convert_tree
 
         assets: list[ObjectAsset] = []
         failures: dict[str, str] = {}
         # CoACD runs in convert_tree's process pool (convert.jobs workers, convert.timeout_s per object: a stuck
-        # decomposition is killed and reported) into a scratch folder; the loop below then writes each object
-        # into the run folder from the converter cache
+        # decomposition is killed and reported; one bad object is reported and the library goes on) into a
+        # scratch folder, so its batch report and a killed worker's temp folder stay out of the run folder;
+        # each converted object is then hard-linked into the run folder
         with tempfile.TemporaryDirectory(prefix="sdovon-objects-") as scratch:
             report = convert_tree([p for p, _c in items], scratch, jobs=cfg.convert.jobs, timeout=cfg.convert.timeout_s,
                                   progress=False, config=cfg.convert, categories={str(p): c for p, c in items if c})
-        rows = {r["file"]: r for r in report["items"]}
-        for path, category in items:
-            row = rows.get(display_path(path), {"status": "ok"})
-            if row["status"] != "ok":
-                failures[str(path)] = str(row["error"])
-                continue
-            try:
-                asset, _report = convert_object_report(path, store.root, category=category, config=cfg.convert)
-            except SdovonError as e:  # one bad object is reported; the library goes on
-                failures[str(path)] = str(e)
-                continue
-            save_json(asset, store.path(f"objects/{asset.name}/object.json"))
-            assets.append(asset)
+            rows = {r["file"]: r for r in report["items"]}
+            for path, _category in items:
+                row = rows[display_path(path)]
+                if row["status"] != "ok":
+                    failures[str(path)] = str(row["error"])
+                    continue
+                asset = load_converted(scratch, row["name"])
+                link_tree(Path(scratch) / "objects" / asset.name, store.path(f"objects/{asset.name}"))
+                save_json(asset, store.path(f"objects/{asset.name}/object.json"))
+                assets.append(asset)
         if not assets:
             raise StageError("no object converted: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
         assets.sort(key=lambda a: a.name)
