@@ -70,6 +70,23 @@ def make_renderer(model: mujoco.MjModel, cfg: ObserveConfig) -> SceneRenderer:
                          shadows=cfg.shadows, groups=(GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL))
 
 
+def segment_lut(model: mujoco.MjModel) -> np.ndarray:
+    """Return geom id -> instance id (-1 for none), indexable with MuJoCo's geom id -1 for background."""
+    return np.append(geom_segment_ids(model), -1).astype(np.int32)
+
+
+def observation_at(renderer: SceneRenderer, T: np.ndarray, cfg: ObserveConfig, seg_lut: np.ndarray, view_id: int,
+                   viewpoint: int, yaw: float, pitch: float, rgb: bool = True, depth: bool = True,
+                   segmentation: bool = True) -> Observation:
+    """Render one Observation from camera pose T (depth clipped to the config's range, instance segmentation)."""
+    fr = renderer.render(T, rgb=rgb, depth=depth, segmentation=segmentation)
+    d = clip_depth(fr.depth, cfg.depth_min, cfg.depth_max) if fr.depth is not None else np.zeros((cfg.height, cfg.width), np.float32)
+    seg = seg_lut[fr.segmentation] if fr.segmentation is not None else None
+    img = fr.rgb if fr.rgb is not None else np.zeros((cfg.height, cfg.width, 3), np.uint8)
+    return Observation(rgb=img, depth=d, K=renderer.K.copy(), T_cam=T, segmentation=seg, view_id=int(view_id),
+                       viewpoint=int(viewpoint), yaw=float(yaw), pitch=float(pitch))
+
+
 def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoints: list[Viewpoint],
                         cfg: ObserveConfig, store_root: str | Path | None = None, rgb: bool = True,
                         depth: bool = True, segmentation: bool = True, start_view_id: int = 0,
@@ -79,8 +96,7 @@ def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoi
     if renderer is None:
         model = scene if isinstance(scene, mujoco.MjModel) else load_model(scene, store_root)
         renderer = make_renderer(model, cfg)
-    seg_lut = np.append(geom_segment_ids(renderer.model), -1).astype(np.int32)  # geom id -1 -> -1
-    K = renderer.K.copy()
+    lut = segment_lut(renderer.model)
     poses = view_poses(cfg)
     view_id = int(start_view_id)
     try:
@@ -88,12 +104,7 @@ def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoi
             pos = np.asarray(vp.position, dtype=np.float64)
             for yaw, pitch, dz in poses:
                 T = pose_cv(pos + np.array([0.0, 0.0, dz]), yaw, pitch)
-                fr = renderer.render(T, rgb=rgb, depth=depth, segmentation=segmentation)
-                d = clip_depth(fr.depth, cfg.depth_min, cfg.depth_max) if fr.depth is not None else np.zeros((cfg.height, cfg.width), np.float32)
-                seg = seg_lut[fr.segmentation] if fr.segmentation is not None else None
-                img = fr.rgb if fr.rgb is not None else np.zeros((cfg.height, cfg.width, 3), np.uint8)
-                yield Observation(rgb=img, depth=d, K=K, T_cam=T, segmentation=seg, view_id=view_id,
-                                  viewpoint=vi, yaw=float(yaw), pitch=float(pitch))
+                yield observation_at(renderer, T, cfg, lut, view_id, vi, yaw, pitch, rgb, depth, segmentation)
                 view_id += 1
     finally:
         if own:

@@ -21,6 +21,7 @@ from ..config import ConfigError, ObserveConfig
 from ..records import NavMap, Observation
 from ..sim.camera import backproject, pose_cv
 from ..sim.render import SceneRenderer, clip_depth
+from .render_views import observation_at, segment_lut
 
 SEEN_TOL = 0.015  # m: a depth point within this of the target height lies on the target surface
 
@@ -130,16 +131,11 @@ def plan_target_views(renderer: SceneRenderer, navmaps: list[NavMap], targets: l
     return poses
 
 
-def render_poses(renderer: SceneRenderer, poses: list[np.ndarray], cfg: ObserveConfig, start_view_id: int = 0,
-                 seg_lut: np.ndarray | None = None) -> Iterator[Observation]:
-    """Yield one Observation per camera pose (RGB, clipped depth, instance segmentation through seg_lut)."""
-    from ..sim.model import geom_segment_ids
-
-    lut = seg_lut if seg_lut is not None else np.append(geom_segment_ids(renderer.model), -1).astype(np.int32)
+def render_poses(renderer: SceneRenderer, poses: list[np.ndarray], cfg: ObserveConfig,
+                 start_view_id: int = 0) -> Iterator[Observation]:
+    """Yield one Observation per camera pose (RGB, clipped depth, instance segmentation), viewpoint -1."""
+    lut = segment_lut(renderer.model)
     for k, T in enumerate(poses):
-        fr = renderer.render(T, rgb=True, depth=True, segmentation=True)
         fwd = T[:3, 2]
-        yield Observation(rgb=fr.rgb, depth=clip_depth(fr.depth, cfg.depth_min, cfg.depth_max), K=renderer.K.copy(),
-                          T_cam=np.asarray(T, float), segmentation=lut[fr.segmentation], view_id=int(start_view_id) + k,
-                          viewpoint=-1, yaw=math.degrees(math.atan2(fwd[1], fwd[0])),
-                          pitch=math.degrees(math.asin(float(np.clip(fwd[2], -1.0, 1.0)))))
+        yield observation_at(renderer, np.asarray(T, float), cfg, lut, int(start_view_id) + k, -1,
+                             math.degrees(math.atan2(fwd[1], fwd[0])), math.degrees(math.asin(float(np.clip(fwd[2], -1.0, 1.0)))))
