@@ -204,11 +204,8 @@ def scene_task(store: Store, cfg: RunConfig, runner: Any, scene: str) -> None:
         from .observe import load_shards
 
         shards = sorted(store.path(f"{sdir}/observe").glob("*.npz"))
-        backend = None
-        if not cfg.receptacles.labels:  # receptacles named by the LLM backend (prompt C.1), cached like semantics
-            from .semantics import get_backend
-
-            backend = get_backend(cfg.semantics, cache_dir=store.path("cache/llm") if cfg.semantics.cache else None)
+        # with no prespecified receptacle labels the LLM backend names them (prompt C.1), cached like semantics
+        backend = None if cfg.receptacles.labels else _llm_backend(store, cfg)
         instances, planes, views = perceive_and_find_planes(load_shards(shards), asset, store.root,
                                                             load_navmaps(store, scene), cfg, seed, backend)
         save_npz(instances, store.path(f"{sdir}/perceive/instances.npz"))
@@ -222,12 +219,12 @@ def scene_task(store: Store, cfg: RunConfig, runner: Any, scene: str) -> None:
                                     None if cfg.receptacles.labels else to_dict(cfg.semantics)], perceive)
 
     def semantics() -> list[str]:
-        from .semantics import get_backend, region_map, region_picture, relevance
+        from .semantics import region_map, region_picture, relevance
 
         instances: list[Instance] = load_npz(store.path(f"{sdir}/perceive/instances.npz"))  # type: ignore[assignment]
         planes: list[ReceptaclePlane] = load_json(store.path(f"{sdir}/perceive/planes.json"), ReceptaclePlane)
         navmaps = load_navmaps(store, scene)
-        backend = get_backend(cfg.semantics, cache_dir=store.path("cache/llm") if cfg.semantics.cache else None)
+        backend = _llm_backend(store, cfg)
         outs: list[str] = []
         maps = {}
         for nm in navmaps:
@@ -248,6 +245,13 @@ def scene_task(store: Store, cfg: RunConfig, runner: Any, scene: str) -> None:
 
     runner.run(f"{sdir}/semantics", ["semantics", _fp_of(store, f"{sdir}/perceive"), _fp_of(store, "objects"),
                                      to_dict(cfg.semantics)], semantics)
+
+
+def _llm_backend(store: Store, cfg: RunConfig) -> Any:
+    """Return the run's LLM backend (replies cached under cache/llm of the run folder when enabled)."""
+    from .semantics import get_backend
+
+    return get_backend(cfg.semantics, cache_dir=store.path("cache/llm") if cfg.semantics.cache else None)
 
 
 def _write_world_scene(store: Store, cfg: RunConfig, runner: Any, scene: str) -> str:
@@ -281,8 +285,6 @@ def _plane_floor(height: float, navmaps: list[NavMap]) -> NavMap | None:
 def view_targets(instances: list[Instance], planes: list[ReceptaclePlane], navmaps: list[NavMap],
                  labels: tuple[str, ...]) -> list[Any]:
     """Return a ViewTarget per receptacle plane, and per receptacle instance without planes (its top)."""
-    import numpy as np
-
     from .observe.targeted import ViewTarget
     from .receptacles import receptacle_instances
 
@@ -299,7 +301,7 @@ def view_targets(instances: list[Instance], planes: list[ReceptaclePlane], navma
             continue
         wp = inst.world_points
         lo, hi = wp[:, :2].min(axis=0), wp[:, :2].max(axis=0)
-        out.append(ViewTarget(lo=lo, hi=hi, height=h, floor=nm.floor, seen_points=wp.astype(np.float64)))
+        out.append(ViewTarget(lo=lo, hi=hi, height=h, floor=nm.floor, seen_points=wp))
     return out
 
 
@@ -356,7 +358,7 @@ def perceive_and_find_planes(observations: Any, scene: SceneAsset, store_root: s
 
 
 def save_targeted_views(poses: list[Any], path: Path) -> None:
-    """Write targeted camera poses (T_cam rows, rounded to 0.1 mm / 1e-6) as JSON."""
+    """Write targeted camera poses (T_cam rows, each value rounded to 6 decimals) as JSON."""
     import numpy as np
 
     from .store import atomic_write_text
@@ -373,11 +375,8 @@ def _fp_of(store: Store, stage: str) -> str:
 
 def _annotate_plane(plane: ReceptaclePlane, maps: dict[int, tuple[NavMap, Any]]) -> ReceptaclePlane:
     """Return the plane with its floor (nearest floor below it) and region (region map at its centre)."""
-    floor, best = plane.floor, None
-    for f, (nm, _rm) in maps.items():
-        dz = plane.height - nm.height
-        if dz >= -0.05 and (best is None or dz < best):
-            floor, best = f, dz
+    below = _plane_floor(plane.height, [nm for nm, _rm in maps.values()])
+    floor = below.floor if below is not None else plane.floor
     region = plane.region
     if floor in maps:
         import numpy as np
