@@ -8,6 +8,7 @@ IN.npz holds ``vertices`` and ``faces``; OUT.npz gets ``count`` and ``v<k>`` / `
 from __future__ import annotations
 
 import json
+import os
 import sys
 
 import numpy as np
@@ -26,8 +27,6 @@ def main(argv: list[str]) -> int:
         arrays[f"v{k}"], arrays[f"f{k}"] = np.asarray(v, np.float64), np.asarray(f, np.int64)
     tmp = dst + ".tmp.npz"
     np.savez(tmp, **arrays)
-    import os
-
     os.replace(tmp, dst)
     return 0
 

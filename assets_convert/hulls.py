@@ -81,16 +81,16 @@ def decompose(vertices: np.ndarray, faces: np.ndarray, cfg: ConvertConfig | None
         # a thin-walled closed manifold goes to CoACD as it is; anything else becomes the surface a fraction of a
         # grid step outside its triangles (exact distances, so thin walls stay thin); CoACD's own preprocessing
         # makes ~100k triangles that slow its search 2-4x and fattens thin walls by a voxel
-        res, off = int(cfg_get(cfg, "remesh_resolution", 80)), float(cfg_get(cfg, "remesh_offset", 0.45))  # type: ignore[arg-type]
+        res, off = int(cfg.remesh_resolution), float(cfg.remesh_offset)
         kwargs["preprocess_mode"] = "off"
         v, f, how = solid_for_coacd(vertices, faces, res, off)
         parts = None
         if how == "closed":
             # CoACD on a raw shell can crash (a candle) or search for minutes (a lamp shade): it runs in a child
             # process with a time budget, and the offset surface is used when it fails
-            parts = _run_isolated(v, f, kwargs, float(cfg_get(cfg, "coacd_closed_budget_s", 30.0)))  # type: ignore[arg-type]
+            parts = _run_isolated(v, f, kwargs, float(cfg.coacd_closed_budget_s))
             if parts is None:
-                v, f, how = solid_for_coacd(vertices, faces, res, off, allow_closed=False)
+                v, f, _how = solid_for_coacd(vertices, faces, res, off, allow_closed=False)
         if parts is None:
             parts = _run_coacd(v, f, kwargs)
     return clean_hulls([(np.asarray(v), np.asarray(f)) for v, f in parts], int(cfg.coacd_max_hull_vertices))
@@ -103,10 +103,10 @@ def _coacd_kwargs(cfg: ConvertConfig, preprocess_mode: str) -> dict[str, object]
         max_convex_hull=int(cfg.coacd_max_hulls),
         preprocess_mode=preprocess_mode,
         preprocess_resolution=int(cfg.coacd_preprocess_resolution),
-        mcts_iterations=int(cfg_get(cfg, "coacd_mcts_iterations", 60)),  # type: ignore[arg-type]
-        mcts_nodes=int(cfg_get(cfg, "coacd_mcts_nodes", 10)),  # type: ignore[arg-type]
-        mcts_max_depth=int(cfg_get(cfg, "coacd_mcts_max_depth", 2)),  # type: ignore[arg-type]
-        resolution=int(cfg_get(cfg, "coacd_resolution", 1000)),  # type: ignore[arg-type]
+        mcts_iterations=int(cfg.coacd_mcts_iterations),
+        mcts_nodes=int(cfg.coacd_mcts_nodes),
+        mcts_max_depth=int(cfg.coacd_mcts_max_depth),
+        resolution=int(cfg.coacd_resolution),
         seed=int(cfg.coacd_seed),
     )
 
@@ -144,11 +144,6 @@ def _run_isolated(vertices: np.ndarray, faces: np.ndarray, kwargs: dict[str, obj
         with np.load(dst) as z:
             n = int(z["count"])
             return [(np.array(z[f"v{k}"]), np.array(z[f"f{k}"])) for k in range(n)]
-
-
-def cfg_get(cfg: object, name: str, default: object) -> object:
-    """Return a config attribute, or a default for fields older configs lack."""
-    return getattr(cfg, name, default)
 
 
 def hull_volume(hulls: list[tuple[np.ndarray, np.ndarray]]) -> float:
