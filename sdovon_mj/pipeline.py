@@ -27,7 +27,7 @@ import os
 import sys
 import time
 import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
@@ -190,7 +190,8 @@ class LocalExecutor:
         with ProcessPoolExecutor(max_workers=min(self.jobs, len(specs)), mp_context=get_context("spawn")) as pool:
             futs = {pool.submit(run_task, specs[i]): i for i in pending}
             while futs:
-                for fut in as_completed(list(futs)):
+                done, _ = wait(list(futs), return_when=FIRST_COMPLETED)
+                for fut in done:
                     i = futs.pop(fut)
                     try:
                         r = fut.result()
@@ -204,7 +205,6 @@ class LocalExecutor:
                     results[i] = r
                     if progress:
                         progress(r)
-                    break
         return [results[i] for i in range(len(specs))]
 
     def _with_retries(self, fn: Callable[[], TaskResult]) -> TaskResult:
