@@ -14,17 +14,16 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from sdovon_mj.store import CACHE_OFF, user_cache_dir
+
 CONVERTER_VERSION = "assets_convert-7"  # bump whenever the output of a conversion changes
 
 
 def cache_root(cache_dir: str | Path | None = None) -> Path | None:
     """Return the cache folder (None when caching is off)."""
     if cache_dir is not None:
-        return None if str(cache_dir).lower() in ("", "off", "none", "0") else Path(cache_dir)
-    env = os.environ.get("SDOVON_CACHE")
-    if env is not None:
-        return None if env.lower() in ("", "off", "none", "0") else Path(env) / "convert"
-    return Path.home() / ".cache" / "sdovon-mj" / "convert"
+        return None if str(cache_dir).lower() in CACHE_OFF else Path(cache_dir)
+    return user_cache_dir("convert")
 
 
 def cache_key(files: list[Path], params: dict[str, Any]) -> str:

