@@ -13,7 +13,8 @@ import numpy as np
 
 from scipy.sparse.csgraph import dijkstra
 
-from .grid import GridFrame, cell_graph, nearest_true, segment_free
+from ..gridgraph import graph_of
+from .grid import GridFrame, nearest_true, segment_free
 
 _SQ2 = math.sqrt(2.0)
 _MOVES = ((-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0),
@@ -100,21 +101,6 @@ def smooth_path(mask: np.ndarray, frame: GridFrame, points: np.ndarray, stride: 
     return np.array(out)
 
 
-_GRAPHS: dict[int, tuple[np.ndarray, object, np.ndarray]] = {}
-
-
-def _graph(mask: np.ndarray):
-    """Return the (cached) cell graph of a planning mask (masks are not modified in place by callers)."""
-    hit = _GRAPHS.get(id(mask))
-    if hit is not None and hit[0] is mask:
-        return hit[1], hit[2]
-    g, index = cell_graph(mask)
-    if len(_GRAPHS) >= 16:
-        _GRAPHS.pop(next(iter(_GRAPHS)))
-    _GRAPHS[id(mask)] = (mask, g, index)
-    return g, index
-
-
 def plan_cells(mask: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
                tolerance_cells: float = 0.0) -> list[tuple[int, int]] | None:
     """Return a shortest 8-connected cell path from start to the nearest-by-path cell within tolerance of goal.
@@ -126,7 +112,7 @@ def plan_cells(mask: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
     h, w = m.shape
     if not (0 <= start[0] < h and 0 <= start[1] < w) or not m[start[0], start[1]]:
         return None
-    g, index = _graph(mask)
+    g, index = graph_of(mask)
     s = int(index[start[0], start[1]])
     r = int(math.ceil(tolerance_cells))
     r0, r1 = max(0, goal[0] - r), min(h, goal[0] + r + 1)

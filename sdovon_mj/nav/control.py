@@ -12,6 +12,7 @@ from typing import Callable, Generator
 
 import numpy as np
 
+from ..gridgraph import distance_field
 from .astar import plan
 from .grid import GridFrame, segment_free
 
@@ -125,26 +126,15 @@ class Navigator:
 
 def goal_field(mask: np.ndarray, frame: GridFrame, target: np.ndarray, tolerance: float) -> np.ndarray:
     """Return the grid geodesic distance (m) of every cell to the mask cells within `tolerance` of target."""
-    from scipy.sparse.csgraph import dijkstra
-
-    from .astar import _graph
-
-    g, index = _graph(mask)
-    field = np.full(mask.shape, np.inf)
     c = frame.to_cell(np.asarray(target, float)[None, :2])[0]
     r = int(math.ceil(tolerance / frame.resolution)) + 1
     h, w = mask.shape
     rr, cc = np.mgrid[max(0, c[0] - r):min(h, c[0] + r + 1), max(0, c[1] - r):min(w, c[1] + r + 1)]
     if rr.size == 0:
-        return field
+        return np.full(mask.shape, np.inf)
     xy = frame.to_world(np.stack([rr.ravel(), cc.ravel()], 1))
     near = (np.linalg.norm(xy - np.asarray(target, float)[None, :2], axis=1) <= tolerance) & mask[rr.ravel(), cc.ravel()]
-    nodes = index[rr.ravel()[near], cc.ravel()[near]]
-    if len(nodes) == 0 or g.shape[0] == 0:
-        return field
-    d = dijkstra(g, directed=False, indices=nodes, min_only=True)
-    field[mask] = d * frame.resolution
-    return field
+    return distance_field(mask, np.stack([rr.ravel()[near], cc.ravel()[near]], 1), frame.resolution)
 
 
 def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: float, mask: np.ndarray,
