@@ -1,0 +1,55 @@
+"""Digest every output of a run folder (timings aside): the byte-identity check of refactors.
+
+    python tools/run_digests.py RUN_DIR [--out FILE]
+
+Prints (or writes) JSON {relative path: sha256}. Left out: wall-clock files (`timings.json`,
+`.timing.json`) and the environment part of `manifest.json` (`packages`: the versions of the
+installed libraries), which is hashed without that key.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+SKIP_NAMES = {"timings.json", ".timing.json"}
+
+
+def run_digests(root: str | Path) -> dict[str, str]:
+    """Return {run-relative POSIX path: sha256 hex} of every output file of a run folder (timings aside)."""
+    root = Path(root).resolve()
+    out: dict[str, str] = {}
+    for p in sorted(root.rglob("*")):
+        if not p.is_file() or p.name in SKIP_NAMES or p.name.endswith(".tmp") or p.name == ".lock":
+            continue
+        rel = p.relative_to(root).as_posix()
+        if rel.startswith(("pictures/", "eval/")):  # demo extras, not generate outputs
+            continue
+        data = p.read_bytes()
+        if rel == "manifest.json":
+            m = json.loads(data)
+            m.pop("packages", None)
+            data = json.dumps(m, sort_keys=True).encode("utf-8")
+        out[rel] = hashlib.sha256(data).hexdigest()
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: print or write the digests of a run folder."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("run_dir")
+    ap.add_argument("--out", default=None, help="write the JSON here (default: stdout)")
+    a = ap.parse_args(argv)
+    text = json.dumps(run_digests(a.run_dir), indent=1, sort_keys=True) + "\n"
+    if a.out:
+        Path(a.out).write_text(text, encoding="utf-8")
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
