@@ -178,7 +178,21 @@ def mass_properties(hulls: list[tuple[np.ndarray, np.ndarray]], density: float) 
 
 def solid_for_coacd(vertices: np.ndarray, faces: np.ndarray, resolution: int = 80,
                     offset: float = 0.45, allow_closed: bool = True) -> tuple[np.ndarray, np.ndarray, str]:
-    """Return a watertight manifold (vertices, faces, how: 'closed' or 'offset') standing for a mesh's solid, for CoACD."""
+    """Return a watertight manifold (vertices, faces, how: 'closed' or 'offset') standing for a mesh's solid, for CoACD.
+
+    Parameters
+    ----------
+    vertices : (N, 3) float
+        Mesh vertices, metres.
+    faces : (M, 3) int
+        Triangle vertex indices.
+    resolution : int
+        Grid steps along the largest extent of the offset surface (at least 8).
+    offset : float
+        Offset of the surface outside the mesh, in grid steps.
+    allow_closed : bool
+        Pass a closed, thin-walled mesh through as it is instead of offsetting it.
+    """
     import trimesh
 
     tm = trimesh.Trimesh(vertices, faces, process=True)
@@ -220,7 +234,21 @@ def _closed_manifold(tm: object) -> tuple[np.ndarray, np.ndarray] | None:
 
 def offset_remesh(vertices: np.ndarray, faces: np.ndarray, resolution: int = 80,
                   offset: float = 0.45, simplify: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
-    """Return the watertight surface `offset` grid steps outside any triangle soup (thin sheets become thin slabs)."""
+    """Return the watertight surface `offset` grid steps outside any triangle soup (thin sheets become thin slabs).
+
+    Parameters
+    ----------
+    vertices : (N, 3) float
+        Triangle-soup vertices, metres.
+    faces : (M, 3) int
+        Triangle vertex indices.
+    resolution : int
+        Grid steps along the largest extent (at least 8).
+    offset : float
+        Offset of the surface outside the soup, in grid steps.
+    simplify : float
+        Simplification tolerance of the result, in grid steps.
+    """
     import manifold3d
     import scipy.ndimage as ndi
     from scipy.spatial import cKDTree

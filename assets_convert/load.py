@@ -233,7 +233,21 @@ def up_rotation(up: str, path: Path) -> tuple[np.ndarray, str]:
 
 
 def resolve_scale(units: str | float, extent: float, path: Path, kind: str, target_size: float = 0.0) -> tuple[float, str]:
-    """Return metres per file unit and the rule that chose it (see the module docstring)."""
+    """Return metres per file unit and the rule that chose it (see the module docstring).
+
+    Parameters
+    ----------
+    units : str or float
+        "auto", a unit name ("m", "cm", "mm", "in") or metres per file unit.
+    extent : float
+        Largest bounding-box extent of the mesh, in file units.
+    path : Path
+        The mesh file (named in errors).
+    kind : str
+        "object" or "scene" (chooses the auto table).
+    target_size : float
+        When > 0, the largest extent wanted, metres (overrides `units`).
+    """
     where = display_path(path)
     if target_size and target_size > 0:
         if extent <= 0:
@@ -319,7 +333,21 @@ def _material_of(geom: Any, gname: str, suffix: str) -> tuple[Material, np.ndarr
 
 def load_mesh(path: str | Path, units: str | float = "auto", up: str = "auto", kind: str = "object",
               target_size: float = 0.0) -> LoadedMesh:
-    """Load a mesh file as parts (one material each) in metres, Z up; raise InputError on bad input."""
+    """Load a mesh file as parts (one material each) in metres, Z up; raise InputError on bad input.
+
+    Parameters
+    ----------
+    path : str or Path
+        Mesh file (OBJ, GLB/glTF, PLY or STL).
+    units : str or float
+        "auto", a unit name or metres per file unit (see the module docstring).
+    up : str
+        The file's up axis: "auto", "+X", "-X", "+Y", "-Y", "+Z" or "-Z".
+    kind : str
+        "object" or "scene" (auto-units table and size limits).
+    target_size : float
+        When > 0, rescale so the largest extent is this many metres.
+    """
     import trimesh
 
     path = Path(path)

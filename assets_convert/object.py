@@ -108,7 +108,10 @@ def _resolve(cfg: ConvertConfig, units: str | float, up: str, target_size: float
 def convert_object(path: str | Path, out_dir: str | Path, category: str | None = None, units: str | float = "auto",
                    up: str = "auto", target_size: float = 0.0, density: float | None = None, name: str | None = None,
                    config: ConvertConfig | None = None, cache_dir: str | Path | None = None) -> ObjectAsset:
-    """Convert one object mesh to `<out_dir>/objects/<name>/model.xml` (cached); return its ObjectAsset."""
+    """Convert one object mesh to `<out_dir>/objects/<name>/model.xml` (cached); return its ObjectAsset.
+
+    Parameters are those of `convert_object_report`.
+    """
     asset, _info = convert_object_report(path, out_dir, category, units, up, target_size, density, name, config, cache_dir)
     return asset
 
@@ -118,7 +121,31 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
                           density: float | None = None, name: str | None = None,
                           config: ConvertConfig | None = None,
                           cache_dir: str | Path | None = None) -> tuple[ObjectAsset, dict[str, Any]]:
-    """Convert one object and also return report figures (faces, hulls, seconds, cache hit, warnings)."""
+    """Convert one object and also return report figures (faces, hulls, seconds, cache hit, warnings).
+
+    Parameters
+    ----------
+    path : str or Path
+        Object mesh file.
+    out_dir : str or Path
+        Output root; the object goes to ``<out_dir>/objects/<name>/``.
+    category : str, optional
+        Object category (default: ``meta.json`` beside the file, else the grandparent folder name).
+    units : str or float
+        "auto", a unit name or metres per file unit ("auto": the config's).
+    up : str
+        The file's up axis ("auto": the config's).
+    target_size : float
+        When > 0, rescale so the largest extent is this many metres (0: the config's).
+    density : float, optional
+        Bulk density, kg/m^3 (default: the category's).
+    name : str, optional
+        Asset name (default: from the file name).
+    config : ConvertConfig, optional
+        Conversion settings (default: ``ConvertConfig()``).
+    cache_dir : str or Path, optional
+        Conversion cache folder (default: the user cache).
+    """
     from .load import referenced_files
 
     t0 = time.perf_counter()

@@ -145,7 +145,27 @@ def _split_by_vertex_instance(part: Part, vinst: np.ndarray) -> list[tuple[Part,
 def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None, units: str | float = "auto",
                   up: str = "auto", semantics: str | Path | None = None, texture_max_size: int = 1024,
                   cache_dir: str | Path | None = None) -> SceneAsset:
-    """Convert a scene mesh to visual-only MJCF at `<out_dir>/scenes/<name>/scene.xml`; return its SceneAsset."""
+    """Convert a scene mesh to visual-only MJCF at `<out_dir>/scenes/<name>/scene.xml`; return its SceneAsset.
+
+    Parameters
+    ----------
+    path : str or Path
+        Scene mesh file (GLB/glTF, OBJ, PLY with optional ScanNet files).
+    out_dir : str or Path
+        Output root; the scene goes to ``<out_dir>/scenes/<name>/``.
+    name : str, optional
+        Scene name (default: the file stem without ScanNet suffixes).
+    units : str or float
+        "auto", a unit name or metres per file unit (the sidecar's when "auto").
+    up : str
+        The file's up axis (the sidecar's when "auto").
+    semantics : str or Path, optional
+        Semantics sidecar (default: ``<stem>.semantics.json`` beside the file).
+    texture_max_size : int
+        Largest texture side kept, pixels.
+    cache_dir : str or Path, optional
+        Conversion cache folder (default: the user cache).
+    """
     path = Path(path)
     out_dir = Path(out_dir)
     files = referenced_files(path)

@@ -37,7 +37,23 @@ def mean_color(image: Any) -> np.ndarray:
 
 def surface_mean_color(image: Any, vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray,
                        samples: int = 20000, seed: int = 0) -> np.ndarray:
-    """Return the area-weighted mean RGB (0-255) of a texture as it lies on a mesh surface."""
+    """Return the area-weighted mean RGB (0-255) of a texture as it lies on a mesh surface.
+
+    Parameters
+    ----------
+    image : PIL.Image.Image or str or Path
+        The texture image or its file.
+    vertices : (N, 3) float
+        Mesh vertices, metres.
+    faces : (M, 3) int
+        Triangle vertex indices.
+    uv : (N, 2) float
+        Texture coordinates per vertex (wrapped into [0, 1)).
+    samples : int
+        Number of surface points sampled (area-weighted).
+    seed : int
+        Seed of the sampling.
+    """
     from PIL import Image
 
     img = Image.open(image) if isinstance(image, (str, Path)) else image

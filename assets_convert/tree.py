@@ -99,7 +99,6 @@ STARTUP_GRACE_S = 120.0  # a fresh worker may take this long to import before it
 
 def _worker_main(conn: Any) -> None:
     """Worker loop: receive tasks, send rows, until None."""
-    os.environ.setdefault("MUJOCO_GL", "egl")
     # import the converters before the first task, so a task's timeout does not count start-up
     import coacd  # noqa: F401
     import mujoco  # noqa: F401
@@ -156,7 +155,29 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
                  jobs: int = 0, timeout: float | None = None, progress: bool = True,
                  config: ConvertConfig | None = None, cache_dir: str | Path | None = None,
                  categories: dict[str, str] | None = None) -> dict[str, Any]:
-    """Convert every mesh under `inputs` in a process pool; write and return the batch report."""
+    """Convert every mesh under `inputs` in a process pool; write and return the batch report.
+
+    Parameters
+    ----------
+    inputs : str or Path or iterable of str or Path
+        Mesh files and folders (folders are searched for mesh files).
+    out_dir : str or Path
+        Output root (also holds the batch report).
+    kind : str
+        "object" or "scene".
+    jobs : int
+        Worker processes (0: the config's, else the CPU count).
+    timeout : float, optional
+        Seconds allowed per item (default: the config's).
+    progress : bool
+        Show a progress bar.
+    config : ConvertConfig, optional
+        Conversion settings (default: ``ConvertConfig()``).
+    cache_dir : str or Path, optional
+        Conversion cache folder (default: the user cache).
+    categories : dict of str to str, optional
+        Input file path -> object category (default: guessed per file).
+    """
     if kind not in ("object", "scene"):
         raise ValueError(f"kind must be 'object' or 'scene', got {kind!r}")
     cfg = config or ConvertConfig()

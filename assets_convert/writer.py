@@ -89,7 +89,21 @@ class AssetWriter:
 
     def mesh(self, name: str, vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None,
              extra: str = "") -> str:
-        """Write a mesh file and register its <mesh> asset; return its name."""
+        """Write a mesh file and register its <mesh> asset; return its name.
+
+        Parameters
+        ----------
+        name : str
+            Mesh asset name (also the OBJ file stem).
+        vertices : (N, 3) float
+            Vertices, metres.
+        faces : (M, 3) int
+            Triangle vertex indices.
+        uv : (N, 2) float, optional
+            Texture coordinates per vertex.
+        extra : str
+            Further XML attributes of the ``<mesh>`` element (with a leading space).
+        """
         atomic_write_bytes(self.assets_dir / f"{name}.obj", obj_bytes(vertices, faces, uv))
         self.lines.append(f'    <mesh name="{name}" file="{name}.obj"{extra}/>')
         return name

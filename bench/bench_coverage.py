@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 from sdovon_mj.config import ObserveConfig  # noqa: E402
 from sdovon_mj.observe import coverage_viewpoints, scene_floors_and_maps, uniform_viewpoints  # noqa: E402
 from sdovon_mj.observe.stage import load_mesh  # noqa: E402
-from sdovon_mj.observe.synthetic import apartment_boxes, living_room_parts, write_box_scene, write_mesh_scene  # noqa: E402
+from sdovon_mj.testing.scenes import apartment_boxes, living_room_parts, write_box_scene, write_mesh_scene  # noqa: E402
 
 SHARED = Path(os.environ.get("SDOVON_SHARED_ASSETS", REPO.parent / "shared" / "assets"))
 

@@ -41,7 +41,7 @@ def main() -> int:
 
     from sdovon_mj.config import PerceiveConfig, ReceptacleConfig
     from sdovon_mj.perceive import InstanceFuser, backproject_detections, correct_fusion, make_detector
-    from sdovon_mj.perceive.fusion import embed_labels
+    from sdovon_mj.embeddings import embed_labels
     from sdovon_mj.receptacles import detect_planes, receptacle_instances
 
     insts = default_instances()
@@ -93,12 +93,12 @@ def world(args: argparse.Namespace) -> int:
 
     import test_perceive_world as W
 
-    from sdovon_mj.config import ObserveConfig, PerceiveConfig, ReceptacleConfig, RunConfig
+    from sdovon_mj.config import AgentConfig, ObserveConfig, PerceiveConfig, ReceptacleConfig, RunConfig
     from sdovon_mj.observe import load_shards, observe_scene
-    from sdovon_mj.perceive.fusion import embed_labels
-    from sdovon_mj.polygons import ensure_ccw
+    from sdovon_mj.embeddings import embed_labels
+    from sdovon_mj.geometry import ensure_ccw
     from sdovon_mj.records import NavMap, load_json
-    from sdovon_mj.stages import perceive_and_find_planes
+    from sdovon_mj.perceive.surfaces import perceive_and_find_planes
 
     root = Path(args.out or tempfile.mkdtemp(prefix="bench_perceive_"))
     scene = W.scene_from_apartment(args.world, root)
@@ -112,7 +112,7 @@ def world(args: argparse.Namespace) -> int:
     rcfg = ReceptacleConfig()
     tol = 0.02 if args.sigma <= 0 else 0.03
     print(f"apartment {args.world}: {len(scene.floors)} floor(s), {s['viewpoints']} viewpoints x {s['views_per_viewpoint']} views "
-          f"= {len(obs)} observations {args.width}x{args.height} (camera heights {ocfg.agent_height} + {list(ocfg.camera_heights)}); "
+          f"= {len(obs)} observations {args.width}x{args.height} (camera heights {AgentConfig().camera_height} + {list(ocfg.camera_heights)}); "
           f"observe {t_obs:.1f} s")
     for views in (0, ocfg.targeted_views):
         cfg = RunConfig(observe=dataclasses.replace(ocfg, targeted_views=views), receptacles=rcfg,

@@ -23,8 +23,9 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from sdovon_mj.config import PlaceConfig  # noqa: E402
-from sdovon_mj.place.synthetic import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene  # noqa: E402
-from sdovon_mj.place.variants import run_variant, variant_seed  # noqa: E402
+from sdovon_mj.testing.placement import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene  # noqa: E402
+from sdovon_mj.place.variants import run_variant  # noqa: E402
+from sdovon_mj.seeds import variant_seed  # noqa: E402
 from sdovon_mj.records import Relevance  # noqa: E402
 
 VENV = Path("/tmp/scene-synth-venv")

@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from sdovon_mj.config import SemanticsConfig
     from sdovon_mj.semantics import get_backend, region_map
-    from sdovon_mj.semantics.groundtruth import apartment_instances, apartment_navmap, region_accuracy
+    from sdovon_mj.testing.groundtruth import apartment_instances, apartment_navmap, region_accuracy
     from sdovon_mj.semantics.regions import _windows, floor_instances
 
     try:

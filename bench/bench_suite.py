@@ -27,8 +27,9 @@ def main() -> None:
     import numpy as np
 
     from sdovon_mj import suite
+    from sdovon_mj.testing.bundles import fixture_bundle
 
-    bundle = args.bundle or (suite.fixture_bundle() / "fixture_apartment_v000")
+    bundle = args.bundle or (fixture_bundle() / "fixture_apartment_v000")
     print(f"bundle: {bundle}  MUJOCO_GL={os.environ.get('MUJOCO_GL')}  LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS')}")
     for (w, h) in ((640, 480), (128, 128)):
         for label, semantic, render in (("rgb+depth", False, True), ("rgb+depth+seg", True, True), ("no render", False, False)):

@@ -1,3 +1,10 @@
 """sdovon-mj: MuJoCo-native SD-OVON dynamic scene and open-vocabulary ObjectNav generation."""
 
+import os
+
+# The one place the GL backend is chosen: offscreen EGL unless the user set MUJOCO_GL. It must be set
+# before anything imports mujoco (or dm_control), which picks its backend at import time; every module
+# of this package, and `exporters` / `assets_convert` through their `sdovon_mj` imports, runs this first.
+os.environ.setdefault("MUJOCO_GL", "egl")
+
 __version__ = "0.1.0"

@@ -1,7 +1,8 @@
 """`sdovon-mj` command line: one subcommand per stage, plus demo, generate, export, eval, show.
 
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
-this file only lists them. Exit codes: 0 success, 1 failure (one-line cause on stderr), 2 usage
+the per-stage commands come from the stage declarations (``sdovon_mj.commands.stage``); this file only
+lists them. Exit codes: 0 success, 1 failure (one-line cause on stderr), 2 usage
 error or a subcommand that is not built yet.
 """
 
@@ -9,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import sys
 from typing import Sequence
 
@@ -19,15 +19,15 @@ from . import __version__
 COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("sdovon_mj.commands.demo", "the default world end to end, small and quick"),
     "world": ("sdovon_mj.commands.world", "write default-world apartments and objects as input files"),
-    "convert": ("assets_convert.cli", "convert objects and scenes (OBJ, GLB/glTF, PLY, STL) to MJCF"),
-    "observe": ("sdovon_mj.observe.cli", "floors, navigable maps, coverage viewpoints, RGB-D renders"),
-    "perceive": ("sdovon_mj.perceive.cli", "detect, back-project and fuse instances; receptacle planes"),
-    "semantics": ("sdovon_mj.semantics.cli", "region map and object-region-receptacle relevance"),
-    "place": ("sdovon_mj.place.cli", "place objects semantically and settle them with physics"),
-    "episodes": ("sdovon_mj.episodes.cli", "ObjectNav episodes for scene variants"),
+    "convert": ("sdovon_mj.commands.convert", "convert objects and scenes (OBJ, GLB/glTF, PLY, STL) to MJCF"),
+    "observe": ("sdovon_mj.commands.stage:observe", "floors, navigable maps, coverage viewpoints, RGB-D renders"),
+    "perceive": ("sdovon_mj.commands.stage:perceive", "detect, back-project and fuse instances; receptacle planes"),
+    "semantics": ("sdovon_mj.commands.stage:semantics", "region map and object-region-receptacle relevance"),
+    "place": ("sdovon_mj.commands.stage:place", "place objects semantically and settle them with physics"),
+    "episodes": ("sdovon_mj.commands.stage:episodes", "ObjectNav episodes for scene variants"),
     "generate": ("sdovon_mj.commands.generate", "the whole pipeline over scenes and objects (resumable)"),
-    "export": ("exporters.cli", "export a run to habitat, mjcf or a plugin format"),
-    "eval": ("sdovon_mj.nav.eval_cli", "evaluate agents on an MJCF dataset (SR, SPL, Soft SPL, DTG)"),
+    "export": ("sdovon_mj.commands.export", "export a run to habitat, mjcf or a plugin format"),
+    "eval": ("sdovon_mj.suite.evaluate", "evaluate agents on an MJCF dataset (SR, SPL, Soft SPL, DTG)"),
     "show": ("sdovon_mj.commands.show", "pictures of a run: maps, receptacles, placements, episodes"),
 }
 
@@ -42,8 +42,10 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _load(name: str):
-    """Import a subcommand's module, or None when it is not built yet."""
-    module = COMMANDS[name][0]
+    """Import a subcommand's module (``module:stage`` for a declared stage's command), or None when not built yet."""
+    module, _, stage = COMMANDS[name][0].partition(":")
+    if stage:
+        return importlib.import_module(module).command(stage)
     try:
         return importlib.import_module(module)
     except ModuleNotFoundError as e:
@@ -70,7 +72,6 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code."""
-    os.environ.setdefault("MUJOCO_GL", "egl")
     argv = list(sys.argv[1:] if argv is None else argv)
     only = next((a for a in argv if a in COMMANDS), None)
     parser = build_parser(only)

@@ -31,6 +31,24 @@ def _p(default: Any, unit: str, doc: str, symbol: str = "") -> Any:
 
 
 @dataclass(frozen=True)
+class AgentConfig:
+    """The ObjectNav agent's body and camera: one home for observe, episodes, nav, suite and world.
+
+    Habitat ObjectNav defaults. The ground-truth detector's threshold ``eta_gt`` lives here too: it
+    defines when the agent's camera sees an object (perceive's gt detector, episode view points and
+    the A* agents' gt detector all use it).
+    """
+
+    radius: float = _p(0.18, "m", "agent cylinder radius; the navigable map is eroded by it")
+    height: float = _p(0.88, "m", "agent cylinder height: geometry from the floor up to this blocks the agent")
+    camera_height: float = _p(0.88, "m", "agent camera height above the floor (observation renders, episode view points, the suite)")
+    hfov: float = _p(79.0, "deg", "agent camera horizontal field of view (Habitat ObjectNav default)")
+    sensor_width: int = _p(640, "px", "agent camera image width in the suite")
+    sensor_height: int = _p(480, "px", "agent camera image height in the suite")
+    eta_gt: float = _p(1e-4, "-", "ground-truth detector: an object is seen when its pixels cover at least this fraction of the image", "eta_gt")
+
+
+@dataclass(frozen=True)
 class WorldConfig:
     """The embedded default world: procedural apartments and objects."""
 
@@ -73,8 +91,6 @@ class ObserveConfig:
 
     h_map: float = _p(0.3, "m", "slice height above the floor for the top-down map", "h_map")
     map_resolution: float = _p(0.05, "m/cell", "navigable map grid resolution")
-    agent_radius: float = _p(0.18, "m", "erosion margin of the navigable map (agent radius)")
-    agent_height: float = _p(0.88, "m", "agent (camera) height above the floor")
     floor_cluster_tol: float = _p(0.15, "m", "heights closer than this belong to one floor")
     min_floor_area: float = _p(2.0, "m^2", "smallest horizontal area that counts as a floor")
     min_component_area: float = _p(1.0, "m^2", "navigable components smaller than this are dropped")
@@ -86,19 +102,18 @@ class ObserveConfig:
     min_obstacle_distance: float = _p(0.3, "m", "candidates closer than this to an obstacle are rejected")
     yaw_steps: int = _p(6, "-", "camera yaw steps per viewpoint (360 deg / yaw_steps)")
     pitch_angles: tuple[float, ...] = _p((-30.0, 0.0), "deg", "camera pitch angles per yaw (negative looks down)")
-    width: int = _p(640, "px", "image width (Habitat ObjectNav default)")
-    height: int = _p(480, "px", "image height")
-    hfov: float = _p(79.0, "deg", "horizontal field of view (Habitat ObjectNav default)")
+    width: int = _p(640, "px", "image width of the observation renders (field of view: agent.hfov)")
+    height: int = _p(480, "px", "image height of the observation renders")
     depth_min: float = _p(0.1, "m", "depth below this is invalid (0)")
     depth_max: float = _p(10.0, "m", "depth above this is invalid (0)")
     shadows: bool = _p(False, "-", "render shadows (off for data generation: speed)")
     seed: int = _p(0, "-", "coverage sampling seed offset (combined with the scene seed)")
     nav_slice: str = _p("band", "-", "obstacles: band (all geometry between obstacle_min_height and obstacle_max_height) or plane (the paper's single slice at h_map)")
     obstacle_min_height: float = _p(0.1, "m", "geometry above floor + this blocks the agent (band mode)")
-    obstacle_max_height: float = _p(0.0, "m", "geometry below floor + this blocks the agent (band mode; 0: agent_height)")
+    obstacle_max_height: float = _p(0.0, "m", "geometry below floor + this blocks the agent (band mode; 0: agent.height)")
     coverage_combine: str = _p("add", "-", "how a viewpoint's Gaussian is overlaid on M_P: add (sum, clipped to 1) or max")
     frames_per_shard: int = _p(24, "-", "observations per compressed npz shard")
-    camera_heights: tuple[float, ...] = _p((2.0,), "m", "extra camera heights above the floor, rendered at every viewpoint and yaw with camera_height_pitches besides agent_height (the agent camera cannot see the tops of shelves above it); empty: agent_height only")
+    camera_heights: tuple[float, ...] = _p((2.0,), "m", "extra camera heights above the floor, rendered at every viewpoint and yaw with camera_height_pitches besides agent.camera_height (the agent camera cannot see the tops of shelves above it); empty: agent.camera_height only")
     camera_height_pitches: tuple[float, ...] = _p((-40.0,), "deg", "camera pitch angles at the extra camera_heights (negative looks down)")
     targeted_views: int = _p(2, "-", "targeted views per receptacle surface after a first perception pass: cameras around it that show most of what no view showed yet (0: coverage views only, as in the paper)")
     targeted_distance: tuple[float, ...] = _p((0.4, 2.0), "m", "targeted cameras stand on navigable cells this far (min, max) from the surface's XY box")
@@ -116,7 +131,6 @@ class PerceiveConfig:
     detector: str = _p("gt", "-", "detector plugin name (entry point group sdovon_mj.detectors)")
     detector_weights: str = _p("", "path", "local weights folder for open-vocabulary detectors")
     score_threshold: float = _p(0.3, "-", "detections below this score are dropped")
-    gt_eta: float = _p(1e-4, "-", "minimum pixel fraction for the ground-truth detector", "eta_gt")
     gt_score_noise: float = _p(0.0, "-", "std of noise added to gt detection scores (0: score 1.0)")
     depth_noise_sigma: float = _p(0.0, "m", "Gaussian noise added to depth before back-projection (robustness tests)")
     fusion_preset: str = _p("paper", "-", "paper (k_sem 0.4 / k_geo 1.6 / phi_min 0.8), conceptgraphs, or custom (use k_sem/k_geo/phi_min as given)")
@@ -217,14 +231,11 @@ class EpisodeConfig:
 
     k_e: int = _p(3, "-", "episodes per object category per variant", "k_e")
     viewpoint_radius: float = _p(1.0, "m", "goal view points lie within this distance of the object")
-    eta_gt: float = _p(1e-4, "-", "minimum visible pixel fraction of the goal object", "eta_gt")
     max_viewpoints: int = _p(50, "-", "cap on view points per goal object")
     min_start_distance: float = _p(1.0, "m", "minimum geodesic distance from start to goal")
     max_start_tries: int = _p(200, "-", "start pose draws per episode")
     success_distance: float = _p(0.1, "m", "success radius around view points")
     viewpoint_step: float = _p(0.25, "m", "lattice step of view point candidates")
-    camera_height: float = _p(0.88, "m", "agent camera height above the floor")
-    hfov: float = _p(79.0, "deg", "agent camera horizontal field of view")
     vis_width: int = _p(160, "px", "width of the visibility-check segmentation render")
     vis_height: int = _p(120, "px", "height of the visibility-check segmentation render")
     pitches: tuple[float, ...] = _p((-30.0, 0.0), "deg", "pitches tried after the one aimed at the object centre")
@@ -232,7 +243,7 @@ class EpisodeConfig:
 
 @dataclass(frozen=True)
 class NavConfig:
-    """Agent, actions and the A* baselines (appendix D)."""
+    """Actions, step limit and the A* baselines (appendix D); the agent's body and camera are `AgentConfig`."""
 
     forward_step: float = _p(0.25, "m", "MOVE_FORWARD distance")
     turn_angle: float = _p(30.0, "deg", "TURN_LEFT/TURN_RIGHT angle")
@@ -240,15 +251,9 @@ class NavConfig:
     max_steps: int = _p(500, "-", "episode step limit")
     eps_nav: float = _p(0.5, "m", "navigation error tolerance", "epsilon_nav")
     d_next: float = _p(1.0, "m", "minimum distance to the next navigation point", "d_next")
-    eta_gt: float = _p(1e-4, "-", "gt detector pixel fraction", "eta_gt")
     final_nav: bool = _p(True, "-", "final point-goal navigation after detection (FN)")
-    obs_width: int = _p(640, "px", "agent camera width")
-    obs_height: int = _p(480, "px", "agent camera height")
     depth_min: float = _p(0.5, "m", "agent depth sensor minimum")
     depth_max: float = _p(5.0, "m", "agent depth sensor maximum")
-    hfov: float = _p(79.0, "deg", "agent camera horizontal field of view")
-    agent_radius: float = _p(0.18, "m", "agent cylinder radius")
-    agent_height: float = _p(0.88, "m", "agent cylinder height (camera at the top)")
     max_tilt: float = _p(60.0, "deg", "LOOK_UP/LOOK_DOWN camera pitch limit")
     success_distance: float = _p(0.1, "m", "STOP within this geodesic distance of a view point succeeds")
     fn_viewpoint_radius: float = _p(1.0, "m", "FN: inferred view points lie within this distance of the detected object")
@@ -264,6 +269,7 @@ class RunConfig:
     name: str = _p("sdovon", "-", "dataset name used by exporters")
     split: str = _p("val", "-", "dataset split name")
     exporters: tuple[str, ...] = _p(("habitat", "mjcf"), "-", "exporter plugins run at the end")
+    agent: AgentConfig = field(default_factory=AgentConfig)
     world: WorldConfig = field(default_factory=WorldConfig)
     convert: ConvertConfig = field(default_factory=ConvertConfig)
     observe: ObserveConfig = field(default_factory=ObserveConfig)
@@ -283,6 +289,33 @@ FUSION_PRESETS: dict[str, dict[str, float]] = {
     # ConceptGraphs: equal weights of 1 on both terms, match threshold 1.1 on the sum (of max 2).
     "conceptgraphs": {"k_sem": 1.0, "k_geo": 1.0, "phi_min": 1.1},
 }
+
+
+# Keys that moved to one home (issue 19: one AgentConfig, one eta_gt). Old YAML files and --set
+# overrides naming them fail with a ConfigError that names the new key.
+MOVED_KEYS: dict[str, str] = {
+    "observe.agent_radius": "agent.radius",
+    "observe.agent_height": "agent.camera_height' (camera) and 'agent.height' (body",
+    "observe.hfov": "agent.hfov",
+    "perceive.gt_eta": "agent.eta_gt",
+    "episodes.eta_gt": "agent.eta_gt",
+    "episodes.camera_height": "agent.camera_height",
+    "episodes.hfov": "agent.hfov",
+    "nav.eta_gt": "agent.eta_gt",
+    "nav.hfov": "agent.hfov",
+    "nav.agent_radius": "agent.radius",
+    "nav.agent_height": "agent.height' (body) and 'agent.camera_height' (camera",
+    "nav.obs_width": "agent.sensor_width",
+    "nav.obs_height": "agent.sensor_height",
+}
+
+_FUSION_WEIGHTS = ("k_sem", "k_geo", "phi_min")
+
+
+def _moved_error(key: str, where: str) -> ConfigError | None:
+    """Return the error for a key that moved to another section (None for keys that never existed)."""
+    new = MOVED_KEYS.get(key)
+    return ConfigError(f"config key '{key}'{where} has moved: use '{new}'") if new else None
 
 
 def to_dict(cfg: Any) -> dict[str, Any]:
@@ -345,6 +378,9 @@ def from_dict(cls: type, data: dict[str, Any], source: str = "", prefix: str = "
     for key in data:
         if key not in known:
             full = f"{prefix}{key}"
+            moved = _moved_error(full, f" in {source}" if source else "")
+            if moved is not None:
+                raise moved
             close = _closest(str(key), known)
             hint = f" (did you mean '{prefix}{close}'?)" if close else ""
             raise ConfigError(f"unknown config key '{full}'{' in ' + source if source else ''}{hint}")
@@ -382,18 +418,27 @@ def load_config(path: str | Path | None = None, overrides: list[str] | tuple[str
             data = yaml.safe_load(text) or {}
         except yaml.YAMLError as e:
             raise ConfigError(f"config file {path} is not valid YAML: {e}") from None
+    explicit = {f"{sec}.{k}" for sec, v in data.items() if isinstance(v, dict) for k in v} if isinstance(data, dict) else set()
     cfg = from_dict(RunConfig, data, source)
-    return apply_overrides(cfg, overrides)
+    return apply_overrides(cfg, overrides, explicit)
 
 
-def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...]) -> RunConfig:
-    """Apply dotted KEY=VALUE overrides (values parsed as YAML scalars or lists)."""
+def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...], explicit: set[str] | frozenset[str] = frozenset()) -> RunConfig:
+    """Apply dotted KEY=VALUE overrides (values parsed as YAML scalars or lists) and resolve presets.
+
+    ``explicit`` names keys (``section.key``) the caller set besides the overrides (a YAML file's);
+    an explicit fusion weight wins over the fusion preset (see `resolve_fusion_preset`).
+    """
     data = to_dict(cfg)
+    explicit = set(explicit)
     for item in overrides:
         if "=" not in item:
             raise ConfigError(f"override '{item}' is not KEY=VALUE")
         key, raw = item.split("=", 1)
         parts = key.strip().split(".")
+        moved = _moved_error(key.strip(), f" in --set {item}")
+        if moved is not None:
+            raise moved
         node = data
         for i, part in enumerate(parts[:-1]):
             if part not in node or not isinstance(node[part], dict):
@@ -402,7 +447,9 @@ def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...]) -> R
         if parts[-1] not in node or isinstance(node[parts[-1]], dict):
             raise ConfigError(f"unknown config key '{key.strip()}' in --set {item}")
         node[parts[-1]] = yaml.safe_load(raw) if raw != "" else ""
-    return from_dict(RunConfig, data, "--set")
+        explicit.add(key.strip())
+    out = from_dict(RunConfig, data, "--set")
+    return replace(out, perceive=resolve_fusion_preset(out.perceive, {k.split(".", 1)[1] for k in explicit if k.startswith("perceive.")}))
 
 
 def save_config(cfg: Any, path: str | Path) -> None:
@@ -424,12 +471,26 @@ def config_hash(cfg: Any) -> str:
 
 
 def with_fusion_preset(cfg: PerceiveConfig) -> PerceiveConfig:
-    """Return the perceive config with the named fusion preset's weights applied."""
+    """Return the perceive config with the named fusion preset's weights applied (no weight set explicitly)."""
+    return resolve_fusion_preset(cfg, ())
+
+
+def resolve_fusion_preset(cfg: PerceiveConfig, explicit: set[str] | tuple[str, ...] | frozenset[str]) -> PerceiveConfig:
+    """Return the perceive config with its fusion preset resolved into k_sem / k_geo / phi_min.
+
+    Weights named in ``explicit`` (keys the user set: YAML or ``--set``) win over the preset: when one
+    differs from the preset's value, the result is ``fusion_preset: custom`` holding the preset's
+    other weights and the explicit ones, so the config written to the run folder says what fusion uses.
+    """
     if cfg.fusion_preset == "custom":
         return cfg
     if cfg.fusion_preset not in FUSION_PRESETS:
         raise ConfigError(f"unknown fusion preset '{cfg.fusion_preset}' (known: {', '.join(FUSION_PRESETS)}, custom)")
-    return replace(cfg, **FUSION_PRESETS[cfg.fusion_preset])
+    preset = FUSION_PRESETS[cfg.fusion_preset]
+    mine = {k: getattr(cfg, k) for k in _FUSION_WEIGHTS if k in explicit and getattr(cfg, k) != preset[k]}
+    if not mine:
+        return replace(cfg, **preset)
+    return replace(cfg, **{**preset, **mine}, fusion_preset="custom")
 
 
 def describe(cls: type = RunConfig, prefix: str = "") -> list[tuple[str, Any, str, str, str]]:

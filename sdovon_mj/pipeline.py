@@ -21,7 +21,6 @@ else from the run folder, so the same task runs in a local process or on a Ray w
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import sys
@@ -37,13 +36,8 @@ from . import __version__
 from .config import RunConfig, dump_yaml, load_config, to_dict
 from .errors import SdovonError, StageError
 from .records import dumps
-from .store import Store, Timer, clean_temp_files, fingerprint
-
-
-def derive_seed(master: int, *names: object) -> int:
-    """Return a 31-bit seed derived from a master seed and names (no global RNG state)."""
-    blob = "/".join([str(master), *map(str, names)]).encode("utf-8")
-    return int(hashlib.sha256(blob).hexdigest()[:8], 16) & 0x7FFFFFFF
+from .seeds import scene_seed
+from .store import Store, Timer, clean_temp_files
 
 
 @dataclass(frozen=True)
@@ -55,6 +49,7 @@ class TaskSpec:
     scene: str = ""
     variant: int = -1
     fmt: str = ""
+    stages: tuple[str, ...] = ()  # only these stages of the task's scope (empty: all)
 
     @property
     def label(self) -> str:
@@ -84,9 +79,8 @@ class StageRunner:
         self.store = store
         self.result = result
 
-    def run(self, key: str, fp_parts: Iterable[Any], fn: Callable[[], list[str]]) -> bool:
-        """Run `fn` (returning its output paths) unless `key` is done with the same fingerprint."""
-        fp = fingerprint(*fp_parts)
+    def run(self, key: str, fp: str, fn: Callable[[], list[str]]) -> bool:
+        """Run `fn` (returning its output paths) unless `key` is done with fingerprint `fp`."""
         short = stage_name(key)
         if self.store.is_done(key, fp):
             self.result.skipped.append(key)
@@ -137,7 +131,6 @@ def peak_rss_mb() -> float:
 
 def run_task(spec: TaskSpec) -> TaskResult:
     """Execute one task in this process; failures are returned, never raised."""
-    os.environ.setdefault("MUJOCO_GL", "egl")
     if not sys.stderr.isatty():  # model loaders' progress bars would flood non-interactive logs
         os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")
     result = TaskResult(spec, ok=True)
@@ -147,16 +140,8 @@ def run_task(spec: TaskSpec) -> TaskResult:
         store = Store(spec.run_root)
         cfg = load_config(store.path("config.yaml"))
         runner = StageRunner(store, result)
-        if spec.kind == "objects":
-            stages.objects_task(store, cfg, runner)
-        elif spec.kind == "scene":
-            stages.scene_task(store, cfg, runner, spec.scene)
-        elif spec.kind == "variant":
-            stages.variant_task(store, cfg, runner, spec.scene, spec.variant)
-        elif spec.kind == "export":
-            stages.export_task(store, cfg, runner, spec.fmt)
-        else:
-            raise StageError(f"unknown task kind {spec.kind!r}")
+        scope = {"objects": "run"}.get(spec.kind, spec.kind)
+        stages.run_task(store, cfg, runner, scope, spec.scene, spec.variant, spec.fmt, spec.stages or None)
     except SdovonError as e:
         result.ok, result.error = False, str(e)
     except Exception as e:  # a task must report its cause, whatever it is
@@ -283,6 +268,21 @@ class RunSummary:
         """Return the failed tasks."""
         return [r for r in self.results if not r.ok]
 
+    def table(self) -> str:
+        """Return the end-of-run summary: dataset statistics, seconds per stage, failed tasks."""
+        from . import stats
+
+        st = stats.dataset_statistics(Path(self.run_root))
+        lines = [stats.summary_table(st), "", "seconds per stage (this run; 0 = skipped, already done):"]
+        for k, v in sorted(self.seconds.items(), key=lambda kv: -kv[1]):
+            lines.append(f"  {k:<12} {v:8.2f}")
+        if self.failures:
+            lines.append("")
+            lines.append("failed tasks:")
+            for r in self.failures:
+                lines.append(f"  {r.spec.label}: {r.error}")
+        return "\n".join(lines)
+
 
 def package_versions() -> dict[str, str]:
     """Return versions of the packages whose behaviour shapes the outputs."""
@@ -316,39 +316,83 @@ def prepare_run(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None =
 
 def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = None, objects: list[str] | None = None,
              executor: str = "local", jobs: int = 1, address: str | None = None, retries: int = 1,
-             progress: bool | None = None, exporters: Iterable[str] | None = None) -> RunSummary:
-    """Run the whole pipeline into `run_root`; finished stages are skipped on a rerun."""
+             progress: bool | None = None, exporters: Iterable[str] | None = None,
+             until: Iterable[str] | None = None, only_scenes: Iterable[str] | None = None) -> RunSummary:
+    """Run the pipeline into `run_root`; finished stages are skipped on a rerun.
+
+    Parameters
+    ----------
+    run_root : str or Path
+        The run folder (created; an existing run is resumed).
+    cfg : RunConfig
+        The run's config (written to ``config.yaml``).
+    scenes, objects : list of str, optional
+        Scene files and object files/folders; none: the embedded default world.
+    executor : str
+        ``local`` (process pool) or ``ray``.
+    jobs : int
+        Parallel tasks (local workers / Ray CPUs).
+    address : str, optional
+        Ray cluster address.
+    retries : int
+        Retries of a failed task.
+    progress : bool, optional
+        Show a progress bar (None: when interactive).
+    exporters : iterable of str, optional
+        Exporter plugins to run (default: ``cfg.exporters``).
+    until : iterable of str, optional
+        Run only these stages and the stages they need (`sdovon_mj.stages.closure`); the per-stage commands
+        use it. Default: every stage, then statistics.
+    only_scenes : iterable of str, optional
+        Only these scenes of the run (default: all).
+    """
     from . import stages
     from .progress import Progress
 
     store = prepare_run(run_root, cfg, scenes, objects)
     ex = make_executor(executor, jobs, address, retries)
+    wanted = stages.closure(list(until)) if until is not None else list(stages.STAGES)
     scene_names = stages.scene_names(store, cfg)
+    if only_scenes is not None:
+        unknown = sorted(set(only_scenes) - set(scene_names))
+        if unknown:
+            raise StageError(f"no scene {', '.join(unknown)} in this run (scenes: {', '.join(scene_names)})")
+        scene_names = [s for s in scene_names if s in set(only_scenes)]
+    root = str(store.root)
+    run_st, scene_st, var_st = (tuple(stages.scope_stages(k, wanted)) for k in ("run", "scene", "variant"))
+    fmts = list(cfg.exporters if exporters is None else exporters) if "export" in wanted else []
+    n_variants = len(scene_names) * cfg.place.k_v if var_st else 0
     results: list[TaskResult] = []
-    fmts = list(cfg.exporters if exporters is None else exporters)
-    n_variants = len(scene_names) * cfg.place.k_v
-    with Progress(total=1 + len(scene_names) + n_variants + len(fmts), enabled=progress, desc="generate") as bar:
+    total = bool(run_st) + (len(scene_names) if scene_st else 0) + n_variants + len(fmts)
+    with Progress(total=total, enabled=progress, desc="generate") as bar:
         def tick(r: TaskResult) -> None:
             bar.update(1, r.spec.label + ("" if r.ok else " FAILED"))
 
-        results += ex.map([TaskSpec("objects", str(store.root))], tick)
-        if not results[-1].ok:
-            raise StageError(f"object library failed: {results[-1].error}")
-        scene_results = ex.map([TaskSpec("scene", str(store.root), s) for s in scene_names], tick)
-        results += scene_results
-        good = [r.spec.scene for r in scene_results if r.ok]
-        variant_specs = [TaskSpec("variant", str(store.root), s, v) for s in good for v in range(cfg.place.k_v)]
-        bar.total -= (len(scene_names) - len(good)) * cfg.place.k_v
-        results += ex.map(variant_specs, tick)
+        if run_st:
+            results += ex.map([TaskSpec("objects", root, stages=run_st)], tick)
+            if not results[-1].ok:
+                raise StageError(f"object library failed: {results[-1].error}")
+        good = scene_names
+        if scene_st:
+            scene_results = ex.map([TaskSpec("scene", root, s, stages=scene_st) for s in scene_names], tick)
+            results += scene_results
+            good = [r.spec.scene for r in scene_results if r.ok]
+        if var_st:
+            bar.total -= (len(scene_names) - len(good)) * cfg.place.k_v
+            results += ex.map([TaskSpec("variant", root, s, v, stages=var_st) for s in good for v in range(cfg.place.k_v)],
+                              tick)
         for fmt in fmts:
-            results += ex.map([TaskSpec("export", str(store.root), fmt=fmt)], tick)
+            results += ex.map([TaskSpec("export", root, fmt=fmt)], tick)
     seconds: dict[str, float] = {}
     for r in results:
         for k, v in r.seconds.items():
             seconds[k] = seconds.get(k, 0.0) + v
     summary = RunSummary(str(store.root), scene_names, results, seconds)
     write_manifest(store, cfg, summary)
-    stages.write_statistics(store, cfg, summary)
+    if until is None:
+        from . import stats
+
+        stats.write_statistics(store.root)
     return summary
 
 
@@ -362,7 +406,7 @@ def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
         "sdovon_mj": __version__,
         "config": to_dict(cfg),
         "seed": cfg.seed,
-        "scene_seeds": {s: derive_seed(cfg.seed, "scene", s) for s in summary.scenes},
+        "scene_seeds": {s: scene_seed(cfg.seed, s) for s in summary.scenes},
         "packages": package_versions(),
         "stages": fps,
         "failures": [{"task": r.spec.label, "error": r.error, "attempts": r.attempts} for r in summary.failures],

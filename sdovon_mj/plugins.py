@@ -1,4 +1,6 @@
-"""Plugin lookup by entry point: exporters, detectors and LLM backends (habitat-lab style registries)."""
+"""Plugin lookup by entry point: exporters, detectors, LLM backends, converters, agents (habitat-lab style registries).
+
+The core reaches `exporters/` and `assets_convert/` only through this registry, never by import."""
 
 from __future__ import annotations
 
@@ -11,6 +13,8 @@ GROUPS = {
     "exporter": "sdovon_mj.exporters",
     "detector": "sdovon_mj.detectors",
     "llm_backend": "sdovon_mj.llm_backends",
+    "converter": "sdovon_mj.converters",
+    "agent": "sdovon_mj.agents",
 }
 
 # Built-ins registered in code too, so a source checkout (no `pip install`) finds them.
@@ -22,6 +26,15 @@ _BUILTIN: dict[str, dict[str, str]] = {
     "sdovon_mj.detectors": {
         "gt": "sdovon_mj.perceive.gt_detector:GroundTruthDetector",
         "owl-sam": "sdovon_mj.perceive.open_vocab:OpenVocabDetector",
+    },
+    "sdovon_mj.converters": {
+        "mesh": "assets_convert.plugin:MeshConverter",
+    },
+    "sdovon_mj.agents": {
+        "random-astar": "sdovon_mj.nav.agents:RandomAStar",
+        "semantic-astar": "sdovon_mj.nav.agents:SemanticAStar",
+        "oracle": "sdovon_mj.nav.agents:OracleAgent",
+        "random": "sdovon_mj.nav.agents:RandomAgent",
     },
     "sdovon_mj.llm_backends": {
         "offline": "sdovon_mj.semantics.backends.offline:OfflineBackend",

@@ -29,6 +29,9 @@ from typing import Any, TypeVar, Union, get_args, get_origin, get_type_hints
 import numpy as np
 
 from .errors import SdovonError
+from .store import dumps
+from .geometry import polygon_area
+from .grid import GridFrame, lookup
 
 T = TypeVar("T", bound="Record")
 
@@ -104,20 +107,31 @@ TAG = "__record__"  # the key naming a record's class in its dict form (fields m
 
 
 class Record:
-    """Base of all records: exact dict/JSON round trips and a class tag."""
+    """Base of all records: exact dict/JSON round trips and a class tag.
 
-    def __init_subclass__(cls, **kwargs: Any) -> None:
+    A record's tag in files is its class name, unless the class keeps an older one: a renamed class
+    declares ``class NewName(Record, tag="OldName")`` so the files it writes keep their bytes and old
+    run folders still load (the tag is a file-format name, stable across renames).
+    """
+
+    _tag: str = ""  # set per class by __init_subclass__
+
+    def __init_subclass__(cls, tag: str | None = None, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        _REGISTRY[cls.__name__] = cls
+        cls._tag = tag or cls.__name__
+        other = _REGISTRY.get(cls._tag)
+        if other is not None and other.__qualname__ != cls.__qualname__:
+            raise TypeError(f"record tag {cls._tag!r} of {cls.__qualname__} is already {other.__qualname__}'s")
+        _REGISTRY[cls._tag] = cls
 
     @classmethod
     def record_type(cls) -> str:
         """Return the record's type name (its tag in files)."""
-        return cls.__name__
+        return cls._tag
 
     def to_dict(self) -> dict[str, Any]:
         """Return the record as JSON-able data (arrays encoded exactly)."""
-        out: dict[str, Any] = {TAG: type(self).__name__}
+        out: dict[str, Any] = {TAG: self.record_type()}
         for f in dataclasses.fields(self):  # type: ignore[arg-type]
             out[f.name] = _encode(getattr(self, f.name))
         return out
@@ -127,9 +141,9 @@ class Record:
         """Rebuild a record from `to_dict` data."""
         if not isinstance(data, dict):
             raise RecordError(f"{cls.__name__}: expected a mapping, got {type(data).__name__}")
-        kind = data.get(TAG, cls.__name__)
-        if kind != cls.__name__:
-            raise RecordError(f"expected a {cls.__name__} record, found {kind}")
+        kind = data.get(TAG, cls.record_type())
+        if kind != cls.record_type():
+            raise RecordError(f"expected a {cls.record_type()} record, found {kind}")
         hints = get_type_hints(cls)
         kwargs = {}
         for f in dataclasses.fields(cls):  # type: ignore[arg-type]
@@ -147,11 +161,6 @@ class Record:
     def from_json(cls: type[T], text: str) -> T:
         """Parse a record from JSON text."""
         return cls.from_dict(json.loads(text))
-
-
-def dumps(data: Any) -> str:
-    """Deterministic JSON text (sorted keys, fixed separators, trailing newline)."""
-    return json.dumps(data, sort_keys=True, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
 
 
 def record_from_dict(data: dict[str, Any]) -> Record:
@@ -275,33 +284,19 @@ class NavMap(Record):
     navigable: np.ndarray  # (H, W) bool, eroded by the agent radius
     free: np.ndarray  # (H, W) bool, floor present and no obstacle (not eroded)
 
-    def world_to_cell(self, xy: np.ndarray) -> np.ndarray:
-        """Return (row, col) integer cells of world XY points (N, 2)."""
-        xy = np.atleast_2d(np.asarray(xy, dtype=float))
-        col = np.floor((xy[:, 0] - self.origin[0]) / self.resolution).astype(int)
-        row = np.floor((xy[:, 1] - self.origin[1]) / self.resolution).astype(int)
-        return np.stack([row, col], axis=1)
-
-    def cell_to_world(self, cells: np.ndarray) -> np.ndarray:
-        """Return world XY centres (N, 2) of (row, col) cells."""
-        cells = np.atleast_2d(np.asarray(cells))
-        x = self.origin[0] + (cells[:, 1] + 0.5) * self.resolution
-        y = self.origin[1] + (cells[:, 0] + 0.5) * self.resolution
-        return np.stack([x, y], axis=1)
+    @property
+    def frame(self) -> GridFrame:
+        """Return the grid frame (grid <-> world conversion) of the map."""
+        return GridFrame(np.asarray(self.origin, dtype=float), float(self.resolution), tuple(self.navigable.shape))
 
     def is_navigable(self, xy: np.ndarray) -> np.ndarray:
         """Return whether world XY points (N, 2) fall on navigable cells."""
-        rc = self.world_to_cell(xy)
-        h, w = self.navigable.shape
-        ok = (rc[:, 0] >= 0) & (rc[:, 0] < h) & (rc[:, 1] >= 0) & (rc[:, 1] < w)
-        out = np.zeros(len(rc), dtype=bool)
-        out[ok] = self.navigable[rc[ok, 0], rc[ok, 1]]
-        return out
+        return lookup(self.navigable, self.frame, xy)
 
 
 @dataclass
-class Viewpoint(Record):
-    """A sampled observation point on a floor."""
+class CoverageView(Record, tag="Viewpoint"):  # tag: the files' name of this record before its rename
+    """A coverage camera position on a floor, sampled by the observe stage (not an episode's goal `ViewPoint`)."""
 
     floor: int
     position: np.ndarray  # (3,) world, camera height included
@@ -377,10 +372,8 @@ class ReceptaclePlane(Record):
 
     @property
     def area(self) -> float:
-        """Return the polygon area (m^2)."""
-        p = np.asarray(self.polygon, dtype=float)
-        x, y = p[:, 0], p[:, 1]
-        return float(0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+        """Return the signed polygon area (m^2, positive when counter-clockwise)."""
+        return polygon_area(self.polygon)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -400,13 +393,17 @@ class RegionMap(Record):
     backend: str = ""  # backend (and model) that proposed the regions
     fallbacks: list[str] = field(default_factory=list)  # questions answered by the fallback backend, and why
 
+    @property
+    def frame(self) -> GridFrame:
+        """Return the grid frame (grid <-> world conversion) of the map (aligned with its floor's NavMap)."""
+        return GridFrame(np.asarray(self.origin, dtype=float), float(self.resolution), tuple(self.label_map.shape))
+
     def region_at(self, xy: np.ndarray) -> str:
         """Return the region label at a world XY point ('' if outside or unknown)."""
-        col = int(np.floor((xy[0] - self.origin[0]) / self.resolution))
-        row = int(np.floor((xy[1] - self.origin[1]) / self.resolution))
-        h, w = self.label_map.shape
-        if 0 <= row < h and 0 <= col < w and self.label_map[row, col] >= 0:
-            return self.labels[int(self.label_map[row, col])]
+        frame = self.frame
+        rc = frame.to_cell(np.asarray(xy, dtype=float)[None, :2])
+        if frame.inside(rc)[0] and self.label_map[rc[0, 0], rc[0, 1]] >= 0:
+            return self.labels[int(self.label_map[rc[0, 0], rc[0, 1]])]
         return ""
 
 
@@ -555,7 +552,7 @@ def save_npz(records: list[Record], path: str | Path) -> None:
     arrays: dict[str, np.ndarray] = {}
     meta = []
     for i, rec in enumerate(records):
-        d = {TAG: type(rec).__name__}
+        d = {TAG: rec.record_type()}
         for f in dataclasses.fields(rec):  # type: ignore[arg-type]
             v = getattr(rec, f.name)
             if isinstance(v, np.ndarray):

@@ -1,30 +1,161 @@
-"""The wiring of the stages into tasks (used by `pipeline`): each stage's public API, run once per fingerprint.
+"""The stage contract: every stage of the pipeline declared once.
 
-This module is the one place that knows every stage; stages themselves only know records, config,
-store and sim. Every stage writes into the run folder layout documented in `pipeline`.
+A `Stage` names its scope (run, scene, variant, export), the marker folder of its outputs in the run folder
+(`key`), the stages whose outputs it reads (`needs`), the config it reads (`sections`: a section such as
+``observe`` or one field such as ``world.floors``), further inputs of its fingerprint (`extra`: seeds, input
+file digests, converter version) and the function that does the work (`make`, returning its output paths).
+From that declaration alone come
+
+- its fingerprint: ``fingerprint(name, needs' fingerprints, sections' values, extra)`` (`stage_fingerprint`);
+- its run-folder paths (``key`` with ``{scene}``, ``{variant}``, ``{fmt}`` filled in) and resume: a stage
+  whose marker holds the same fingerprint (and whose outputs exist) is skipped (`run_stage`);
+- the tasks of `sdovon_mj.pipeline` (a task runs the stages of one scope in declaration order) and the
+  per-stage commands: ``sdovon-mj <stage> RUN_DIR`` runs that stage and the stages it needs through the
+  same tasks as ``generate`` (`closure`), so both write the same bytes.
+
+Stage functions call each stage package's public API with records read through the run view; the stage
+packages know records, config, store and sim, never this module. Seeds come from `sdovon_mj.seeds`.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import json
 import re
 import shutil
+from dataclasses import dataclass, field, is_dataclass
+from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
-from .config import RunConfig, config_hash, to_dict
+from . import plugins
+from .config import RunConfig, to_dict
 from .errors import InputError, StageError
-from .records import (Instance, NavMap, ObjectAsset, ReceptaclePlane, Relevance, SceneAsset, SceneVariant, load_json,
-                      load_npz, save_json, save_npz)
-from .store import Store, file_hash
+from .records import Instance, ReceptaclePlane, Relevance, SceneVariant, load_json, load_npz, save_json, save_npz
+from .runview import RunView
+from .seeds import scene_seed, variant_seed
+from .store import Store, file_hash, fingerprint
+
+SCOPES = ("run", "scene", "variant", "export")
+OBJECT_SUFFIXES = (".obj", ".glb", ".gltf", ".ply", ".stl")
 
 
-def _scene_seed(cfg: RunConfig, scene: str) -> int:
-    """Return the derived seed of a scene."""
-    from .pipeline import derive_seed
+@dataclass
+class StageContext:
+    """What a stage function gets: the run folder, the config, and where in the run it works."""
 
-    return derive_seed(cfg.seed, "scene", scene)
+    store: Store
+    cfg: RunConfig
+    scene: str = ""
+    variant: int = -1
+    fmt: str = ""
+
+    @property
+    def view(self) -> RunView:
+        """Return the read-only run view of the run folder."""
+        return RunView(self.store.root)
+
+    @property
+    def scene_seed(self) -> int:
+        """Return this scene's seed (`sdovon_mj.seeds`)."""
+        return scene_seed(self.cfg.seed, self.scene)
+
+    @property
+    def variant_seed(self) -> int:
+        """Return this variant's seed (`sdovon_mj.seeds`)."""
+        return variant_seed(self.scene_seed, self.variant)
+
+    @property
+    def variant_name(self) -> str:
+        """Return this variant's name (``<scene>_v<index:03d>``)."""
+        return f"{self.scene}_v{self.variant:03d}"
+
+    def key(self, stage: str) -> str:
+        """Return the marker folder (store-relative) of a declared stage in this context."""
+        return STAGES[stage].key.format(scene=self.scene, variant=self.variant_name, fmt=self.fmt)
+
+    @cached_property
+    def inputs(self) -> dict[str, list[str]]:
+        """Return the run's inputs.json ({'scenes': [...], 'objects': [...]}; empty lists: the default world)."""
+        return self.store.read_json("inputs.json")
+
+    def scene_source(self) -> str:
+        """Return this scene's input file ('' for a default-world apartment)."""
+        return scene_inputs(self.store, self.cfg)[self.scene]
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One declared stage. See the module docstring for what derives from the declaration."""
+
+    name: str
+    scope: str
+    key: str
+    needs: tuple[str, ...]
+    sections: tuple[str, ...]
+    outputs: str
+    make: Callable[[StageContext], list[str]]
+    extra: Callable[[StageContext], list[Any]] = field(default=lambda ctx: [])
+    applies: Callable[[StageContext], bool] = field(default=lambda ctx: True)
+    when_sections: Callable[[RunConfig], tuple[str, ...]] = field(default=lambda cfg: ())
+
+    def read_sections(self, cfg: RunConfig) -> tuple[str, ...]:
+        """Return every config section (or field) this stage reads under `cfg`."""
+        return self.sections + tuple(self.when_sections(cfg))
+
+
+def section_value(cfg: RunConfig, name: str) -> Any:
+    """Return the plain value of a config section or dotted field (e.g. ``observe``, ``world.floors``)."""
+    v: Any = cfg
+    for part in name.split("."):
+        v = getattr(v, part)
+    return to_dict(v) if is_dataclass(v) else list(v) if isinstance(v, tuple) else v
+
+
+def stage_fingerprint(stage: Stage, ctx: StageContext) -> str:
+    """Return a stage's fingerprint: its name, what its needs recorded, the config it reads, its extra inputs."""
+    needs = [_recorded_fp(ctx.store, ctx.key(n)) for n in stage.needs]
+    conf = {s: section_value(ctx.cfg, s) for s in stage.read_sections(ctx.cfg)}
+    return fingerprint(stage.name, needs, conf, *stage.extra(ctx))
+
+
+def _recorded_fp(store: Store, key: str) -> str:
+    """Return the fingerprint a finished stage recorded ('' when not finished)."""
+    m = store.mark(key)
+    return m.fingerprint if m else ""
+
+
+def run_stage(name: str, ctx: StageContext, runner: Any) -> bool:
+    """Run a declared stage in a context through `runner` (skipped when done with the same fingerprint).
+
+    Returns whether it ran. A stage that does not apply in this context (e.g. the default-world writer for a
+    scene given as a file) is passed over.
+    """
+    stage = STAGES[name]
+    if not stage.applies(ctx):
+        return False
+    return runner.run(ctx.key(name), stage_fingerprint(stage, ctx), lambda: stage.make(ctx))
+
+
+def closure(names: list[str] | tuple[str, ...]) -> list[str]:
+    """Return the named stages and every stage they need, in declaration order."""
+    want: set[str] = set()
+    todo = list(names)
+    while todo:
+        n = todo.pop()
+        if n not in STAGES:
+            raise StageError(f"unknown stage '{n}' (stages: {', '.join(STAGES)})")
+        if n not in want:
+            want.add(n)
+            todo += STAGES[n].needs
+    return [n for n in STAGES if n in want]
+
+
+def scope_stages(scope: str, selected: list[str] | tuple[str, ...] | None = None) -> list[str]:
+    """Return the stages of a scope in declaration order (only those in `selected`, when given)."""
+    return [n for n, s in STAGES.items() if s.scope == scope and (selected is None or n in selected)]
+
+
+# ----------------------------------------------------------------------------------------------
+# Inputs: scene names and object files
 
 
 def _safe_name(stem: str) -> str:
@@ -54,18 +185,26 @@ def scene_names(store: Store, cfg: RunConfig) -> list[str]:
     return list(scene_inputs(store, cfg))
 
 
-# ----------------------------------------------------------------------------------------------
-# Objects
+def _meta_category(path: Path) -> str | None:
+    """Return the category named by a meta.json beside an object file, if any."""
+    import json
+
+    meta = path.parent / "meta.json"
+    if meta.exists():
+        try:
+            return str(json.loads(meta.read_text(encoding="utf-8"))["category"])
+        except (json.JSONDecodeError, KeyError):
+            return None
+    return None
 
 
-def _object_inputs(store: Store, cfg: RunConfig, runner: Any) -> list[tuple[Path, str | None]]:
-    """Return (object file, category or None) for every input object, writing the default library if needed."""
-    inputs = store.read_json("inputs.json")
-    if inputs["objects"]:
+def _object_files(ctx: StageContext) -> list[tuple[Path, str | None]]:
+    """Return (object file, category or None) for every input object (the default library once written)."""
+    if ctx.inputs["objects"]:
         files: list[tuple[Path, str | None]] = []
-        for p in map(Path, inputs["objects"]):
+        for p in map(Path, ctx.inputs["objects"]):
             if p.is_dir():
-                found = sorted(q for q in p.rglob("*") if q.suffix.lower() in (".obj", ".glb", ".gltf", ".ply", ".stl"))
+                found = sorted(q for q in p.rglob("*") if q.suffix.lower() in OBJECT_SUFFIXES)
                 if not found:
                     raise InputError(p, "folder holds no OBJ/GLB/glTF/PLY/STL object files")
                 files += [(q, _meta_category(q)) for q in found]
@@ -74,27 +213,11 @@ def _object_inputs(store: Store, cfg: RunConfig, runner: Any) -> list[tuple[Path
             else:
                 raise InputError(p, "object file not found")
         return files
-    from .world import write_object_library
-
-    w = cfg.world
-    rel = "inputs/objects"
-
-    def make() -> list[str]:
-        paths = write_object_library(w.object_seed, store.path(rel), variants=w.object_variants,
-                                     categories=list(w.object_categories) or None)
-        return [store.rel(p) for p in paths]
-
-    runner.run(rel, ["object-library", w.object_seed, w.object_variants, list(w.object_categories)], make)
-    mark = store.mark(rel)
-    assert mark is not None
-    return [(store.path(o), _meta_category(store.path(o))) for o in mark.outputs if o.endswith((".obj", ".glb", ".ply"))]
-
-
-def _converter_version() -> str:
-    """Return the converter's output version (a new converter invalidates converted scenes and objects)."""
-    from assets_convert.cache import CONVERTER_VERSION
-
-    return CONVERTER_VERSION
+    mark = ctx.store.mark(ctx.key("world:objects"))
+    if mark is None:
+        raise StageError("the default object library was not written (stage world:objects)")
+    return [(ctx.store.path(o), _meta_category(ctx.store.path(o))) for o in mark.outputs
+            if o.endswith((".obj", ".glb", ".ply"))]
 
 
 def _input_name(store: Store, path: Path) -> str:
@@ -105,385 +228,254 @@ def _input_name(store: Store, path: Path) -> str:
         return str(Path(path).resolve())
 
 
-def _meta_category(path: Path) -> str | None:
-    """Return the category named by a meta.json beside an object file, if any."""
-    meta = path.parent / "meta.json"
-    if meta.exists():
-        try:
-            return str(json.loads(meta.read_text(encoding="utf-8"))["category"])
-        except (json.JSONDecodeError, KeyError):
-            return None
-    return None
-
-
-def objects_task(store: Store, cfg: RunConfig, runner: Any) -> None:
-    """Convert the object library into `objects/<name>/` (+ object.json) and `objects/objects.json`."""
-    items = _object_inputs(store, cfg, runner)
-    # Inputs inside the run folder are named relative to it, so the fingerprint (and the manifest) does
-    # not depend on where the run folder lives.
-    fp = ["objects", _converter_version(), to_dict(cfg.convert), [(_input_name(store, p), c, file_hash(p)) for p, c in items]]
-
-    def make() -> list[str]:
-        import tempfile
-
-        from assets_convert.cache import link_tree
-        from assets_convert.load import display_path
-        from assets_convert.object import load_converted
-        from assets_convert.tree import convert_tree
-
-        assets: list[ObjectAsset] = []
-        failures: dict[str, str] = {}
-        # CoACD runs in convert_tree's process pool (convert.jobs workers, convert.timeout_s per object: a stuck
-        # decomposition is killed and reported; one bad object is reported and the library goes on) into a
-        # scratch folder, so its batch report and a killed worker's temp folder stay out of the run folder;
-        # each converted object is then hard-linked into the run folder
-        with tempfile.TemporaryDirectory(prefix="sdovon-objects-") as scratch:
-            report = convert_tree([p for p, _c in items], scratch, jobs=cfg.convert.jobs, timeout=cfg.convert.timeout_s,
-                                  progress=False, config=cfg.convert, categories={str(p): c for p, c in items if c})
-            rows = {r["file"]: r for r in report["items"]}
-            for path, _category in items:
-                row = rows[display_path(path)]
-                if row["status"] != "ok":
-                    failures[str(path)] = str(row["error"])
-                    continue
-                asset = load_converted(scratch, row["name"])
-                link_tree(Path(scratch) / "objects" / asset.name, store.path(f"objects/{asset.name}"))
-                save_json(asset, store.path(f"objects/{asset.name}/object.json"))
-                assets.append(asset)
-        if not assets:
-            raise StageError("no object converted: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
-        assets.sort(key=lambda a: a.name)
-        save_json(assets, store.path("objects/objects.json"))
-        store.write_json("objects/failures.json", failures)
-        return ["objects/objects.json", "objects/failures.json"] + [f"objects/{a.name}/object.json" for a in assets]
-
-    runner.run("objects", fp, make)
-
-
-def load_objects(store: Store) -> list[ObjectAsset]:
-    """Return the run's converted objects."""
-    return load_json(store.path("objects/objects.json"), ObjectAsset)
+def converter(cfg: RunConfig) -> Any:
+    """Return the converter plugin (kind ``converter``; ``mesh`` is assets_convert's)."""
+    obj = plugins.load("converter", "mesh")
+    return obj() if isinstance(obj, type) else obj
 
 
 # ----------------------------------------------------------------------------------------------
-# Scenes
+# Stage functions (each calls one stage package's public API)
 
 
-def scene_task(store: Store, cfg: RunConfig, runner: Any, scene: str) -> None:
-    """Convert, observe, perceive and annotate one scene (each step skipped when already done)."""
-    src = scene_inputs(store, cfg)[scene]
-    sdir = f"scenes/{scene}"
-    seed = _scene_seed(cfg, scene)
+def _world_objects(ctx: StageContext) -> list[str]:
+    """Write the default world's object library as input files."""
+    from .world import write_object_library
+
+    w = ctx.cfg.world
+    paths = write_object_library(w.object_seed, ctx.store.path(ctx.key("world:objects")), variants=w.object_variants,
+                                 categories=list(w.object_categories) or None)
+    return [ctx.store.rel(p) for p in paths]
+
+
+def _objects(ctx: StageContext) -> list[str]:
+    """Convert the object library into ``objects/<name>/`` (+ object.json) and ``objects/objects.json``."""
+    assets, failures = converter(ctx.cfg).convert_library(_object_files(ctx), ctx.store.root, ctx.cfg.convert)
+    if not assets:
+        raise StageError("no object converted: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
+    save_json(assets, ctx.store.path("objects/objects.json"))
+    ctx.store.write_json("objects/failures.json", failures)
+    return ["objects/objects.json", "objects/failures.json"] + [f"objects/{a.name}/object.json" for a in assets]
+
+
+def _objects_extra(ctx: StageContext) -> list[Any]:
+    """Return the object stage's further inputs: converter version and (name, category, digest) per file."""
+    return [converter(ctx.cfg).version,
+            [(_input_name(ctx.store, p), c, file_hash(p)) for p, c in _object_files(ctx)]]
+
+
+def _world_scene(ctx: StageContext) -> list[str]:
+    """Write a default-world apartment as an input file."""
+    from .world import generate_apartment, write_apartment
+
+    w = ctx.cfg.world
+    rel_dir = ctx.key("world:scene")
+    apt = generate_apartment(_apartment_seed(ctx.scene), floors=w.floors or None)
+    mesh = write_apartment(apt, ctx.store.path(rel_dir), mode=w.scene_mode, name=ctx.scene)
+    return sorted(ctx.store.rel(p) for p in ctx.store.path(rel_dir).iterdir()
+                  if p.is_file() and not p.name.startswith(".")) or [ctx.store.rel(mesh)]
+
+
+def _apartment_seed(scene: str) -> int:
+    """Return the apartment seed of a default-world scene name (``apt_<seed>``)."""
+    return int(scene.split("_")[-1])
+
+
+def scene_file(ctx: StageContext) -> Path:
+    """Return the input file of this context's scene (the written apartment for a default-world scene)."""
+    src = ctx.scene_source()
     if not src:
-        src = _write_world_scene(store, cfg, runner, scene)
-    src_path = Path(src)
-    if not src_path.exists():
-        raise InputError(src_path, "scene file not found")
-
-    def convert() -> list[str]:
-        from assets_convert.scene import convert_scene
-
-        asset = convert_scene(src_path, store.root, name=scene, units=cfg.convert.units, up=cfg.convert.up,
-                              texture_max_size=cfg.convert.texture_max_size)
-        save_json(asset, store.path(f"{sdir}/scene.json"))
-        return [f"{sdir}/scene.json", asset.mjcf, asset.mesh]
-
-    runner.run(f"{sdir}/convert", ["convert-scene", _converter_version(), file_hash(src_path), to_dict(cfg.convert)],
-               convert)
-    asset = load_json(store.path(f"{sdir}/scene.json"), SceneAsset)
-
-    def observe() -> list[str]:
-        from .observe import observe_scene
-
-        summary = observe_scene(asset, store.root, f"{sdir}/observe", cfg.observe, seed=seed)
-        return list(summary["outputs"])
-
-    runner.run(f"{sdir}/observe", ["observe", _fp_of(store, f"{sdir}/convert"), to_dict(cfg.observe), seed], observe)
-
-    def perceive() -> list[str]:
-        from .observe import load_shards
-
-        shards = sorted(store.path(f"{sdir}/observe").glob("*.npz"))
-        # with no prespecified receptacle labels the LLM backend names them (prompt C.1), cached like semantics
-        backend = None if cfg.receptacles.labels else _llm_backend(store, cfg)
-        instances, planes, views = perceive_and_find_planes(load_shards(shards), asset, store.root,
-                                                            load_navmaps(store, scene), cfg, seed, backend)
-        save_npz(instances, store.path(f"{sdir}/perceive/instances.npz"))
-        save_json(planes, store.path(f"{sdir}/perceive/planes.json"))
-        save_targeted_views(views, store.path(f"{sdir}/perceive/targeted_views.json"))
-        return [f"{sdir}/perceive/instances.npz", f"{sdir}/perceive/planes.json",
-                f"{sdir}/perceive/targeted_views.json"]
-
-    runner.run(f"{sdir}/perceive", ["perceive", _fp_of(store, f"{sdir}/observe"), to_dict(cfg.perceive),
-                                    to_dict(cfg.receptacles), seed,
-                                    None if cfg.receptacles.labels else to_dict(cfg.semantics)], perceive)
-
-    def semantics() -> list[str]:
-        from .semantics import region_map, region_picture, relevance
-
-        instances: list[Instance] = load_npz(store.path(f"{sdir}/perceive/instances.npz"))  # type: ignore[assignment]
-        planes: list[ReceptaclePlane] = load_json(store.path(f"{sdir}/perceive/planes.json"), ReceptaclePlane)
-        navmaps = load_navmaps(store, scene)
-        backend = _llm_backend(store, cfg)
-        outs: list[str] = []
-        maps = {}
-        for nm in navmaps:
-            rm = region_map(instances, nm, backend, cfg.semantics)
-            maps[nm.floor] = (nm, rm)
-            rel = f"{sdir}/semantics/regions_{nm.floor}.json"
-            save_json(rm, store.path(rel))
-            region_picture(rm, store.path(f"{sdir}/semantics/regions_{nm.floor}.png"), navmap=nm)
-            outs += [rel, f"{sdir}/semantics/regions_{nm.floor}.png"]
-        annotated = [_annotate_plane(p, maps) for p in planes]
-        save_json(annotated, store.path(f"{sdir}/semantics/planes.json"))
-        categories = sorted({o.category for o in load_objects(store)})
-        regions = sorted({p.region for p in annotated if p.region} | set(cfg.semantics.region_labels))
-        receptacles = sorted({p.label for p in annotated})
-        rel = relevance(categories, regions, receptacles, backend)
-        save_json(rel, store.path(f"{sdir}/semantics/relevance.json"))
-        return outs + [f"{sdir}/semantics/planes.json", f"{sdir}/semantics/relevance.json"]
-
-    runner.run(f"{sdir}/semantics", ["semantics", _fp_of(store, f"{sdir}/perceive"), _fp_of(store, "objects"),
-                                     to_dict(cfg.semantics)], semantics)
+        mark = ctx.store.mark(ctx.key("world:scene"))
+        mesh = [o for o in (mark.outputs if mark else []) if o.endswith((".glb", ".ply")) and not o.endswith(".segs.json")]
+        if not mesh:
+            raise StageError(f"default-world apartment {ctx.scene} wrote no mesh")
+        src = str(ctx.store.path(mesh[0]))
+    path = Path(src)
+    if not path.exists():
+        raise InputError(path, "scene file not found")
+    return path
 
 
-def _llm_backend(store: Store, cfg: RunConfig) -> Any:
+def _convert(ctx: StageContext) -> list[str]:
+    """Convert the scene file into ``scenes/<scene>/`` (scene.json, MJCF, mesh sidecar)."""
+    asset = converter(ctx.cfg).convert_scene(scene_file(ctx), ctx.store.root, ctx.scene, ctx.cfg.convert)
+    save_json(asset, ctx.store.path(f"scenes/{ctx.scene}/scene.json"))
+    return [f"scenes/{ctx.scene}/scene.json", asset.mjcf, asset.mesh]
+
+
+def _observe(ctx: StageContext) -> list[str]:
+    """Floors, navigable maps, coverage view points and RGB-D(+seg) shards of the scene."""
+    from .observe import observe_scene
+
+    summary = observe_scene(ctx.view.scene(ctx.scene), ctx.store.root, ctx.key("observe"), ctx.cfg.observe,
+                            seed=ctx.scene_seed, agent=ctx.cfg.agent)
+    return list(summary["outputs"])
+
+
+def _llm_backend(ctx: StageContext) -> Any:
     """Return the run's LLM backend (replies cached under cache/llm of the run folder when enabled)."""
     from .semantics import get_backend
 
-    return get_backend(cfg.semantics, cache_dir=store.path("cache/llm") if cfg.semantics.cache else None)
+    cfg = ctx.cfg
+    return get_backend(cfg.semantics, cache_dir=ctx.store.path("cache/llm") if cfg.semantics.cache else None)
 
 
-def _write_world_scene(store: Store, cfg: RunConfig, runner: Any, scene: str) -> str:
-    """Write a default-world apartment as an input file; return its path."""
-    from .world import generate_apartment, write_apartment
+def _perceive(ctx: StageContext) -> list[str]:
+    """Fused instances, receptacle planes and targeted views of the scene."""
+    from .observe import load_shards
+    from .perceive.surfaces import perceive_and_find_planes, save_targeted_views
 
-    seed = int(scene.split("_")[-1])
-    rel_dir = f"inputs/scenes/{scene}"
-    w = cfg.world
-
-    def make() -> list[str]:
-        apt = generate_apartment(seed, floors=w.floors or None)
-        mesh = write_apartment(apt, store.path(rel_dir), mode=w.scene_mode, name=scene)
-        return sorted(store.rel(p) for p in store.path(rel_dir).iterdir() if p.is_file() and not p.name.startswith(".")) or [store.rel(mesh)]
-
-    runner.run(rel_dir, ["world-apartment", seed, w.floors, w.scene_mode], make)
-    mark = store.mark(rel_dir)
-    assert mark is not None
-    mesh = [o for o in mark.outputs if o.endswith((".glb", ".ply")) and not o.endswith(".segs.json")]
-    if not mesh:
-        raise StageError(f"default-world apartment {scene} wrote no mesh")
-    return str(store.path(mesh[0]))
+    d = ctx.key("perceive")
+    shards = sorted(ctx.store.path(ctx.key("observe")).glob("*.npz"))
+    # with no prespecified receptacle labels the LLM backend names them (prompt C.1), cached like semantics
+    backend = None if ctx.cfg.receptacles.labels else _llm_backend(ctx)
+    instances, planes, views = perceive_and_find_planes(load_shards(shards), ctx.view.scene(ctx.scene), ctx.store.root,
+                                                        ctx.view.navmaps(ctx.scene), ctx.cfg, ctx.scene_seed, backend)
+    save_npz(instances, ctx.store.path(f"{d}/instances.npz"))
+    save_json(planes, ctx.store.path(f"{d}/planes.json"))
+    save_targeted_views(views, ctx.store.path(f"{d}/targeted_views.json"))
+    return [f"{d}/instances.npz", f"{d}/planes.json", f"{d}/targeted_views.json"]
 
 
-def _plane_floor(height: float, navmaps: list[NavMap]) -> NavMap | None:
-    """Return the navmap of the highest floor at or below a height (None when below every floor)."""
-    below = [nm for nm in navmaps if nm.height <= height + 0.05]
-    return max(below, key=lambda nm: nm.height) if below else None
+def _semantics(ctx: StageContext) -> list[str]:
+    """Region maps per floor, planes with floor and region, relevance of the library's categories."""
+    from .semantics import annotate_planes, region_map, region_picture, relevance
+
+    d, p = ctx.key("semantics"), ctx.key("perceive")
+    instances: list[Instance] = load_npz(ctx.store.path(f"{p}/instances.npz"))  # type: ignore[assignment]
+    planes: list[ReceptaclePlane] = load_json(ctx.store.path(f"{p}/planes.json"), ReceptaclePlane)
+    backend = _llm_backend(ctx)
+    outs: list[str] = []
+    maps = {}
+    for nm in ctx.view.navmaps(ctx.scene):
+        rm = region_map(instances, nm, backend, ctx.cfg.semantics)
+        maps[nm.floor] = (nm, rm)
+        save_json(rm, ctx.store.path(f"{d}/regions_{nm.floor}.json"))
+        region_picture(rm, ctx.store.path(f"{d}/regions_{nm.floor}.png"), navmap=nm)
+        outs += [f"{d}/regions_{nm.floor}.json", f"{d}/regions_{nm.floor}.png"]
+    annotated = annotate_planes(planes, maps)
+    save_json(annotated, ctx.store.path(f"{d}/planes.json"))
+    categories = sorted({o.category for o in ctx.view.object_library()})
+    regions = sorted({p.region for p in annotated if p.region} | set(ctx.cfg.semantics.region_labels))
+    receptacles = sorted({p.label for p in annotated})
+    save_json(relevance(categories, regions, receptacles, backend), ctx.store.path(f"{d}/relevance.json"))
+    return outs + [f"{d}/planes.json", f"{d}/relevance.json"]
 
 
-def view_targets(instances: list[Instance], planes: list[ReceptaclePlane], navmaps: list[NavMap],
-                 labels: tuple[str, ...]) -> list[Any]:
-    """Return a ViewTarget per receptacle plane, and per receptacle instance without planes (its top)."""
-    from .observe.targeted import ViewTarget
-    from .receptacles import receptacle_instances
+def _place(ctx: StageContext) -> list[str]:
+    """Sample, settle and write one variant of the scene."""
+    from .place import place_variant
 
-    by_id = {i.id: i for i in instances}
-    out = []
-    surfaces = [(by_id[p.instance_id], float(p.height)) for p in planes if p.instance_id in by_id]
-    with_planes = {p.instance_id for p in planes}
-    for inst in receptacle_instances(instances, labels):
-        if inst.id not in with_planes and len(inst.points):
-            surfaces.append((inst, float(inst.world_points[:, 2].max())))
-    for inst, h in surfaces:
-        nm = _plane_floor(h, navmaps)
-        if nm is None:
-            continue
-        wp = inst.world_points
-        lo, hi = wp[:, :2].min(axis=0), wp[:, :2].max(axis=0)
-        out.append(ViewTarget(lo=lo, hi=hi, height=h, floor=nm.floor, seen_points=wp))
-    return out
+    s = ctx.key("semantics")
+    planes = load_json(ctx.store.path(f"{s}/planes.json"), ReceptaclePlane)
+    rel = load_json(ctx.store.path(f"{s}/relevance.json"), Relevance)
+    variant = place_variant(ctx.view.scene(ctx.scene), planes, rel, ctx.view.object_library(), ctx.store.root,
+                            ctx.cfg.place, ctx.variant_seed, ctx.variant)
+    return [f"{Path(ctx.key('place')).parent.as_posix()}/variant.json", variant.mjcf]
 
 
-def receptacle_labels(instances: list[Instance], cfg: RunConfig, backend: Any = None) -> tuple[str, ...]:
-    """Return the receptacle labels: the configured ones, or those the LLM backend picks among the instances' (C.1)."""
-    if cfg.receptacles.labels:
-        return tuple(cfg.receptacles.labels)
-    from .semantics import get_backend, identify_receptacles
+def _episodes(ctx: StageContext) -> list[str]:
+    """ObjectNav episodes of one variant."""
+    from .episodes import generate_episodes
 
-    return tuple(identify_receptacles(sorted({i.label for i in instances}), backend or get_backend(cfg.semantics)))
+    vdir = Path(ctx.key("episodes")).parent.as_posix()
+    variant = load_json(ctx.store.path(f"{vdir}/variant.json"), SceneVariant)
+    eps = generate_episodes(variant, ctx.view.navmaps(ctx.scene), ctx.store.root, ctx.cfg.episodes, ctx.variant_seed,
+                            agent=ctx.cfg.agent)
+    save_json(eps, ctx.store.path(f"{vdir}/episodes.json"))
+    return [f"{vdir}/episodes.json"]
 
 
-def perceive_and_find_planes(observations: Any, scene: SceneAsset, store_root: str | Path, navmaps: list[NavMap],
-                             cfg: RunConfig, seed: int, backend: Any = None
-                             ) -> tuple[list[Instance], list[ReceptaclePlane], list[Any]]:
-    """Perceive a scene's observations, look again at its receptacle surfaces (targeted views), find their planes.
+def _export(ctx: StageContext) -> list[str]:
+    """Run one exporter plugin into ``export/<fmt>/`` (replaced whole: our own folder)."""
+    from .export import ExportOptions, make_exporter, run_export
 
-    Returns the fused instances, the receptacle planes and the targeted camera poses (T_cam, world <- OpenCV).
-    With observe.targeted_views = 0 this is perceive + planes on the coverage views alone (the paper's). With
-    receptacles.labels empty the LLM `backend` (default: the semantics config's) names the receptacles.
+    out = ctx.store.path(f"export/{ctx.fmt}")
+    if out.exists():
+        shutil.rmtree(out)
+    report = run_export(make_exporter(ctx.fmt), ctx.view, out, ExportOptions(name=ctx.cfg.name, split=ctx.cfg.split))
+    ctx.store.write_json(f"export/{ctx.fmt}.report.json", {"format": report.format, "variants": report.variants,
+                                                           "skipped": report.skipped, "episodes": report.episodes})
+    return [f"export/{ctx.fmt}.report.json"] + [f"export/{ctx.fmt}/{f}" for f in report.files]
+
+
+# ----------------------------------------------------------------------------------------------
+# The declarations (order = the order stages run in within a task)
+
+_DECLARED = [
+    Stage("world:objects", "run", "inputs/objects", (), ("world.object_seed", "world.object_variants", "world.object_categories"),
+          "the default world's object library as input files (only when no --objects are given)",
+          _world_objects, applies=lambda ctx: not ctx.inputs["objects"]),
+    Stage("objects", "run", "objects", ("world:objects",), ("convert",),
+          "objects/objects.json (list[ObjectAsset]), objects/failures.json, objects/<name>/ (MJCF, hulls, textures)",
+          _objects, extra=_objects_extra),
+    Stage("world:scene", "scene", "inputs/scenes/{scene}", (), ("world.floors", "world.scene_mode"),
+          "a default-world apartment as an input file (only for default-world scenes)",
+          _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)], applies=lambda ctx: not ctx.scene_source()),
+    Stage("convert", "scene", "scenes/{scene}/convert", ("world:scene",), ("convert",),
+          "scenes/<scene>/scene.json (SceneAsset), its MJCF and mesh sidecar",
+          _convert, extra=lambda ctx: [converter(ctx.cfg).version, file_hash(scene_file(ctx))]),
+    Stage("observe", "scene", "scenes/{scene}/observe", ("convert",),
+          ("observe", "agent.radius", "agent.height", "agent.camera_height", "agent.hfov"),
+          "navmap_<floor>.json, viewpoints.json, obs_*.npz shards, pictures",
+          _observe, extra=lambda ctx: [ctx.scene_seed]),
+    Stage("perceive", "scene", "scenes/{scene}/perceive", ("observe",),
+          ("observe", "perceive", "receptacles", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
+          "instances.npz, planes.json, targeted_views.json",
+          _perceive, extra=lambda ctx: [ctx.scene_seed],
+          when_sections=lambda cfg: () if cfg.receptacles.labels else ("semantics",)),
+    Stage("semantics", "scene", "scenes/{scene}/semantics", ("perceive", "objects"), ("semantics",),
+          "regions_<floor>.json + .png, planes.json (with floor and region), relevance.json",
+          _semantics),
+    Stage("place", "variant", "scenes/{scene}/variants/{variant}/place", ("semantics", "objects"), ("place",),
+          "variant.json (SceneVariant) and the composed variant MJCF",
+          _place, extra=lambda ctx: [ctx.variant_seed]),
+    Stage("episodes", "variant", "scenes/{scene}/variants/{variant}/episodes", ("place",),
+          ("episodes", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
+          "episodes.json (list[Episode])",
+          _episodes, extra=lambda ctx: [ctx.variant_seed]),
+    Stage("export", "export", "export/{fmt}.stage", (), ("name", "split", "episodes"),
+          "export/<fmt>/ (the exporter plugin's files), export/<fmt>.report.json",
+          _export, extra=lambda ctx: [ctx.fmt, ctx.view.run_id()]),
+]
+STAGES: dict[str, Stage] = {s.name: s for s in _DECLARED}
+# the commands `sdovon-mj <stage>` (world writers, conversion and export have their own: world, convert, export)
+COMMAND_STAGES = ("observe", "perceive", "semantics", "place", "episodes")
+
+
+def describe() -> str:
+    """Return a table of the declared stages (name, scope, needs, config read, outputs)."""
+    rows = [f"{'stage':<14}{'scope':<9}{'needs':<22}{'config':<38}outputs"]
+    for s in STAGES.values():
+        rows.append(f"{s.name:<14}{s.scope:<9}{','.join(s.needs) or '-':<22}{','.join(s.sections) or '-':<38}{s.outputs}")
+    return "\n".join(rows)
+
+
+def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str = "", variant: int = -1, fmt: str = "",
+             selected: list[str] | tuple[str, ...] | None = None) -> None:
+    """Run the (selected) stages of one scope in declaration order, in one context.
+
+    Parameters
+    ----------
+    store : Store
+        The run folder.
+    cfg : RunConfig
+        The run's config.
+    runner : StageRunner
+        Runs a stage once per fingerprint and records seconds (`sdovon_mj.pipeline.StageRunner`).
+    scope : str
+        ``run``, ``scene``, ``variant`` or ``export``.
+    scene, variant, fmt : str, int, str
+        Where in the run: the scene name, the variant index, the export format.
+    selected : sequence of str, optional
+        Only these stages (default: every stage of the scope).
     """
-    from .observe import load_model, make_renderer
-    from .observe.targeted import plan_target_views, render_poses
-    from .perceive import perceive_scene
-    from .receptacles import find_receptacle_planes
-
-    ocfg = cfg.observe
-    poses: list[Any] = []
-
-    def look_again(first: list[Instance], next_view: int) -> Any:
-        labels = receptacle_labels(first, cfg, backend)
-        targets = view_targets(first, find_receptacle_planes(first, cfg.receptacles, labels), navmaps, labels)
-        if not targets:
-            return
-        model = load_model(scene, store_root)
-        small = dataclasses.replace(ocfg, width=int(ocfg.targeted_width),
-                                    height=max(1, round(ocfg.targeted_width * ocfg.height / ocfg.width)))
-        r = make_renderer(model, small)
-        try:
-            poses.extend(plan_target_views(r, navmaps, targets, ocfg))
-        finally:
-            r.close()
-        if not poses:
-            return
-        r = make_renderer(model, ocfg)
-        try:
-            yield from render_poses(r, poses, ocfg, start_view_id=next_view)
-        finally:
-            r.close()
-
-    instances = perceive_scene(observations, scene, cfg.perceive, seed=seed,
-                               look_again=look_again if ocfg.targeted_views > 0 else None)
-    return instances, find_receptacle_planes(instances, cfg.receptacles, receptacle_labels(instances, cfg, backend)), poses
+    if scope not in SCOPES:
+        raise StageError(f"unknown stage scope '{scope}' ({', '.join(SCOPES)})")
+    ctx = StageContext(store, cfg, scene, variant, fmt)
+    for name in scope_stages(scope, selected):
+        run_stage(name, ctx, runner)
 
 
-def save_targeted_views(poses: list[Any], path: Path) -> None:
-    """Write targeted camera poses (T_cam rows, each value rounded to 6 decimals) as JSON."""
-    import numpy as np
-
-    from .store import atomic_write_text
-
-    rows = [[[round(float(x), 6) for x in row] for row in np.asarray(T, float)] for T in poses]
-    atomic_write_text(path, json.dumps({"T_cam": rows}, indent=None) + "\n")
-
-
-def _fp_of(store: Store, stage: str) -> str:
-    """Return the fingerprint a finished stage recorded ('' when not finished)."""
-    m = store.mark(stage)
-    return m.fingerprint if m else ""
-
-
-def _annotate_plane(plane: ReceptaclePlane, maps: dict[int, tuple[NavMap, Any]]) -> ReceptaclePlane:
-    """Return the plane with its floor (nearest floor below it) and region (region map at its centre)."""
-    below = _plane_floor(plane.height, [nm for nm, _rm in maps.values()])
-    floor = below.floor if below is not None else plane.floor
-    region = plane.region
-    if floor in maps:
-        import numpy as np
-
-        rm = maps[floor][1]
-        region = rm.region_at(np.asarray(plane.polygon, float).mean(axis=0)) or _nearest_region(rm, plane) or region
-    return dataclasses.replace(plane, floor=floor, region=region)
-
-
-def _nearest_region(rm: Any, plane: ReceptaclePlane) -> str:
-    """Return the region label of the labelled cell nearest to a plane's centre ('' if none)."""
-    import numpy as np
-
-    rows, cols = np.nonzero(rm.label_map >= 0)
-    if len(rows) == 0:
-        return ""
-    c = np.asarray(plane.polygon, float).mean(axis=0)
-    xy = np.stack([rm.origin[0] + (cols + 0.5) * rm.resolution, rm.origin[1] + (rows + 0.5) * rm.resolution], 1)
-    k = int(np.argmin(((xy - c) ** 2).sum(1)))
-    return rm.labels[int(rm.label_map[rows[k], cols[k]])]
-
-
-def load_navmaps(store: Store, scene: str) -> list[NavMap]:
-    """Return a scene's NavMaps sorted by floor."""
-    maps = [load_json(p, NavMap) for p in sorted(store.path(f"scenes/{scene}/observe").glob("navmap_*.json"))]
-    return sorted(maps, key=lambda m: m.floor)
-
-
-# ----------------------------------------------------------------------------------------------
-# Variants
-
-
-def variant_task(store: Store, cfg: RunConfig, runner: Any, scene: str, index: int) -> None:
-    """Place, settle and derive episodes for one variant of a scene."""
-    from .place import variant_seed
-
-    sdir = f"scenes/{scene}"
-    name = f"{scene}_v{index:03d}"
-    vdir = f"{sdir}/variants/{name}"
-    seed = variant_seed(_scene_seed(cfg, scene), index)
-
-    def place() -> list[str]:
-        from .place import place_variant
-
-        asset = load_json(store.path(f"{sdir}/scene.json"), SceneAsset)
-        planes = load_json(store.path(f"{sdir}/semantics/planes.json"), ReceptaclePlane)
-        rel = load_json(store.path(f"{sdir}/semantics/relevance.json"), Relevance)
-        variant = place_variant(asset, planes, rel, load_objects(store), store.root, cfg.place, seed, index)
-        return [f"{vdir}/variant.json", variant.mjcf]
-
-    runner.run(f"{vdir}/place", ["place", _fp_of(store, f"{sdir}/semantics"), _fp_of(store, "objects"),
-                                 to_dict(cfg.place), seed], place)
-
-    def episodes() -> list[str]:
-        from .episodes import generate_episodes
-
-        variant = load_json(store.path(f"{vdir}/variant.json"), SceneVariant)
-        eps = generate_episodes(variant, load_navmaps(store, scene), store.root, cfg.episodes, seed)
-        save_json(eps, store.path(f"{vdir}/episodes.json"))
-        return [f"{vdir}/episodes.json"]
-
-    runner.run(f"{vdir}/episodes", ["episodes", _fp_of(store, f"{vdir}/place"), to_dict(cfg.episodes), seed], episodes)
-
-
-# ----------------------------------------------------------------------------------------------
-# Export and statistics
-
-
-def export_task(store: Store, cfg: RunConfig, runner: Any, fmt: str) -> None:
-    """Run one exporter plugin into `export/<fmt>/` (redone whenever the run's records change)."""
-    from exporters.base import ExportOptions, RunView, run_export
-
-    from . import plugins
-
-    view = RunView(store.root)
-    out = store.path(f"export/{fmt}")
-
-    def make() -> list[str]:
-        if out.exists():
-            shutil.rmtree(out)  # our own folder: an older export of this run is replaced whole
-        exporter = plugins.load("exporter", fmt)()
-        report = run_export(exporter, view, out, ExportOptions(name=cfg.name, split=cfg.split))
-        store.write_json(f"export/{fmt}.report.json", {"format": report.format, "variants": report.variants,
-                                                       "skipped": report.skipped, "episodes": report.episodes})
-        return [f"export/{fmt}.report.json"] + [f"export/{fmt}/{f}" for f in report.files]
-
-    runner.run(f"export/{fmt}.stage", ["export", fmt, view.run_id(), cfg.name, cfg.split, config_hash(cfg.episodes)], make)
-
-
-def write_statistics(store: Store, cfg: RunConfig, summary: Any) -> None:
-    """Write dataset statistics, tables and charts into `stats/`."""
-    from . import stats
-
-    stats.write_statistics(store.root)
-
-
-def summary_table(summary: Any) -> str:
-    """Return the end-of-run summary (scenes, variants, categories, episodes, rejections, seconds per stage)."""
-    from . import stats
-
-    st = stats.dataset_statistics(Path(summary.run_root))
-    lines = [stats.summary_table(st), "", "seconds per stage (this run; 0 = skipped, already done):"]
-    for k, v in sorted(summary.seconds.items(), key=lambda kv: -kv[1]):
-        lines.append(f"  {k:<12} {v:8.2f}")
-    if summary.failures:
-        lines.append("")
-        lines.append("failed tasks:")
-        for r in summary.failures:
-            lines.append(f"  {r.spec.label}: {r.error}")
-    return "\n".join(lines)
+__all__ = ["COMMAND_STAGES", "STAGES", "SCOPES", "Stage", "StageContext", "closure", "converter", "describe", "run_stage",
+           "run_task", "scene_inputs", "scene_names", "scope_stages", "section_value", "stage_fingerprint"]

@@ -1,6 +1,6 @@
 """Dataset statistics of a run folder: tables like the paper's tables 1-2 and category charts like its figures 4-7.
 
-Reads only the run folder's records (layout: ``exporters/base.py`` and ``pipeline.py`` docstrings)::
+Reads only the run folder's records (layout: ``sdovon_mj/runview.py``)::
 
     scenes/<scene>/scene.json                              SceneAsset
     scenes/<scene>/observe/navmap_<floor>.json             NavMap
@@ -24,12 +24,14 @@ import io
 import math
 import re
 from collections import Counter
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
 from .errors import InputError
+from .geometry import polygon_area
 from .records import (
     Episode,
     NavMap,
@@ -165,42 +167,57 @@ def _ratio(a: float, b: float) -> float:
 
 
 # ----------------------------------------------------------------------------------------------
-# Statistics
+# Statistics of one scene
 
 
-def _scene_stats(root: Path, scene_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Return one scene's statistics and the raw data the run totals need."""
-    scene: SceneAsset | None = _read(scene_dir / "scene.json", SceneAsset) if (scene_dir / "scene.json").is_file() else None
-    name = scene.name if scene is not None else scene_dir.name
-    navmaps = [_read(p, NavMap) for p in sorted((scene_dir / "observe").glob("navmap_*.json"), key=_floor_of)]
-    nav_area = sum(float(np.count_nonzero(m.navigable)) * float(m.resolution) ** 2 for m in navmaps)
-    free_area = sum(float(np.count_nonzero(m.free)) * float(m.resolution) ** 2 for m in navmaps)
-    inst_label = {i.id: i.label for i in scene.instances} if scene is not None else {}
+def _scene_dirs(root: Path) -> list[Path]:
+    """Return the run's scene folders, sorted (none when it has no scenes/ folder)."""
+    return sorted(p for p in (root / "scenes").glob("*") if p.is_dir()) if (root / "scenes").is_dir() else []
 
+
+def _navmaps(scene_dir: Path) -> list[NavMap]:
+    """Return a scene's navigation maps by floor."""
+    return [_read(p, NavMap) for p in sorted((scene_dir / "observe").glob("navmap_*.json"), key=_floor_of)]
+
+
+def _area_m2(mask: np.ndarray, resolution: float) -> float:
+    """Return the area in m^2 of the true cells of a grid mask with `resolution` metres per cell."""
+    return float(np.count_nonzero(mask)) * float(resolution) ** 2
+
+
+def _scene_planes(scene_dir: Path, scene: SceneAsset | None,
+                  inst_label: dict[int, str]) -> tuple[str, list[tuple[int, str, float]]]:
+    """Return where a scene's receptacle planes come from and (id, label, area m^2) of each.
+
+    Perceived planes when the perceive stage wrote them, else the scene's ground-truth support surfaces.
+    """
     planes_path = scene_dir / "perceive" / "planes.json"
     if planes_path.is_file():
-        planes_src = "perceive"
-        planes = [(p.id, p.label or inst_label.get(p.instance_id, UNKNOWN), float(abs(p.area))) for p in _read_list(planes_path, ReceptaclePlane)]
-    elif scene is not None and scene.support_surfaces:
-        planes_src = "ground_truth"
+        return "perceive", [(p.id, p.label or inst_label.get(p.instance_id, UNKNOWN), float(abs(p.area)))
+                            for p in _read_list(planes_path, ReceptaclePlane)]
+    if scene is not None and scene.support_surfaces:
         planes = []
         for k, s in enumerate(scene.support_surfaces):
-            poly = np.asarray(s.polygon, dtype=float)
-            area = 0.5 * abs(float(np.dot(poly[:, 0], np.roll(poly[:, 1], -1)) - np.dot(poly[:, 1], np.roll(poly[:, 0], -1)))) if len(poly) >= 3 else 0.0
-            planes.append((k, inst_label.get(s.instance_id, UNKNOWN), area))
-    else:
-        planes_src, planes = "none", []
-    plane_label = {pid: label for pid, label, _ in planes}
+            planes.append((k, inst_label.get(s.instance_id, UNKNOWN), abs(polygon_area(s.polygon))))
+        return "ground_truth", planes
+    return "none", []
 
-    region_labels: set[str] = set()
-    region_backends: set[str] = set()
+
+def _scene_regions(scene_dir: Path) -> tuple[set[str], set[str]]:
+    """Return the region labels present in a scene's region maps and the backends that labelled them."""
+    labels: set[str] = set()
+    backends: set[str] = set()
     for p in sorted((scene_dir / "semantics").glob("regions_*.json"), key=_floor_of):
         rm = _read(p, RegionMap)
         present = np.unique(np.asarray(rm.label_map))
-        region_labels.update(rm.labels[int(i)] for i in present if 0 <= int(i) < len(rm.labels))
+        labels.update(rm.labels[int(i)] for i in present if 0 <= int(i) < len(rm.labels))
         if rm.backend:
-            region_backends.add(rm.backend)
+            backends.add(rm.backend)
+    return labels, backends
 
+
+def _scene_variants(scene_dir: Path, plane_label: dict[int, str], inst_label: dict[int, str]) -> list[dict[str, Any]]:
+    """Return a scene's variants: name, placements, each placement's receptacle label and episodes."""
     variants: list[dict[str, Any]] = []
     vroot = scene_dir / "variants"
     vdirs = sorted({p.parent for p in vroot.glob("*/variant.json")} | {p.parent for p in vroot.glob("*/episodes.json")})
@@ -216,14 +233,23 @@ def _scene_stats(root: Path, scene_dir: Path) -> tuple[dict[str, Any], dict[str,
             "episodes": episodes,
             "has_episodes": (vdir / "episodes.json").is_file(),
         })
+    return variants
 
-    n_eps = sum(len(v["episodes"]) for v in variants)
+
+def _scene_stats(scene_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Return one scene's statistics and the raw data the run totals need (planes, variants, regions)."""
+    scene: SceneAsset | None = _read(scene_dir / "scene.json", SceneAsset) if (scene_dir / "scene.json").is_file() else None
+    navmaps = _navmaps(scene_dir)
+    inst_label = {i.id: i.label for i in scene.instances} if scene is not None else {}
+    planes_src, planes = _scene_planes(scene_dir, scene, inst_label)
+    region_labels, region_backends = _scene_regions(scene_dir)
+    variants = _scene_variants(scene_dir, {pid: label for pid, label, _ in planes}, inst_label)
     stats = {
-        "name": name,
+        "name": scene.name if scene is not None else scene_dir.name,
         "floors": len(scene.floors) if scene is not None else len(navmaps),
         "navmaps": len(navmaps),
-        "navigable_area_m2": nav_area,
-        "free_area_m2": free_area,
+        "navigable_area_m2": sum(_area_m2(m.navigable, m.resolution) for m in navmaps),
+        "free_area_m2": sum(_area_m2(m.free, m.resolution) for m in navmaps),
         "instances": len(scene.instances) if scene is not None else 0,
         "rooms": len(scene.rooms) if scene is not None else 0,
         "receptacle_planes": len(planes),
@@ -234,134 +260,191 @@ def _scene_stats(root: Path, scene_dir: Path) -> tuple[dict[str, Any], dict[str,
         "region_backends": sorted(region_backends),
         "variants": sum(1 for v in variants if v["has_variant"]),
         "placed_objects": sum(1 for v in variants for p in v["placements"] if p.status == "resting"),
-        "episodes": n_eps,
+        "episodes": sum(len(v["episodes"]) for v in variants),
     }
     raw = {"planes": planes, "variants": variants, "regions": region_labels}
     return stats, raw
 
 
-def dataset_statistics(run_root: Path) -> dict:
-    """Return the run folder's dataset statistics (counts, distances, frequencies, placement outcomes)."""
-    root = Path(run_root)
-    scene_dirs = sorted(p for p in (root / "scenes").glob("*") if p.is_dir()) if (root / "scenes").is_dir() else []
-    scenes, raws = [], []
-    for d in scene_dirs:
-        s, r = _scene_stats(root, d)
-        scenes.append(s)
-        raws.append(r)
-    objects = _objects(root)
-    cfg = _config_info(root)
+# ----------------------------------------------------------------------------------------------
+# Run totals
 
-    placed_cat, placed_var, goal_cat, rec_place, rec_planes, regions_place = Counter(), Counter(), Counter(), Counter(), Counter(), Counter()
-    by_status, rejected = Counter(), Counter()
-    placed_assets: set[str] = set()
-    region_labels: set[str] = set()
-    geo, euc, ratio, goals_per_ep, vps_per_goal = [], [], [], [], []
-    eps_per_variant: list[int] = []
-    cats_per_variant: list[int] = []
-    objs_per_variant: list[int] = []
-    n_variants = n_variants_with_eps = 0
+
+@dataclass
+class _Tally:
+    """Counts and per-episode values gathered over every scene's variants (in scene, variant order)."""
+
+    placed_cat: Counter = field(default_factory=Counter)  # category -> resting placements
+    placed_var: Counter = field(default_factory=Counter)  # category -> variants with it resting
+    goal_cat: Counter = field(default_factory=Counter)  # category -> episodes with it as goal
+    rec_place: Counter = field(default_factory=Counter)  # receptacle label -> resting placements
+    rec_planes: Counter = field(default_factory=Counter)  # receptacle label -> planes
+    regions_place: Counter = field(default_factory=Counter)  # region -> resting placements
+    by_status: Counter = field(default_factory=Counter)
+    rejected: Counter = field(default_factory=Counter)  # rejection_key -> placements
+    placed_assets: set[str] = field(default_factory=set)
+    region_labels: set[str] = field(default_factory=set)
+    geo: list[float] = field(default_factory=list)  # geodesic distance per episode, metres
+    euc: list[float] = field(default_factory=list)  # euclidean distance per episode, metres
+    ratio: list[float] = field(default_factory=list)  # euclidean / geodesic per episode
+    goals_per_ep: list[int] = field(default_factory=list)
+    vps_per_goal: list[int] = field(default_factory=list)
+    eps_per_variant: list[int] = field(default_factory=list)
+    cats_per_variant: list[int] = field(default_factory=list)
+    objs_per_variant: list[int] = field(default_factory=list)
+    n_variants: int = 0
+    n_variants_with_eps: int = 0
+
+
+def _count_placements(t: _Tally, v: dict[str, Any]) -> None:
+    """Add one variant's placements (outcomes, categories, receptacles, regions) to the tally."""
+    if v["has_variant"]:
+        t.n_variants += 1
+        resting = [p for p in v["placements"] if p.status == "resting"]
+        t.objs_per_variant.append(len(resting))
+        t.placed_var.update({p.category for p in resting})
+    for p, rec in zip(v["placements"], v["receptacles"]):
+        t.by_status[p.status] += 1
+        if p.status == "resting":
+            t.placed_cat[p.category] += 1
+            t.placed_assets.add(p.asset)
+            t.rec_place[rec] += 1
+            t.regions_place[p.region or UNKNOWN] += 1
+        else:
+            t.rejected[rejection_key(p)] += 1
+
+
+def _count_episodes(t: _Tally, v: dict[str, Any]) -> None:
+    """Add one variant's episodes (goal categories, distances, goals and view points) to the tally."""
+    if v["has_episodes"]:
+        t.n_variants_with_eps += 1
+        t.eps_per_variant.append(len(v["episodes"]))
+        t.cats_per_variant.append(len({e.object_category for e in v["episodes"]}))
+    for e in v["episodes"]:
+        t.goal_cat[e.object_category] += 1
+        t.geo.append(float(e.geodesic_distance))
+        t.euc.append(float(e.euclidean_distance))
+        if e.geodesic_distance > 0:
+            t.ratio.append(float(e.euclidean_distance) / float(e.geodesic_distance))
+        t.goals_per_ep.append(len(e.goals))
+        t.vps_per_goal.extend(len(g.view_points) for g in e.goals)
+
+
+def _tally(raws: list[dict[str, Any]]) -> _Tally:
+    """Return the counts over every scene's planes, regions and variants."""
+    t = _Tally()
     for raw in raws:
-        rec_planes.update(label for _, label, _ in raw["planes"])
-        region_labels |= raw["regions"]
+        t.rec_planes.update(label for _, label, _ in raw["planes"])
+        t.region_labels |= raw["regions"]
         for v in raw["variants"]:
-            if v["has_variant"]:
-                n_variants += 1
-                resting = [p for p in v["placements"] if p.status == "resting"]
-                objs_per_variant.append(len(resting))
-                placed_var.update({p.category for p in resting})
-            for p, rec in zip(v["placements"], v["receptacles"]):
-                by_status[p.status] += 1
-                if p.status == "resting":
-                    placed_cat[p.category] += 1
-                    placed_assets.add(p.asset)
-                    rec_place[rec] += 1
-                    regions_place[p.region or UNKNOWN] += 1
-                else:
-                    rejected[rejection_key(p)] += 1
-            if v["has_episodes"]:
-                n_variants_with_eps += 1
-                eps_per_variant.append(len(v["episodes"]))
-                cats_per_variant.append(len({e.object_category for e in v["episodes"]}))
-            for e in v["episodes"]:
-                goal_cat[e.object_category] += 1
-                geo.append(float(e.geodesic_distance))
-                euc.append(float(e.euclidean_distance))
-                if e.geodesic_distance > 0:
-                    ratio.append(float(e.euclidean_distance) / float(e.geodesic_distance))
-                goals_per_ep.append(len(e.goals))
-                vps_per_goal.extend(len(g.view_points) for g in e.goals)
+            _count_placements(t, v)
+            _count_episodes(t, v)
+    return t
 
-    n_eps = len(geo)
-    n_scenes = len(scenes)
-    scenes_with_variants = sum(1 for s in scenes if s["variants"] > 0)
-    # N = k_s * k_v * n_c * k_e with measured factors: k_s scenes with variants, k_v variants per such scene,
-    # n_c mean goal categories per variant, k_e episodes per (variant, category); their product is N.
-    cat_slots = sum(cats_per_variant)
-    k_s = scenes_with_variants
-    k_v = _ratio(n_variants, k_s)
-    n_c = _ratio(cat_slots, n_variants)
-    k_e = _ratio(n_eps, cat_slots)
+
+def _totals(scenes: list[dict[str, Any]], t: _Tally, objects: list[ObjectAsset]) -> dict[str, Any]:
+    """Return the run totals (paper tables 1-2 quantities)."""
+    n_eps = len(t.geo)
+    return {
+        "scenes": len(scenes),
+        "scenes_with_variants": sum(1 for s in scenes if s["variants"] > 0),
+        "floors": sum(s["floors"] for s in scenes),
+        "navigable_area_m2": sum(s["navigable_area_m2"] for s in scenes),
+        "free_area_m2": sum(s["free_area_m2"] for s in scenes),
+        "receptacle_planes": sum(t.rec_planes.values()),
+        "receptacle_categories": len(t.rec_planes),
+        "regions": sum(s["regions"] for s in scenes),
+        "region_labels": len(t.region_labels),
+        "variants": t.n_variants,
+        "variants_with_episodes": t.n_variants_with_eps,
+        "placements": sum(t.by_status.values()),
+        "placed_objects": sum(t.placed_cat.values()),
+        "placed_object_assets": len(t.placed_assets),
+        "placed_categories": len(t.placed_cat),
+        "objects_rejected": sum(t.rejected.values()),
+        "object_assets": len(objects),
+        "object_categories": len({o.category for o in objects}),
+        "episodes": n_eps,
+        "goal_categories": len(t.goal_cat),
+        "mean_episodes_per_variant": _ratio(n_eps, t.n_variants_with_eps),
+        "mean_placed_objects_per_variant": _ratio(sum(t.objs_per_variant), len(t.objs_per_variant)),
+    }
+
+
+def _tally_table(t: _Tally, fn: Callable[[Any], dict], fields: tuple[tuple[str, str], ...]) -> dict[str, dict]:
+    """Return {key: fn(tally attribute)} for each (key, attribute name) of `fields`, in that order."""
+    return {key: fn(getattr(t, attr)) for key, attr in fields}
+
+
+_EPISODE_SUMMARIES = (("geodesic_distance_m", "geo"), ("euclidean_distance_m", "euc"),
+                      ("euclidean_geodesic_ratio", "ratio"), ("goals_per_episode", "goals_per_ep"),
+                      ("view_points_per_goal", "vps_per_goal"))
+_FREQUENCIES = (("placed_categories", "placed_cat"), ("variants_with_category", "placed_var"),
+                ("goal_categories", "goal_cat"), ("receptacle_categories", "rec_place"),
+                ("receptacle_planes", "rec_planes"), ("placement_regions", "regions_place"))
+
+
+def _episode_summaries(t: _Tally) -> dict[str, dict[str, float]]:
+    """Return mean/min/max of the episodes' distances (metres), goals and view points."""
+    return _tally_table(t, _summary, _EPISODE_SUMMARIES)
+
+
+def _episode_formula(scenes: list[dict[str, Any]], t: _Tally, cfg: dict[str, Any]) -> dict[str, Any]:
+    """Return the measured factors of N = k_s * k_v * n_c * k_e and the configured k_e, k_v.
+
+    k_s: scenes with variants; k_v: variants per such scene; n_c: mean goal categories per variant;
+    k_e: episodes per (variant, category). Their product is the episode count.
+    """
+    cat_slots = sum(t.cats_per_variant)
+    k_s = sum(1 for s in scenes if s["variants"] > 0)
+    k_v = _ratio(t.n_variants, k_s)
+    n_c = _ratio(cat_slots, t.n_variants)
+    k_e = _ratio(len(t.geo), cat_slots)
+    return {"k_s": k_s, "k_v": k_v, "n_c": n_c, "k_e": k_e, "N": k_s * k_v * n_c * k_e,
+            "k_e_config": cfg.get("k_e", 0), "k_v_config": cfg.get("k_v", 0)}
+
+
+def _library(objects: list[ObjectAsset]) -> dict[str, Any]:
+    """Return the object library by source (instances, categories) and its category counts."""
     lib_sources: dict[str, dict[str, Any]] = {}
     for o in objects:
         src = o.source or UNKNOWN
         entry = lib_sources.setdefault(src, {"instances": 0, "categories": set()})
         entry["instances"] += 1
         entry["categories"].add(o.category)
-
-    stats = {
-        "dataset": cfg.get("name", "sdovon"),
-        "totals": {
-            "scenes": n_scenes,
-            "scenes_with_variants": scenes_with_variants,
-            "floors": sum(s["floors"] for s in scenes),
-            "navigable_area_m2": sum(s["navigable_area_m2"] for s in scenes),
-            "free_area_m2": sum(s["free_area_m2"] for s in scenes),
-            "receptacle_planes": sum(rec_planes.values()),
-            "receptacle_categories": len(rec_planes),
-            "regions": sum(s["regions"] for s in scenes),
-            "region_labels": len(region_labels),
-            "variants": n_variants,
-            "variants_with_episodes": n_variants_with_eps,
-            "placements": sum(by_status.values()),
-            "placed_objects": sum(placed_cat.values()),
-            "placed_object_assets": len(placed_assets),
-            "placed_categories": len(placed_cat),
-            "objects_rejected": sum(rejected.values()),
-            "object_assets": len(objects),
-            "object_categories": len({o.category for o in objects}),
-            "episodes": n_eps,
-            "goal_categories": len(goal_cat),
-            "mean_episodes_per_variant": _ratio(n_eps, n_variants_with_eps),
-            "mean_placed_objects_per_variant": _ratio(sum(objs_per_variant), len(objs_per_variant)),
-        },
-        "episodes": {
-            "geodesic_distance_m": _summary(geo),
-            "euclidean_distance_m": _summary(euc),
-            "euclidean_geodesic_ratio": _summary(ratio),
-            "goals_per_episode": _summary(goals_per_ep),
-            "view_points_per_goal": _summary(vps_per_goal),
-        },
-        "episode_count_formula": {
-            "k_s": k_s, "k_v": k_v, "n_c": n_c, "k_e": k_e, "N": k_s * k_v * n_c * k_e,
-            "k_e_config": cfg.get("k_e", 0), "k_v_config": cfg.get("k_v", 0),
-        },
-        "placements": {"by_status": _sorted_counts(by_status), "rejected_by_reason": _sorted_counts(rejected)},
-        "objects": {
-            "by_source": {src: {"instances": e["instances"], "categories": len(e["categories"])} for src, e in sorted(lib_sources.items())},
-            "library_categories": _sorted_counts(Counter(o.category for o in objects)),
-        },
-        "frequency": {
-            "placed_categories": _sorted_counts(placed_cat),
-            "variants_with_category": _sorted_counts(placed_var),
-            "goal_categories": _sorted_counts(goal_cat),
-            "receptacle_categories": _sorted_counts(rec_place),
-            "receptacle_planes": _sorted_counts(rec_planes),
-            "placement_regions": _sorted_counts(regions_place),
-        },
-        "scenes": scenes,
+    return {
+        "by_source": {src: {"instances": e["instances"], "categories": len(e["categories"])} for src, e in sorted(lib_sources.items())},
+        "library_categories": _sorted_counts(Counter(o.category for o in objects)),
     }
-    return _round(stats)
+
+
+def _frequencies(t: _Tally) -> dict[str, dict[str, int]]:
+    """Return the category, receptacle and region frequency tables (paper figures 4-7)."""
+    return _tally_table(t, _sorted_counts, _FREQUENCIES)
+
+
+def dataset_statistics(run_root: Path) -> dict:
+    """Return the run folder's dataset statistics (counts, distances, frequencies, placement outcomes).
+
+    Steps: per scene, read its records into statistics and raw data; read the object library and the
+    config; tally the raw data over all scenes; derive totals, summaries and tables; round the floats.
+    """
+    root = Path(run_root)
+    per_scene = [_scene_stats(d) for d in _scene_dirs(root)]
+    scenes = [s for s, _ in per_scene]
+    objects = _objects(root)
+    cfg = _config_info(root)
+    t = _tally([r for _, r in per_scene])
+    return _round({
+        "dataset": cfg.get("name", "sdovon"),
+        "totals": _totals(scenes, t, objects),
+        "episodes": _episode_summaries(t),
+        "episode_count_formula": _episode_formula(scenes, t, cfg),
+        "placements": {"by_status": _sorted_counts(t.by_status), "rejected_by_reason": _sorted_counts(t.rejected)},
+        "objects": _library(objects),
+        "frequency": _frequencies(t),
+        "scenes": scenes,
+    })
 
 
 # ----------------------------------------------------------------------------------------------

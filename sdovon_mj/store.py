@@ -34,6 +34,11 @@ def user_cache_dir(sub: str) -> Path | None:
     return None if env.lower() in CACHE_OFF else Path(env) / sub
 
 
+def dumps(data: Any) -> str:
+    """Deterministic JSON text (sorted keys, fixed separators, trailing newline): every JSON file a run writes."""
+    return json.dumps(data, sort_keys=True, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
     """Write bytes to `path` through a temp file + rename (no partial file, ever)."""
     path = Path(path)
@@ -129,8 +134,6 @@ class Store:
 
     def write_json(self, rel: str | Path, data: Any) -> Path:
         """Atomically write deterministic JSON at a store-relative path."""
-        from .records import dumps
-
         return self.write_text(rel, dumps(data))
 
     def read_json(self, rel: str | Path) -> Any:

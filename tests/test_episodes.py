@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from sdovon_mj.config import EpisodeConfig
+from sdovon_mj.config import AgentConfig, EpisodeConfig
 from sdovon_mj.episodes import distance_field, episode_report, generate_episodes, n_episodes_formula
 from sdovon_mj.episodes.generate import generate_episodes_with_report
 from sdovon_mj.episodes.geodesic import GeodesicField
-from sdovon_mj.episodes.sample import build_sample_run
+from sdovon_mj.testing.run_folder import build_sample_run
 from sdovon_mj.records import NavMap, SceneVariant, load_json, records_equal
 
 
@@ -59,7 +59,7 @@ def test_goals_view_points_and_starts(run):
         for g in e.goals:
             assert g.category == e.object_category and 0 < len(g.view_points) <= cfg.max_viewpoints
             fr = [vp.visible_fraction for vp in g.view_points]
-            assert fr == sorted(fr, reverse=True) and min(fr) >= cfg.eta_gt
+            assert fr == sorted(fr, reverse=True) and min(fr) >= AgentConfig().eta_gt
             for vp in g.view_points:
                 assert nm.is_navigable(vp.position[None, :2])[0]
                 lo, hi = g.bounds

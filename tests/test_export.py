@@ -16,14 +16,14 @@ import trimesh
 
 import mujoco
 
-from exporters.base import ExportError, ExportOptions, RunView, run_export
-from exporters.cli import export_run
+from sdovon_mj.export import ExportError, ExportOptions, RunView, run_export
+from sdovon_mj.export import export_run
 from exporters.habitat import HabitatExporter
 from exporters.mjcf_bundle import MjcfBundleExporter
 from sdovon_mj import plugins
 from sdovon_mj.cli import main
-from sdovon_mj.config import EpisodeConfig
-from sdovon_mj.episodes.sample import MUG_POSE, build_sample_run
+from sdovon_mj.config import AgentConfig, EpisodeConfig
+from sdovon_mj.testing.run_folder import MUG_POSE, build_sample_run
 from sdovon_mj.records import Episode, NavMap, load_json
 from sdovon_mj.sim.camera import pose_cv
 from sdovon_mj.sim.model import geom_segment_ids, object_segment_id, segment_image
@@ -163,7 +163,7 @@ def test_mjcf_bundle_loads_anywhere_and_view_points_see_objects(run_dir, tmp_pat
     cfg = EpisodeConfig()
     lut = geom_segment_ids(model)
     n_checked = 0
-    with SceneRenderer(model, data, width=cfg.vis_width, height=cfg.vis_height, hfov=cfg.hfov) as r:
+    with SceneRenderer(model, data, width=cfg.vis_width, height=cfg.vis_height, hfov=AgentConfig().hfov) as r:
         seen: set[tuple] = set()
         for e in eps:
             assert nm.is_navigable(e.start_position[None, :2])[0]
@@ -173,14 +173,14 @@ def test_mjcf_bundle_loads_anywhere_and_view_points_see_objects(run_dir, tmp_pat
                     if key in seen:
                         continue
                     seen.add(key)
-                    cam = vp.position + np.array([0, 0, cfg.camera_height])
+                    cam = vp.position + np.array([0, 0, AgentConfig().camera_height])
                     d = g.position - cam
                     yaw = math.degrees(math.atan2(d[1], d[0]))
                     best = 0.0
                     for pitch in (math.degrees(math.atan2(d[2], math.hypot(d[0], d[1]))), -30.0, 0.0):
                         seg = segment_image(r.render(pose_cv(cam, yaw, pitch), rgb=False, depth=False, segmentation=True).segmentation, lut)
                         best = max(best, float(np.mean(seg == object_segment_id(g.object_id))))
-                    assert best >= cfg.eta_gt, (g.object_id, vp.position)
+                    assert best >= AgentConfig().eta_gt, (g.object_id, vp.position)
                     n_checked += 1
     assert n_checked >= 20
 

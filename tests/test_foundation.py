@@ -25,7 +25,7 @@ def test_config_defaults_match_paper_appendix_e():
     assert (cfg.perceive.k_sem, cfg.perceive.k_geo, cfg.perceive.phi_min) == (0.4, 1.6, 0.8)
     assert cfg.perceive.iou_min == 0.9
     assert cfg.place.h_spawn == 0.3
-    assert cfg.episodes.eta_gt == 1e-4
+    assert cfg.agent.eta_gt == 1e-4
     assert cfg.nav.eps_nav == 0.5 and cfg.nav.d_next == 1.0
     rows = {r[0]: r for r in C.describe()}
     assert rows["observe.h_map"][2] == "m" and rows["observe.h_map"][3] == "h_map"
@@ -60,6 +60,43 @@ def test_fusion_presets():
     assert C.with_fusion_preset(custom).k_sem == 2.0
     with pytest.raises(C.ConfigError):
         C.with_fusion_preset(dataclasses.replace(C.PerceiveConfig(), fusion_preset="nope"))
+
+
+def test_fusion_preset_resolves_at_load_and_an_explicit_key_wins(tmp_path):
+    """--set perceive.k_sem=... is no longer overwritten by the default preset; presets resolve when loading."""
+    cfg = C.load_config(None, ["perceive.k_sem=0.7"])
+    assert cfg.perceive.k_sem == 0.7 and cfg.perceive.fusion_preset == "custom"
+    assert (cfg.perceive.k_geo, cfg.perceive.phi_min) == (1.6, 0.8)  # the rest of the preset it was given
+    cfg = C.load_config(None, ["perceive.fusion_preset=conceptgraphs"])
+    assert (cfg.perceive.k_sem, cfg.perceive.k_geo, cfg.perceive.phi_min) == (1.0, 1.0, 1.1)
+    cfg = C.load_config(None, ["perceive.fusion_preset=conceptgraphs", "perceive.phi_min=1.3"])
+    assert (cfg.perceive.k_sem, cfg.perceive.phi_min, cfg.perceive.fusion_preset) == (1.0, 1.3, "custom")
+    p = tmp_path / "c.yaml"
+    p.write_text("perceive:\n  fusion_preset: conceptgraphs\n  k_geo: 2.0\n")
+    cfg = C.load_config(p)
+    assert (cfg.perceive.k_sem, cfg.perceive.k_geo, cfg.perceive.fusion_preset) == (1.0, 2.0, "custom")
+    # an explicit key equal to the preset changes nothing; the saved config loads back to itself
+    assert C.load_config(None, ["perceive.k_sem=0.4"]).perceive == C.RunConfig().perceive
+    C.save_config(cfg, tmp_path / "back.yaml")
+    assert C.load_config(tmp_path / "back.yaml") == cfg
+    # the fuser uses what the config says
+    from sdovon_mj.perceive.fusion import InstanceFuser
+
+    assert InstanceFuser(C.load_config(None, ["perceive.k_sem=0.7"]).perceive).cfg.k_sem == 0.7
+
+
+def test_moved_keys_name_their_new_home(tmp_path):
+    """Agent fields and eta_gt have one home (agent.*); old keys fail with an error naming the new key."""
+    p = tmp_path / "old.yaml"
+    p.write_text("episodes:\n  eta_gt: 0.001\n")
+    with pytest.raises(C.ConfigError, match=r"episodes\.eta_gt.*agent\.eta_gt"):
+        C.load_config(p)
+    for old, new in (("perceive.gt_eta", "agent.eta_gt"), ("nav.eta_gt", "agent.eta_gt"), ("observe.agent_radius", "agent.radius"),
+                     ("nav.obs_width", "agent.sensor_width"), ("episodes.hfov", "agent.hfov"), ("observe.agent_height", "agent.camera_height")):
+        with pytest.raises(C.ConfigError, match=new.replace(".", r"\.")):
+            C.load_config(None, [f"{old}=1"])
+    cfg = C.load_config(None, ["agent.radius=0.2", "agent.eta_gt=0.001"])
+    assert (cfg.agent.radius, cfg.agent.eta_gt) == (0.2, 0.001)
 
 
 def _examples() -> list[R.Record]:
@@ -107,6 +144,22 @@ def test_records_round_trip_npz_exactly(tmp_path):
     b1 = (tmp_path / "s.npz").read_bytes()
     R.save_npz(recs, tmp_path / "s2.npz")
     assert (tmp_path / "s2.npz").read_bytes() == b1, "npz shards are deterministic"
+
+
+def test_renamed_record_keeps_its_file_tag(tmp_path):
+    """A renamed record class keeps its on-disk tag: same bytes, and files written before still load."""
+    vp = R.CoverageView(floor=1, position=np.array([1.0, 2.0, 0.88]))
+    assert vp.record_type() == "Viewpoint" and vp.to_dict()[R.TAG] == "Viewpoint"
+    R.save_json([vp], tmp_path / "viewpoints.json")
+    assert '"__record__": "Viewpoint"' in (tmp_path / "viewpoints.json").read_text()
+    assert R.records_equal(R.load_json(tmp_path / "viewpoints.json"), [vp])
+    assert R.records_equal(R.load_json(tmp_path / "viewpoints.json", R.CoverageView), [vp])
+    R.save_npz([vp], tmp_path / "v.npz")
+    assert type(R.load_npz(tmp_path / "v.npz")[0]) is R.CoverageView
+    with pytest.raises(R.RecordError, match="Viewpoint"):
+        R.ViewPoint.from_dict(vp.to_dict())
+    with pytest.raises(TypeError, match="Viewpoint"):
+        type("Other", (R.Record,), {}, tag="Viewpoint")
 
 
 def test_corrupt_record_file_is_a_clear_error(tmp_path):

@@ -9,24 +9,25 @@ import numpy as np
 import pytest
 
 from sdovon_mj import suite
-from sdovon_mj.config import NavConfig
+from sdovon_mj.config import AgentConfig, NavConfig
+from sdovon_mj.geometry import yaw_quat
 from sdovon_mj.nav.agents import OracleAgent, RandomAStar, SemanticAStar
 from sdovon_mj.nav.astar import astar, plan, plan_cells
 from sdovon_mj.nav.control import lattice_plan
 from sdovon_mj.nav.goal import goal_points, infer_view_points
-from sdovon_mj.nav.grid import segment_free
-from sdovon_mj.nav.eval_cli import run_agent, summarize
-from sdovon_mj.nav.grid import GeodesicField, GridFrame
+from sdovon_mj.grid import segment_free
+from sdovon_mj.suite.evaluate import evaluate, make_agent, summarize
+from sdovon_mj.grid import GeodesicField, GridFrame
 from sdovon_mj.records import Episode, Goal, ViewPoint, load_json, save_json
-from sdovon_mj.sim.camera import yaw_quat
+from sdovon_mj.testing.bundles import fixture_bundle
 
-SMALL = NavConfig(obs_width=96, obs_height=72)
+SMALL = AgentConfig(sensor_width=96, sensor_height=72)
 
 
 @pytest.fixture(scope="module")
 def fixture_root(tmp_path_factory):
     """The fixture apartment dataset (1 variant)."""
-    return suite.fixture_bundle(tmp_path_factory.mktemp("fx"), variants=1, seed=5)
+    return fixture_bundle(tmp_path_factory.mktemp("fx"), variants=1, seed=5)
 
 
 @pytest.fixture(scope="module")
@@ -167,9 +168,26 @@ def test_inferred_view_points_follow_the_generator_lattice():
     assert np.allclose(goal_points(depth, m, K, T, 0.5, 5.0)[:, 2], 2.0)
 
 
+def test_agents_load_through_plugins_and_nav_never_imports_suite():
+    """Agents are plugins (built-ins included); `nav` holds agents only and imports nothing of `suite`."""
+    import subprocess
+    import sys
+
+    from sdovon_mj import plugins
+
+    assert {"random-astar", "semantic-astar", "oracle", "random"} <= set(plugins.available("agent"))
+    a = make_agent("semantic-astar", NavConfig(), seed=0, final_nav=False, agent=SMALL)
+    assert isinstance(a, SemanticAStar) and not a.final_nav and a.agent_config == SMALL
+    with pytest.raises(plugins.PluginError, match="nope"):
+        make_agent("nope", NavConfig())
+    code = ("import sys, sdovon_mj.nav.agents, sdovon_mj.nav.frontier; "
+            "bad = [m for m in sys.modules if m.startswith('sdovon_mj.suite')]; assert not bad, bad")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
 def test_oracle_agent_succeeds(fixture_root):
     """The oracle walks to the nearest view point and stops: SR = 1 and SPL close to 1."""
-    res = run_agent(fixture_root, OracleAgent(SMALL), SMALL, episodes=6, progress=False)
+    res = evaluate(fixture_root, OracleAgent(agent=SMALL), episodes=6, progress=False)
     s = summarize(res)
     assert s["success"] == 1.0 and s["spl"] > 0.8
 
@@ -180,16 +198,16 @@ def test_semantic_beats_random_and_fn_helps_on_fixture(tmp_path):
 
     Two rooms and six receptacles leave Random A* time to visit them all, so SR is close; the
     ranking shows in SPL (the SR margin is asserted on default-world data: test_nav_dataset.py)."""
-    root = suite.fixture_bundle(tmp_path / "fx", variants=3, seed=1)
+    root = fixture_bundle(tmp_path / "fx", variants=3, seed=1)
     _check_baselines(root, None, sr_margin=0.0, spl_margin=0.1, fn_margin=0.2)
 
 
 def _check_baselines(root, episodes, sr_margin, spl_margin, fn_margin):
-    nav = NavConfig(obs_width=160, obs_height=120)
+    body = AgentConfig(sensor_width=160, sensor_height=120)
     out = {}
     for cls in (RandomAStar, SemanticAStar):
         for fn in (True, False):
-            out[(cls.name, fn)] = summarize(run_agent(root, cls(nav, seed=0, final_nav=fn), nav, episodes, progress=False))
+            out[(cls.name, fn)] = summarize(evaluate(root, cls(seed=0, final_nav=fn, agent=body), episodes=episodes, progress=False))
     print(out)
     r, s = out[("random-astar", True)], out[("semantic-astar", True)]
     assert s["success"] >= r["success"] + sr_margin

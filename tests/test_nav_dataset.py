@@ -14,14 +14,13 @@ from __future__ import annotations
 
 import os
 import tempfile
-from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
-from sdovon_mj.config import NavConfig
+from sdovon_mj.config import AgentConfig
 from sdovon_mj.nav.agents import RandomAStar, SemanticAStar
-from sdovon_mj.nav.eval_cli import run_agent, summarize
+from sdovon_mj.suite.evaluate import evaluate, summarize
 from sdovon_mj.suite import find_bundles, load_bundle
 
 pytestmark = pytest.mark.slow
@@ -58,11 +57,11 @@ def test_semantic_beats_random_and_fn_helps_on_default_world():
     total = sum(len(load_bundle(p).episodes) for p in find_bundles(root))
     n = total if limit is None else min(limit, total)
     w = int(os.environ.get("SDOVON_EVAL_WIDTH", "320"))
-    nav = replace(NavConfig(), obs_width=w, obs_height=w * 3 // 4)
+    body = AgentConfig(sensor_width=w, sensor_height=w * 3 // 4)
     out = {}
     for cls in (SemanticAStar, RandomAStar):
         for fn in (True, False):
-            res = run_agent(root, cls(nav, seed=0, final_nav=fn), nav, n, progress=False)
+            res = evaluate(root, cls(seed=0, final_nav=fn, agent=body), episodes=n, progress=False)
             assert len(res) == n
             out[(cls.name, fn)] = summarize(res)
     for (name, fn), s in out.items():

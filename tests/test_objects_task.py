@@ -7,6 +7,7 @@ import json
 import trimesh
 
 from sdovon_mj import stages
+from sdovon_mj.records import ObjectAsset, load_json
 from sdovon_mj.config import ConvertConfig, RunConfig
 from sdovon_mj.pipeline import StageRunner, TaskResult, TaskSpec, prepare_run
 
@@ -21,16 +22,16 @@ def test_bad_object_is_reported_and_the_library_goes_on(tmp_path):
     cfg = RunConfig(convert=ConvertConfig(jobs=2))
     store = prepare_run(tmp_path / "run", cfg, None, [str(good), str(bad)])
     result = TaskResult(spec=TaskSpec(kind="objects", run_root=str(store.root)), ok=True)
-    stages.objects_task(store, cfg, StageRunner(store, result))
+    stages.run_task(store, cfg, StageRunner(store, result), "run")
     failures = json.loads(store.path("objects/failures.json").read_text())
     assert list(failures) == [str(bad)], failures
     print(failures[str(bad)])
     assert failures[str(bad)], failures  # the cause is given
-    assets = stages.load_objects(store)
+    assets = load_json(store.path("objects/objects.json"), ObjectAsset)
     assert [a.name for a in assets] == ["box"]
     assert store.path(assets[0].mjcf).exists()
     assert not list(store.root.glob("convert_report.json"))  # the batch report stays out of the run folder
     # a rerun skips the finished task
     again = TaskResult(spec=result.spec, ok=True)
-    stages.objects_task(store, cfg, StageRunner(store, again))
+    stages.run_task(store, cfg, StageRunner(store, again), "run")
     assert again.skipped == ["objects"]

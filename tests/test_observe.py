@@ -7,19 +7,20 @@ import dataclasses
 import numpy as np
 import pytest
 
-from sdovon_mj.config import ObserveConfig
+from sdovon_mj.config import AgentConfig, ObserveConfig
 from sdovon_mj.errors import InputError, SdovonError, StageError
 from sdovon_mj.observe import (OffFloorError, coverage_viewpoints, find_floors, load_shards, locate, navigable_map,
                                observe_scene, render_observations, uniform_viewpoints)
-from sdovon_mj.observe.synthetic import Box, apartment_boxes, box_mesh, write_box_scene
-from sdovon_mj.records import NavMap, Viewpoint, load_json
+from sdovon_mj.testing.scenes import Box, apartment_boxes, write_box_scene
+from sdovon_mj.world.shapes import box
+from sdovon_mj.records import CoverageView, NavMap, load_json
 from sdovon_mj.sim.model import load_scene_mesh
 
 
 def _mesh(boxes: list[Box]) -> tuple[np.ndarray, np.ndarray]:
     vs, fs, off = [], [], 0
     for b in boxes:
-        v, f = box_mesh(b.lo, b.hi)
+        v, f = box(b.lo, b.hi)
         vs.append(v)
         fs.append(f + off)
         off += len(v)
@@ -91,7 +92,7 @@ def test_navmap_excludes_furniture_and_walls(maps):
                    (4.0, 1.0), (4.0, 5.0), (0.05, 3.0), (7.95, 3.0), (3.0, 0.05),  # inner and outer walls
                    (5.1, 0.4)]  # under the shelf hanging at 0.4-1.2 m
         assert not nm.is_navigable(np.array(blocked)).any(), f"floor {nm.floor} at {z}"
-        assert not nm.free[tuple(nm.world_to_cell(np.array([(1.8, 1.6), (7.0, 5.0), (4.0, 1.0)])).T)].any()
+        assert not nm.free[tuple(nm.frame.to_cell(np.array([(1.8, 1.6), (7.0, 5.0), (4.0, 1.0)])).T)].any()
         open_pts = np.array([(2.0, 4.5), (6.0, 2.5), (4.0, 3.0)])  # two rooms and the door gap
         assert nm.is_navigable(open_pts).all()
         # eroded by the agent radius: nothing navigable within 0.18 m of a wall
@@ -142,14 +143,14 @@ def test_coverage_sampling_reaches_threshold_and_is_seeded(maps):
     assert float((mp[nm.navigable] >= cfg.eps_p_obs).mean()) == pytest.approx(st.coverage)
     assert mp.min() >= 0.0 and mp.max() <= 1.0
     assert all(nm.is_navigable(vp.position[None, :2])[0] for vp in vps)
-    assert all(abs(vp.position[2] - (nm.height + cfg.agent_height)) < 1e-9 for vp in vps)
+    assert all(abs(vp.position[2] - (nm.height + AgentConfig().camera_height)) < 1e-9 for vp in vps)
     vps2, mp2, _ = coverage_viewpoints(nm, cfg, seed=7)
     assert np.array_equal(mp, mp2) and all(np.array_equal(a.position, b.position) for a, b in zip(vps, vps2))
     # candidates near obstacles are rejected: every viewpoint has clearance
     from sdovon_mj.observe.navmap import clearance
 
     cl = clearance(nm.free, nm.resolution)
-    rc = nm.world_to_cell(np.array([vp.position[:2] for vp in vps]))
+    rc = nm.frame.to_cell(np.array([vp.position[:2] for vp in vps]))
     assert (cl[rc[:, 0], rc[:, 1]] >= cfg.min_obstacle_distance).all()
 
 
@@ -158,9 +159,9 @@ def test_coverage_invalid_radius_and_max_iterations(maps):
     cfg = dataclasses.replace(ObserveConfig(), max_iterations=1, min_obstacle_distance=0.0)
     vps, mp, st = coverage_viewpoints(nm, cfg, seed=1)
     assert st.iterations == 1 and len(vps) == 1 and not st.reached
-    rc = nm.world_to_cell(vps[0].position[None, :2])[0]
+    rc = nm.frame.to_cell(vps[0].position[None, :2])[0]
     assert mp[rc[0], rc[1]] == 0.0  # the invalid observation region r_min gets nothing
-    ring = nm.world_to_cell(vps[0].position[None, :2] + np.array([[cfg.r_min + 0.1, 0.0]]))[0]
+    ring = nm.frame.to_cell(vps[0].position[None, :2] + np.array([[cfg.r_min + 0.1, 0.0]]))[0]
     assert mp[ring[0], ring[1]] > 0.9
 
 
@@ -195,7 +196,7 @@ def test_backprojected_depth_lies_on_scene_surfaces(two_storey):
 
     scene, root, v, f, fi = two_storey
     cfg = dataclasses.replace(ObserveConfig(), width=160, height=120, yaw_steps=3, pitch_angles=(-30.0, 0.0))
-    vps = [Viewpoint(floor=0, position=np.array([2.0, 4.0, 0.88])), Viewpoint(floor=1, position=np.array([6.0, 2.5, 3.68]))]
+    vps = [CoverageView(floor=0, position=np.array([2.0, 4.0, 0.88])), CoverageView(floor=1, position=np.array([6.0, 2.5, 3.68]))]
     obs = list(render_observations(scene, vps, cfg, store_root=root))
     per_vp = 3 * (2 + len(cfg.camera_heights) * len(cfg.camera_height_pitches))
     assert len(obs) == 2 * per_vp and [o.view_id for o in obs] == list(range(2 * per_vp))
@@ -256,25 +257,11 @@ def test_observe_scene_writes_everything_deterministically(two_storey, tmp_path)
         assert (tmp_path / "a" / rel).read_bytes() == (tmp_path / "b" / rel).read_bytes(), rel
     obs = list(load_shards([tmp_path / "a" / p for p in s1["shards"]]))
     assert len(obs) == s1["frames"] and obs[0].K.shape == (3, 3) and obs[0].T_cam.shape == (4, 4)
-    vps = load_json(tmp_path / "a" / "observe" / "viewpoints.json", Viewpoint)
+    vps = load_json(tmp_path / "a" / "observe" / "viewpoints.json", CoverageView)
     assert {vp.floor for vp in vps} == {0, 1}
     for k in (0, 1):
         assert (tmp_path / "a" / "observe" / f"coverage_{k}.png").read_bytes()[:4] == b"\x89PNG"
         assert load_json(tmp_path / "a" / "observe" / f"navmap_{k}.json", NavMap).floor == k
-
-
-def test_cli_observe_and_bad_input(two_storey, tmp_path, capsys):
-    from sdovon_mj.cli import main
-
-    _scene, root, *_ = two_storey
-    rc = main(["observe", str(root), "--out", str(tmp_path / "o"), "--no-render", "--set", "observe.map_resolution=0.1"])
-    assert rc == 0
-    assert "floor 1 z=2.80" in capsys.readouterr().out
-    assert (tmp_path / "o" / "navmap_1.json").exists() and not list((tmp_path / "o").glob("obs_*.npz"))
-    bad = tmp_path / "bad.json"
-    bad.write_text("{}")
-    assert main(["observe", str(bad), "--out", str(tmp_path / "o2")]) == 1
-    assert "bad.json" in capsys.readouterr().err
 
 
 def test_observe_scene_without_floor_names_the_mesh(tmp_path):

@@ -13,7 +13,7 @@ import pytest
 
 from sdovon_mj.config import ObserveConfig
 from sdovon_mj.observe import coverage_viewpoints, find_floors, navigable_map, render_observations
-from sdovon_mj.observe.synthetic import living_room_parts, write_mesh_scene
+from sdovon_mj.testing.scenes import living_room_parts, write_mesh_scene
 from sdovon_mj.sim.camera import backproject
 from sdovon_mj.sim.model import load_scene_mesh
 
@@ -40,7 +40,7 @@ def test_living_room_floor_and_navmap_excludes_furniture(living_room):
     for name, xy in FURNITURE.items():
         assert not nm.is_navigable(np.array([xy]))[0], name
     # the stool (thin legs, seat at ~0.45 m) blocks as a whole: its footprint centre is not free
-    assert not nm.free[tuple(nm.world_to_cell(np.array([(1.7744, 1.6287)]))[0])]
+    assert not nm.free[tuple(nm.frame.to_cell(np.array([(1.7744, 1.6287)]))[0])]
     assert nm.is_navigable(np.array([(0.0, 0.0)]))[0]  # the middle of the room
     area = nm.navigable.sum() * nm.resolution ** 2
     assert 15.0 < area < 36.0  # a 6 x 6 m room minus furniture and the agent-radius margin

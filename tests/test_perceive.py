@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from test_perceive_scenes import fused_room, match_instances, rendered_room
-from sdovon_mj.config import PerceiveConfig, ReceptacleConfig
+from sdovon_mj.config import AgentConfig, PerceiveConfig, ReceptacleConfig
 from sdovon_mj.perceive import (backproject_detections, correct_fusion, detect, fuse_instances, label_similarity,
                                 make_detector, perceive_scene)
 from sdovon_mj.perceive.backproject import make_instance, voxel_downsample
@@ -32,7 +32,7 @@ def test_gt_detector_masks_labels_and_eta() -> None:
         assert np.array_equal(d.mask, o.segmentation == d.gt_id)
         assert d.label == scene.instance(d.gt_id).label and d.score == 1.0
     # A high pixel-fraction threshold keeps only the big instances.
-    big = GroundTruthDetector(PerceiveConfig(gt_eta=0.2), scene).detect(o)
+    big = GroundTruthDetector(PerceiveConfig(), scene, agent=AgentConfig(eta_gt=0.2)).detect(o)
     assert all(d.mask.mean() >= 0.2 for d in big) and len(big) < len(dets)
     noisy = GroundTruthDetector(PerceiveConfig(gt_score_noise=0.1), scene, seed=1).detect(o)
     again = GroundTruthDetector(PerceiveConfig(gt_score_noise=0.1), scene, seed=1).detect(o)
@@ -140,22 +140,3 @@ def test_fusion_presets_and_weights() -> None:
     # Far apart objects with the same label never merge under the paper preset (0.4 < 0.8).
     far = _cube(c + [3.0, 0, 0], "table", 1.0, 2, rng)
     assert len(fuse_instances([a, far], PerceiveConfig())) == 2
-
-
-def test_cli_writes_instances_and_planes(tmp_path) -> None:
-    from sdovon_mj.cli import main
-    from sdovon_mj.records import ReceptaclePlane, load_json, load_npz, save_json, save_npz
-
-    insts, scene, obs = rendered_room()
-    obs_dir = tmp_path / "obs"
-    obs_dir.mkdir()
-    save_npz(obs[:4], obs_dir / "obs_00000.npz")
-    save_npz(obs[4:8], obs_dir / "obs_00001.npz")
-    save_json(scene, tmp_path / "scene.json")
-    out = tmp_path / "perceive"
-    assert main(["perceive", str(obs_dir), "--scene", str(tmp_path / "scene.json"), "--out", str(out)]) == 0
-    got = load_npz(out / "instances.npz")
-    planes = load_json(out / "planes.json", ReceptaclePlane)
-    assert "table" in {i.label for i in got} and any(p.label == "table" for p in planes)
-    assert main(["perceive", str(tmp_path / "missing"), "--scene", str(tmp_path / "scene.json"), "--out", str(out)]) == 1
-    assert main(["perceive", str(obs_dir), "--out", str(out)]) == 1  # gt detector without labels

@@ -197,7 +197,7 @@ def match_instances(fused: list, truth: list[RoomInstance], labels: tuple[str, .
 
 def match_surfaces(planes: list, scene: SceneAsset, height_tol: float) -> list[tuple[int, float, float, float]]:
     """For every true support surface: (instance id, true height, height error, best polygon IoU) of the best plane."""
-    from sdovon_mj.polygons import polygon_iou
+    from sdovon_mj.geometry import polygon_iou
 
     out = []
     for s in scene.support_surfaces:

@@ -77,10 +77,10 @@ def world_observations(seed: int, root: str) -> tuple[SceneAsset, list]:
 
 @functools.lru_cache(maxsize=None)
 def world_result(seed: int, root: str, sigma: float) -> tuple[SceneAsset, list, list]:
-    """Perceive + targeted views + planes through the perceive stage's own function (stages.perceive_and_find_planes)."""
+    """Perceive + targeted views + planes through the perceive stage's own function (perceive.surfaces.perceive_and_find_planes)."""
     from sdovon_mj.config import RunConfig
     from sdovon_mj.records import NavMap, load_json
-    from sdovon_mj.stages import perceive_and_find_planes
+    from sdovon_mj.perceive.surfaces import perceive_and_find_planes
 
     scene, obs = world_observations(seed, root)
     r = Path(root) / f"w{seed}"
@@ -115,11 +115,11 @@ def true_regions(scene: SceneAsset) -> list[tuple[int, float, np.ndarray]]:
     than JOIN_GAP united into their convex hull (seat cushions); parts a sink or hob keeps apart stay apart."""
     from shapely.ops import unary_union
 
-    from sdovon_mj.polygons import _shapely
+    from sdovon_mj.geometry import shapely_polygon
 
     groups: dict[tuple[int, float], list] = {}
     for s in scene.support_surfaces:
-        groups.setdefault((s.instance_id, round(float(s.height), 3)), []).append(_shapely(s.polygon))
+        groups.setdefault((s.instance_id, round(float(s.height), 3)), []).append(shapely_polygon(s.polygon))
     out = []
     for (iid, h), polys in sorted(groups.items()):
         clusters: list[list] = []
@@ -135,8 +135,8 @@ def true_regions(scene: SceneAsset) -> list[tuple[int, float, np.ndarray]]:
 
 def surface_scores(scene: SceneAsset, planes: list, tol: float) -> list[tuple[int, str, float, float, float]]:
     """Per true support region: (instance, label, height, height error, best polygon IoU of a plane within tol)."""
-    from sdovon_mj.receptacles import polygon_iou
-    from sdovon_mj.polygons import ensure_ccw
+    from sdovon_mj.geometry import polygon_iou
+    from sdovon_mj.geometry import ensure_ccw
 
     out = []
     for iid, h, truth in true_regions(scene):
@@ -151,14 +151,13 @@ def surface_scores(scene: SceneAsset, planes: list, tol: float) -> list[tuple[in
 def observed_fraction(obs: list, iid: int, height: float, polygon: np.ndarray, cell: float = 0.02) -> float:
     """Return the fraction of a true region's cells that some observation's depth pixel of that instance lands on
     (ground-truth segmentation, noise-free depth, within 1 cm of the surface): what the views showed of it."""
-    from matplotlib.path import Path as MplPath
-
+    from sdovon_mj.geometry import points_in_polygon
     from sdovon_mj.sim.camera import backproject
 
     lo, hi = polygon.min(axis=0), polygon.max(axis=0)
     xs, ys = np.arange(lo[0] + cell / 2, hi[0], cell), np.arange(lo[1] + cell / 2, hi[1], cell)
     gx, gy = np.meshgrid(xs, ys, indexing="ij")
-    inside = MplPath(polygon).contains_points(np.stack([gx.ravel(), gy.ravel()], 1)).reshape(gx.shape)
+    inside = points_in_polygon(polygon, np.stack([gx.ravel(), gy.ravel()], 1)).reshape(gx.shape)
     seen = np.zeros_like(inside)
     for o in obs:
         m = o.segmentation == iid
@@ -178,7 +177,7 @@ def region_report(seed: int, root: str, sigma: float, tol: float) -> dict:
     scene, fused, planes = world_result(seed, root, sigma)
     _scene, obs = world_observations(seed, root)
     p, r = instance_scores(scene, fused, ReceptacleConfig().labels)
-    from sdovon_mj.polygons import ensure_ccw
+    from sdovon_mj.geometry import ensure_ccw
 
     rows = []
     for (iid, label, h, err, iou), (_i, _h, poly) in zip(surface_scores(scene, planes, tol), true_regions(scene)):

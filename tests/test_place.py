@@ -11,10 +11,11 @@ import pytest
 
 from sdovon_mj.config import PlaceConfig
 from sdovon_mj.place.check import check_variant, format_report, per_category
-from sdovon_mj.polygons import fan_triangles, points_in_convex_polygon, sample_in_polygon, shrink_polygon
+from sdovon_mj.geometry import fan_triangles, points_in_convex_polygon, sample_in_polygon, shrink_polygon
 from sdovon_mj.place.sample import category_distribution, sample_placements, top_pair_share
-from sdovon_mj.place.synthetic import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene
-from sdovon_mj.place.variants import place_variant, place_variants, run_variant, variant_seed
+from sdovon_mj.testing.placement import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene
+from sdovon_mj.place.variants import place_variant, place_variants, run_variant
+from sdovon_mj.seeds import variant_seed
 from sdovon_mj.records import ReceptaclePlane, Relevance, SceneVariant, load_json
 
 
@@ -258,7 +259,8 @@ def test_heightfield_support_on_a_cushion(flat, tmp_path):
 
 def test_spawn_respects_the_shelf_board_above(flat):
     """On a shelf level, the paper's 0.3 m drop is lowered so objects spawn under the board above."""
-    from sdovon_mj.place.sample import plane_headroom, quat_to_mat
+    from sdovon_mj.geometry import quat_to_mat
+    from sdovon_mj.place.sample import plane_headroom
 
     root, scene, planes, lib = flat
     poly = np.array([[6.0, 3.45], [7.0, 3.45], [7.0, 3.75], [6.0, 3.75]])

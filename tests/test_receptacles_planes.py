@@ -7,8 +7,9 @@ import pytest
 
 from test_perceive_scenes import fused_room, match_surfaces, rendered_room
 from sdovon_mj.config import ReceptacleConfig
+from sdovon_mj.geometry import polygon_iou
 from sdovon_mj.perceive.backproject import make_instance
-from sdovon_mj.receptacles import detect_planes, find_receptacle_planes, polygon_iou, receptacle_instances
+from sdovon_mj.receptacles import detect_planes, find_receptacle_planes, receptacle_instances
 
 CFG = ReceptacleConfig()
 
@@ -75,7 +76,7 @@ def test_receptacle_identification() -> None:
 def test_empty_receptacle_labels_are_named_by_the_llm_backend() -> None:
     """With receptacles.labels empty, the pipeline asks the semantics backend (prompt C.1; offline here)."""
     from sdovon_mj.config import ReceptacleConfig, RunConfig
-    from sdovon_mj.stages import receptacle_labels
+    from sdovon_mj.perceive.surfaces import receptacle_labels
 
     insts = [make_instance(np.zeros((3, 3)) + k, lab, [1.0], [0], instance_id=k)
              for k, lab in enumerate(["bed", "pillow", "desk", "curtain", "bed"])]

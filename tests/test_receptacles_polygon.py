@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scipy.stats import chisquare
 from shapely.geometry import Polygon, box
 
-from sdovon_mj.polygons import (convex_hull_ccw, ensure_ccw, fan_triangles, points_in_convex_polygon,
+from sdovon_mj.geometry import (convex_hull_ccw, ensure_ccw, fan_triangles, points_in_convex_polygon,
                                            polygon_area, polygon_iou, sample_in_polygon, shrink_polygon)
 
 

@@ -40,7 +40,7 @@ def two_rooms(door: bool = True) -> tuple[NavMap, list[Instance]]:
         box_instance(6, "wall", (3.95, 0.0, 0.0), (4.05, 3.0, 2.5)),  # structure: ignored
     ]
     for inst in insts:
-        rc = NavMap(0, 0.0, np.zeros(2), RES, free, free).world_to_cell(inst.world_points[:, :2])
+        rc = NavMap(0, 0.0, np.zeros(2), RES, free, free).frame.to_cell(inst.world_points[:, :2])
         rc = np.clip(rc, 0, [h - 1, w - 1])
         if inst.label != "wall":
             free[rc[:, 0], rc[:, 1]] = False
@@ -59,7 +59,7 @@ def test_two_rooms_labels_follow_the_wall(tmp_path):
     assert rm.region_at(np.array([1.5, 1.5])) == "bedroom"
     assert rm.region_at(np.array([6.5, 1.5])) == "bathroom"
     nav = navmap.navigable
-    xs = navmap.cell_to_world(np.argwhere(nav))[:, 0]
+    xs = navmap.frame.to_world(np.argwhere(nav))[:, 0]
     lab = rm.label_map[nav]
     west = lab[xs < 3.9] == rm.labels.index("bedroom")
     east = lab[xs > 4.1] == rm.labels.index("bathroom")
@@ -83,7 +83,7 @@ def test_paper_plain_disc_leaks_through_walls():
 
     def wrong(rm: RegionMap) -> int:
         cells = np.argwhere(navmap.navigable)
-        xs = navmap.cell_to_world(cells)[:, 0]
+        xs = navmap.frame.to_world(cells)[:, 0]
         lab = rm.label_map[navmap.navigable]
         want = np.where(xs < 4.0, rm.labels.index("bedroom"), rm.labels.index("bathroom"))
         return int(np.sum(lab != want))
@@ -144,7 +144,7 @@ def _world():
 
 def test_default_world_region_map_agrees_with_room_types():
     """Offline backend, ground-truth instances, 5 apartments: >= 80 % of navigable cells get the true room type."""
-    from sdovon_mj.semantics.groundtruth import apartment_instances, apartment_navmap, region_accuracy
+    from sdovon_mj.testing.groundtruth import apartment_instances, apartment_navmap, region_accuracy
 
     generate_apartment = _world()
     b = get_backend(SemanticsConfig())
@@ -168,7 +168,7 @@ def test_default_world_region_map_agrees_with_room_types():
 
 
 def test_groundtruth_instances_and_navmap():
-    from sdovon_mj.semantics.groundtruth import apartment_instances, apartment_navmap
+    from sdovon_mj.testing.groundtruth import apartment_instances, apartment_navmap
 
     apt = _world()(0)
     insts = apartment_instances(apt)

@@ -7,11 +7,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from sdovon_mj.config import SemanticsConfig
-from sdovon_mj.records import RegionMap, Relevance, load_json
 from sdovon_mj.semantics import get_backend
 from sdovon_mj.semantics import prompts as P
 from sdovon_mj.semantics.cache import DiskCache, cache_key
@@ -88,7 +86,7 @@ def test_priors_table_complete_and_regenerable(tmp_path):
                  "teapot", "bed", "toilet", "fridge", "sofa", "desk", "counter", "nightstand", "wardrobe"):
         assert default_priors().resolve(must, embed=False) is not None, must
     out = tmp_path / "priors.json"
-    subprocess.run([sys.executable, str(REPO / "sdovon_mj/data/semantics/make_priors.py"), str(out)], check=True,
+    subprocess.run([sys.executable, str(REPO / "tools/make_priors.py"), str(out)], check=True,
                    capture_output=True)
     assert out.read_bytes() == (REPO / "sdovon_mj/data/semantics/priors.json").read_bytes()
 
@@ -135,29 +133,6 @@ def test_unknown_backend_is_a_clear_error():
 
     with pytest.raises(PluginError, match="no llm_backend plugin named 'nope'"):
         get_backend(SemanticsConfig(backend="nope"))
-
-
-def test_cli_scene_folder(tmp_path):
-    """`sdovon-mj semantics SCENE_DIR` reads navmaps + instances and writes records and pictures."""
-    from test_semantics_regions import two_rooms
-
-    from sdovon_mj.cli import main
-    from sdovon_mj.records import save_json, save_npz
-
-    navmap, insts = two_rooms()
-    scene = tmp_path / "scene"
-    save_json(navmap, scene / "observe" / "navmap_0.json")
-    save_npz(insts, scene / "perceive" / "instances.npz")
-    out = tmp_path / "out"
-    assert main(["semantics", str(scene), "--out", str(out), "--objects", "pillow,toothbrush"]) == 0
-    rm = load_json(out / "regions_0.json", RegionMap)
-    assert rm.region_at(np.array([1.5, 1.5])) == "bedroom"
-    rel = load_json(out / "relevance.json", Relevance)
-    assert rel.objects == ["pillow", "toothbrush"] and "bathroom" in rel.regions
-    assert (out / "regions_0.png").exists() and json.loads((out / "summary.json").read_text())["fallbacks"] == 0
-    assert main(["semantics", str(tmp_path / "missing"), "--out", str(out)]) == 1
-    (scene / "perceive" / "instances.npz").unlink()
-    assert main(["semantics", str(scene), "--out", str(out)]) == 1
 
 
 def test_default_world_labels_are_all_in_the_table():

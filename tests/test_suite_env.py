@@ -13,12 +13,13 @@ from dm_env import StepType, test_utils
 
 from sdovon_mj import suite
 from sdovon_mj.errors import InputError
+from sdovon_mj.testing.bundles import fixture_bundle
 
 
 @pytest.fixture(scope="module")
 def fixture_root(tmp_path_factory):
     """The fixture apartment dataset (2 variants) written once per module."""
-    return suite.fixture_bundle(tmp_path_factory.mktemp("fx"), variants=2, seed=3)
+    return fixture_bundle(tmp_path_factory.mktemp("fx"), variants=2, seed=3)
 
 
 def _env(root, **kw):
@@ -120,7 +121,7 @@ def test_semantic_observation_sees_instances(fixture_root):
 
 def test_registry_and_load():
     """Tasks are registered with tags; unknown names fail clearly."""
-    assert {"objectnav", "objectnav_semantic", "objectnav_small", "fixture"} <= set(suite.ALL_TASKS)
+    assert {"objectnav", "objectnav_semantic", "objectnav_small"} <= set(suite.ALL_TASKS)
     assert "objectnav" in suite.BENCHMARKING
     with pytest.raises(ValueError, match="unknown task"):
         suite.load("nope")

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from sdovon_mj.config import ConfigError, ObserveConfig
+from sdovon_mj.config import AgentConfig, ConfigError, ObserveConfig
 from sdovon_mj.observe import make_renderer
 from sdovon_mj.observe.targeted import (ViewTarget, aim, candidate_positions, plan_target_views, render_poses,
                                         surface_cells)
@@ -87,7 +87,7 @@ def test_targeted_views_show_a_hidden_shelf_level_and_are_deterministic(model):
     nm = _navmap()
     for T in poses:  # cameras stand on navigable cells, at a camera height of the observe config
         assert nm.is_navigable(T[None, :2, 3])[0]
-        assert any(abs(T[2, 3] - h) < 1e-9 for h in (cfg.agent_height, *cfg.camera_heights))
+        assert any(abs(T[2, 3] - h) < 1e-9 for h in (AgentConfig().camera_height, *cfg.camera_heights))
     after = _fraction(model, poses, shelf, cfg)
     print(f"shelf level seen: oblique view {before:.2f}, targeted views {after:.2f}")
     assert before < 0.6 and after > 0.85, (before, after)

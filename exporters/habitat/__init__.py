@@ -19,26 +19,23 @@ from __future__ import annotations
 
 import gzip
 import json
-import os
 import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+from sdovon_mj.errors import InputError
+from sdovon_mj.records import Episode, Goal, SceneVariant
+from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from sdovon_mj.sim.model import pose_settled
+from sdovon_mj.store import atomic_write_bytes
+from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
 
-import mujoco  # noqa: E402
+import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
-from sdovon_mj.errors import InputError  # noqa: E402
-from sdovon_mj.records import Episode, Goal, SceneVariant  # noqa: E402
-from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE  # noqa: E402
-from sdovon_mj.sim.model import pose_settled  # noqa: E402
-from sdovon_mj.store import atomic_write_bytes  # noqa: E402
-
-from ..base import ExportOptions, ExportReport, Exporter, RunView  # noqa: E402
-from . import frames  # noqa: E402
-from .glb import geoms_mesh, glb_bytes  # noqa: E402
+from . import frames
+from .glb import geoms_mesh, glb_bytes
 
 UP, FRONT = [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]
 _OBJ_NUM = re.compile(r"^obj_(\d+)$")

@@ -9,16 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+from sdovon_mj.errors import InputError
+from sdovon_mj.records import SceneVariant, dumps
+from sdovon_mj.sim.model import pose_settled
+from sdovon_mj.store import atomic_copy, atomic_write_text
+from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
 
-import mujoco  # noqa: E402
-
-from sdovon_mj.errors import InputError  # noqa: E402
-from sdovon_mj.records import SceneVariant, dumps  # noqa: E402
-from sdovon_mj.sim.model import pose_settled  # noqa: E402
-from sdovon_mj.store import atomic_copy, atomic_write_text  # noqa: E402
-
-from ..base import ExportOptions, ExportReport, Exporter, RunView  # noqa: E402
+import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
 BUNDLE_VERSION = 1
 

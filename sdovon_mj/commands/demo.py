@@ -28,13 +28,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Generate the demo dataset, export it (habitat + mjcf), evaluate the baselines, draw pictures."""
     from ..pipeline import generate
-    from ..stages import summary_table
     from .show import show_run
 
     cfg = load_config(demo_config_path(), args.overrides)
     out = Path(args.out)
     summary = generate(out, cfg, jobs=args.jobs, progress=False if args.quiet else None)
-    print(summary_table(summary))
+    print(summary.table())
     if summary.failures:
         for f in summary.failures:
             print(f"failed: {f.spec.label}: {f.error}", file=sys.stderr)
@@ -45,9 +44,9 @@ def run(args: argparse.Namespace) -> int:
     if render:
         print(f"render: {render}")
     if args.episodes > 0:
-        from ..nav import eval_cli
+        from ..suite import evaluate
 
-        eval_cli.run(argparse.Namespace(dataset=str(out / "export" / "mjcf"), agent=["random-astar", "semantic-astar"],
+        evaluate.run(argparse.Namespace(dataset=str(out / "export" / "mjcf"), agent=["random-astar", "semantic-astar"],
                                         episodes=args.episodes, no_fn=False, fn_ablation=False, width=160, height=120,
                                         seed=0, pictures=2, out=str(out / "eval")))
     print(f"done: {out.resolve()}")

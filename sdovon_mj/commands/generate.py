@@ -26,13 +26,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and print the summary table."""
     from ..pipeline import generate
-    from ..stages import summary_table
 
     cfg = load_config(args.config, args.overrides)
     summary = generate(args.out, cfg, scenes=args.scenes, objects=args.objects, executor=args.executor,
                        jobs=args.jobs, address=args.address, retries=args.retries,
                        progress=False if args.quiet else None)
-    print(summary_table(summary))
+    print(summary.table())
     for f in summary.failures:
         print(f"failed: {f.spec.label}: {f.error}", file=sys.stderr)
     # Partial runs keep every finished output; the exit code still tells scripts that something failed.

@@ -18,9 +18,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..config import EpisodeConfig
+from ..config import AgentConfig, EpisodeConfig
+from ..geometry import yaw_quat
 from ..records import Episode, Goal, NavMap, SceneVariant
-from ..sim.camera import yaw_quat
 from .geodesic import GeodesicField
 from .viewpoints import VisibilityChecker, floor_navmap, load_variant_model, object_box, object_view_points
 
@@ -34,13 +34,27 @@ class GoalReport:
 
 
 def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path,
-                cfg: EpisodeConfig) -> tuple[list[Goal], dict[str, int], GoalReport]:
-    """Return the variant's valid goals, each goal's floor index, and a kept/dropped report."""
+                cfg: EpisodeConfig, agent: AgentConfig = AgentConfig()) -> tuple[list[Goal], dict[str, int], GoalReport]:
+    """Return the variant's valid goals, each goal's floor index, and a kept/dropped report.
+
+    Parameters
+    ----------
+    variant : SceneVariant
+        The placed variant whose resting objects are the candidate goals.
+    navmaps : list of NavMap
+        Navigation maps of the scene, one per floor.
+    store_root : str or Path
+        Store root the variant's model is relative to.
+    cfg : EpisodeConfig
+        View-point radius, step and cap; visibility-render size.
+    agent : AgentConfig
+        The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
+    """
     model, data = load_variant_model(variant, store_root)
     goals: list[Goal] = []
     floors: dict[str, int] = {}
     dropped: dict[str, str] = {}
-    checker = VisibilityChecker(model, data, cfg)
+    checker = VisibilityChecker(model, data, cfg, agent)
     try:
         for p in sorted(variant.placements, key=lambda p: p.object_id):
             box = object_box(model, data, p.object_id)
@@ -51,7 +65,7 @@ def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | 
             if nm is None:
                 dropped[p.object_id] = "below every floor"
                 continue
-            vps = object_view_points(checker, nm, box, cfg)
+            vps = object_view_points(checker, nm, box, cfg, agent)
             if not vps:
                 dropped[p.object_id] = "no view point sees it"
                 continue
@@ -64,17 +78,49 @@ def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | 
 
 
 def generate_episodes(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path,
-                      cfg: EpisodeConfig, seed: int) -> list[Episode]:
-    """Return k_e ObjectNav episodes per valid goal category of a variant (empty: no valid goals)."""
-    episodes, _report = generate_episodes_with_report(variant, navmaps, store_root, cfg, seed)
+                      cfg: EpisodeConfig, seed: int, agent: AgentConfig = AgentConfig()) -> list[Episode]:
+    """Return k_e ObjectNav episodes per valid goal category of a variant (empty: no valid goals).
+
+    Parameters
+    ----------
+    variant
+        The settled scene variant (its MJCF is loaded for visibility renders).
+    navmaps
+        The scene's navigable maps, one per floor.
+    store_root
+        Run folder the variant's paths are relative to.
+    cfg
+        Episode settings (k_e, view point lattice, start distances).
+    seed
+        Variant seed of start poses and goal choices.
+    agent
+        The agent camera (height above the floor, hfov) and ``eta_gt`` that define view points.
+    """
+    episodes, _report = generate_episodes_with_report(variant, navmaps, store_root, cfg, seed, agent)
     return episodes
 
 
 def generate_episodes_with_report(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path,
-                                  cfg: EpisodeConfig, seed: int) -> tuple[list[Episode], GoalReport]:
-    """Return the episodes of a variant and the goal report (which objects were dropped and why)."""
+                                  cfg: EpisodeConfig, seed: int, agent: AgentConfig = AgentConfig()) -> tuple[list[Episode], GoalReport]:
+    """Return the episodes of a variant and the goal report (which objects were dropped and why).
+
+    Parameters
+    ----------
+    variant : SceneVariant
+        The placed variant whose resting objects are the goals.
+    navmaps : list of NavMap
+        Navigation maps of the scene, one per floor.
+    store_root : str or Path
+        Store root the variant's model is relative to.
+    cfg : EpisodeConfig
+        Episode settings (k_e, view-point radius and step, start distances).
+    seed : int
+        Seed of the episode draws.
+    agent : AgentConfig
+        The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
+    """
     rng = np.random.default_rng(seed)
-    goals, floors, report = build_goals(variant, navmaps, store_root, cfg)
+    goals, floors, report = build_goals(variant, navmaps, store_root, cfg, agent)
     by_floor = {m.floor: m for m in navmaps}
     by_cat: dict[str, list[Goal]] = {}
     for g in goals:
@@ -129,7 +175,7 @@ def _sample_start(rng: np.random.Generator, nm: NavMap, cat_field: GeodesicField
         rc = cells[int(rng.integers(len(cells)))]
         geo = float(cat_field.field[rc[0], rc[1]])
         if math.isfinite(geo):
-            return nm.cell_to_world(rc[None])[0], geo
+            return nm.frame.to_world(rc[None])[0], geo
     return None
 
 

@@ -15,12 +15,12 @@ class GeodesicField:
 
     def __init__(self, navmap: NavMap, sources_xy: np.ndarray) -> None:
         self.navmap = navmap
-        cells = navmap.world_to_cell(np.asarray(sources_xy, dtype=float).reshape(-1, 2)) if len(sources_xy) else np.zeros((0, 2), int)
+        cells = navmap.frame.to_cell(np.asarray(sources_xy, dtype=float).reshape(-1, 2)) if len(sources_xy) else np.zeros((0, 2), int)
         self.field = distance_field(navmap.navigable, cells, navmap.resolution)
 
     def at(self, xy: np.ndarray) -> np.ndarray:
         """Return geodesic distances (N,) at world XY points; inf off the grid or unreachable."""
-        rc = self.navmap.world_to_cell(np.asarray(xy, dtype=float).reshape(-1, 2))
+        rc = self.navmap.frame.to_cell(np.asarray(xy, dtype=float).reshape(-1, 2))
         h, w = self.field.shape
         ok = (rc[:, 0] >= 0) & (rc[:, 0] < h) & (rc[:, 1] >= 0) & (rc[:, 1] < w)
         out = np.full(len(rc), np.inf)

@@ -11,21 +11,19 @@ object). View points are sorted by visible fraction, largest first, and capped.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+import mujoco
 
-import mujoco  # noqa: E402
-
-from ..config import EpisodeConfig
+from ..config import AgentConfig, EpisodeConfig
 from ..errors import InputError
+from ..geometry import yaw_quat
 from ..records import NavMap, SceneVariant, ViewPoint
 from ..sim import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
-from ..sim.camera import pose_cv, yaw_quat
+from ..sim.camera import pose_cv
 from ..sim.model import geom_segment_ids, object_segment_id, pose_settled, segment_image
 from ..sim.render import SceneRenderer
 
@@ -97,8 +95,8 @@ def candidate_cells(navmap: NavMap, box: ObjectBox, radius: float, step: float) 
     lo, hi = box.lo[:2] - radius, box.hi[:2] + radius
     stride = max(1, int(round(step / navmap.resolution)))
     h, w = navmap.navigable.shape
-    rc_lo = navmap.world_to_cell(lo[None])[0]
-    rc_hi = navmap.world_to_cell(hi[None])[0]
+    rc_lo = navmap.frame.to_cell(lo[None])[0]
+    rc_hi = navmap.frame.to_cell(hi[None])[0]
     # Anchor the lattice to the grid (not to the box), so nearby objects share cells.
     r0 = max(0, int(math.ceil(rc_lo[0] / stride)) * stride)
     c0 = max(0, int(math.ceil(rc_lo[1] / stride)) * stride)
@@ -109,7 +107,7 @@ def candidate_cells(navmap: NavMap, box: ObjectBox, radius: float, step: float) 
     rr, cc = np.meshgrid(rows, cols, indexing="ij")
     cells = np.stack([rr.ravel(), cc.ravel()], axis=1)
     cells = cells[navmap.navigable[cells[:, 0], cells[:, 1]]]
-    xy = navmap.cell_to_world(cells)
+    xy = navmap.frame.to_world(cells)
     dx = np.maximum(np.maximum(box.lo[0] - xy[:, 0], 0.0), xy[:, 0] - box.hi[0])
     dy = np.maximum(np.maximum(box.lo[1] - xy[:, 1], 0.0), xy[:, 1] - box.hi[1])
     return cells[np.hypot(dx, dy) <= radius]
@@ -126,9 +124,9 @@ def facing(camera: np.ndarray, target: np.ndarray) -> tuple[float, float]:
 class VisibilityChecker:
     """Renders segmentation from agent camera poses and measures an object's pixel fraction."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, cfg: EpisodeConfig) -> None:
-        self.model, self.data, self.cfg = model, data, cfg
-        self.renderer = SceneRenderer(model, data, width=cfg.vis_width, height=cfg.vis_height, hfov=cfg.hfov,
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, cfg: EpisodeConfig, agent: AgentConfig = AgentConfig()) -> None:
+        self.model, self.data, self.cfg, self.agent = model, data, cfg, agent
+        self.renderer = SceneRenderer(model, data, width=cfg.vis_width, height=cfg.vis_height, hfov=agent.hfov,
                                       groups=(GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL))
         self.lut = geom_segment_ids(model)
         self._scene_groups = np.zeros(6, dtype=np.uint8)
@@ -206,23 +204,38 @@ class VisibilityChecker:
                 frac = float(np.count_nonzero(seg == seg_id)) / seg.size
                 if frac > best[0]:
                     best = (frac, yaw, pitch)
-                if frac >= self.cfg.eta_gt and k == 0:
+                if frac >= self.agent.eta_gt and k == 0:
                     break  # the pitch aimed at the centre already sees it
         finally:
             groups[hidden] = saved
         return best
 
 
-def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBox, cfg: EpisodeConfig) -> list[ViewPoint]:
-    """Return the valid view points of one object on one floor, best visible fraction first."""
+def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBox, cfg: EpisodeConfig,
+                       agent: AgentConfig = AgentConfig()) -> list[ViewPoint]:
+    """Return the valid view points of one object on one floor, best visible fraction first.
+
+    Parameters
+    ----------
+    checker : VisibilityChecker
+        Ray and render checks on the variant's model.
+    navmap : NavMap
+        Navigation map of the object's floor.
+    box : ObjectBox
+        The object's world bounding box, metres.
+    cfg : EpisodeConfig
+        View-point radius, lattice step and cap (metres).
+    agent : AgentConfig
+        The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
+    """
     cells = candidate_cells(navmap, box, cfg.viewpoint_radius, cfg.viewpoint_step)
     out: list[tuple[float, ViewPoint]] = []
-    for xy in navmap.cell_to_world(cells):
-        cam = np.array([xy[0], xy[1], navmap.height + cfg.camera_height])
+    for xy in navmap.frame.to_world(cells):
+        cam = np.array([xy[0], xy[1], navmap.height + agent.camera_height])
         if not checker.rays_clear(cam, box):
             continue
         frac, yaw, _pitch = checker.visible_fraction(cam, box)
-        if frac >= cfg.eta_gt:
+        if frac >= agent.eta_gt:
             vp = ViewPoint(position=np.array([xy[0], xy[1], navmap.height]), rotation=yaw_quat(yaw), visible_fraction=frac)
             out.append((frac, vp))
     out.sort(key=lambda t: (-t[0], float(t[1].position[0]), float(t[1].position[1])))

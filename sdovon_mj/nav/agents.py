@@ -1,6 +1,11 @@
 """Agents for the ObjectNav suite: Random A* and Semantic A* (paper appendix D), Oracle and Random.
 
-Protocol (what `eval_cli` and any plugin agent follow):
+Agents are plugins (`plugins.load("agent", name)`, entry point group ``sdovon_mj.agents``); the
+suite builds them as ``factory(nav=NavConfig, agent=AgentConfig, seed=int)`` (``nav.final_nav``
+switches final point-goal navigation). This package never imports the suite: environments come in
+through ``make_env`` and ``env``.
+
+Protocol (what `suite.evaluate` and any plugin agent follow):
     agent.prepare(bundle, make_env)   once per bundle; A* agents explore a scene they do not know yet
     agent.reset(env, timestep)        at each episode start
     action = agent.act(timestep)      one discrete action per step
@@ -11,24 +16,25 @@ Protocol (what `eval_cli` and any plugin agent follow):
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import math
 from typing import Callable, Generator
 
 import numpy as np
 
-from ..config import NavConfig, ReceptacleConfig
+from ..actions import LOOK_DOWN, LOOK_UP, STOP, TURN_LEFT
+from ..config import AgentConfig, NavConfig, ReceptacleConfig
 from ..errors import InputError
+from ..grid import GeodesicField
+from ..perceive.gt_detector import GroundTruthDetector
 from ..records import Relevance, ReceptaclePlane
 from ..sim.camera import pose_cv
 from ..sim.model import object_segment_id
 from .control import Navigator, blocked_cells, lattice_approach, segment_checker
 from .frontier import explore
 from .goal import goal_points, infer_view_points, object_centre
-from .grid import GeodesicField, GridFrame
 from .memory import SceneMemory, build_memory
-
-STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN = range(6)
 
 # Scene memories built by exploration, shared by every A* agent of a process (eval runs four agents
 # over the same scenes); keyed by scene, navmap, labels and exploration settings.
@@ -42,8 +48,9 @@ class Agent:
     name = "agent"
     needs_semantic = False
 
-    def __init__(self, nav: NavConfig | None = None, seed: int = 0) -> None:
+    def __init__(self, nav: NavConfig | None = None, seed: int = 0, agent: AgentConfig | None = None) -> None:
         self.nav = nav or NavConfig()
+        self.agent_config = agent or AgentConfig()  # body, camera and eta_gt; environments are made with it
         self.seed = seed
         self.wants_frame = True
         self._gen: Generator[int, object, None] | None = None
@@ -83,8 +90,9 @@ class RandomAgent(Agent):
 
     name = "random"
 
-    def __init__(self, nav: NavConfig | None = None, seed: int = 0, p_stop: float = 0.0) -> None:
-        super().__init__(nav, seed)
+    def __init__(self, nav: NavConfig | None = None, seed: int = 0, p_stop: float = 0.0,
+                 agent: AgentConfig | None = None) -> None:
+        super().__init__(nav, seed, agent)
         self.p_stop = p_stop
         self.wants_frame = False
 
@@ -99,8 +107,9 @@ class OracleAgent(Agent):
 
     name = "oracle"
 
-    def __init__(self, nav: NavConfig | None = None, seed: int = 0, stop: bool = True) -> None:
-        super().__init__(nav, seed)
+    def __init__(self, nav: NavConfig | None = None, seed: int = 0, stop: bool = True,
+                 agent: AgentConfig | None = None) -> None:
+        super().__init__(nav, seed, agent)
         self.stop = stop
         self.wants_frame = False
 
@@ -125,29 +134,9 @@ class OracleAgent(Agent):
             yield TURN_LEFT
 
 
-def goal_segment_ids(bundle, category: str) -> np.ndarray:
-    """Return the segmentation ids of every goal object of a category in a bundle (gt detector)."""
-    ids = {object_segment_id(g.object_id) for e in bundle.episodes for g in e.goals if g.category == category}
-    return np.array(sorted(ids), dtype=np.int64)
-
-
-class GroundTruthDetector:
-    """Detects a category from the semantic observation: its objects' pixels, if >= eta_gt of the image."""
-
-    def __init__(self, bundle, eta_gt: float = 1e-4) -> None:
-        self.bundle = bundle
-        self.eta_gt = eta_gt
-        self._cache: dict[str, np.ndarray] = {}
-
-    def __call__(self, observation: dict, category: str) -> np.ndarray | None:
-        """Return the goal mask (H, W) when detected, else None."""
-        if category not in self._cache:
-            self._cache[category] = goal_segment_ids(self.bundle, category)
-        seg = observation.get("semantic")
-        if seg is None:
-            raise InputError("observation", "the gt detector needs the 'semantic' observation (task semantic=True)")
-        mask = np.isin(seg, self._cache[category])
-        return mask if mask.sum() >= self.eta_gt * mask.size else None
+def goal_labels(bundle) -> dict[int, str]:
+    """Return segmentation id -> category of every goal object in a bundle (what the gt detector may see)."""
+    return {object_segment_id(g.object_id): g.category for e in bundle.episodes for g in e.goals}
 
 
 class ReceptacleAStar(Agent):
@@ -160,10 +149,42 @@ class ReceptacleAStar(Agent):
                  detector: Callable[[dict, str], np.ndarray | None] | None = None,
                  receptacle_labels: tuple[str, ...] | None = None, relevance: Relevance | None = None,
                  planes: list[ReceptaclePlane] | None = None, region_of: Callable[[np.ndarray], str] | None = None,
-                 explore_steps: int = 3000, explore_size: tuple[int, int] = (160, 120), planning: str = "explored") -> None:
-        super().__init__(nav, seed)
+                 explore_steps: int = 3000, explore_size: tuple[int, int] = (160, 120), planning: str = "explored",
+                 agent: AgentConfig | None = None) -> None:
+        """Build the agent.
+
+        Parameters
+        ----------
+        nav
+            Actions, tolerances and FN settings (default `NavConfig()`).
+        seed
+            Seed of the receptacle order's random choices.
+        final_nav
+            Final point-goal navigation after a detection; default ``nav.final_nav``.
+        detector
+            ``detector(observation, category) -> (H, W) bool mask | None``; default: the gt detector
+            (`perceive.gt_detector.GroundTruthDetector` on the bundle's goal objects).
+        receptacle_labels
+            Labels of receptacles to visit (default `ReceptacleConfig().labels`).
+        relevance
+            Relevance tables (default: the bundle's).
+        planes
+            Receptacle planes to use instead of the built-in top planes of explored instances.
+        region_of
+            World XY -> region label (default: the bundle's region map).
+        explore_steps
+            Step budget of the frontier exploration per scene.
+        explore_size
+            (width, height) in pixels of the exploration camera.
+        planning
+            ``explored`` (plan on what exploration saw) or ``navmap`` (the bundle's navigable map).
+        agent
+            The agent's body, camera and ``eta_gt`` (default `AgentConfig()`).
+        """
+        super().__init__(nav, seed, agent)
         self.final_nav = self.nav.final_nav if final_nav is None else bool(final_nav)
         self.detector = detector
+        self._gt: GroundTruthDetector | None = None
         self.receptacle_labels = receptacle_labels or ReceptacleConfig().labels
         self.relevance = relevance
         self.planes = planes
@@ -179,8 +200,8 @@ class ReceptacleAStar(Agent):
     def prepare(self, bundle, make_env: Callable[..., object]) -> None:
         """Explore the bundle's scene the first time it is seen and build the memory."""
         self.bundle = bundle
-        if self.detector is None or isinstance(self.detector, GroundTruthDetector):
-            self.detector = GroundTruthDetector(bundle, self.nav.eta_gt)
+        if self.detector is None:
+            self._gt = GroundTruthDetector(labels=goal_labels(bundle), agent=self.agent_config)
         if self.relevance is None and bundle.relevance is not None:
             self._relevance = bundle.relevance
         else:
@@ -196,15 +217,17 @@ class ReceptacleAStar(Agent):
             nm = bundle.navmap(bundle.episodes[0].floor if bundle.episodes else 0)
             key = (scene, hashlib.sha1(np.ascontiguousarray(nm.navigable).tobytes()).hexdigest(),
                    tuple(sorted(labels.items())), tuple(self.receptacle_labels), self.explore_steps,
-                   tuple(self.explore_size), self.planning, self.nav)
+                   tuple(self.explore_size), self.planning, dataclasses.replace(self.nav, final_nav=True),
+                   self.agent_config)
             if key in _MEMORY_CACHE:
                 mem, self.explored = _MEMORY_CACHE[key]
                 self.memories[scene] = copy.copy(mem)  # own planning map: cells learned blocked stay with this agent
                 return
         w, h = self.explore_size
-        env = make_env(bundle, nav=self.nav, semantic=True, width=w, height=h, max_steps=self.explore_steps + 100)
+        env = make_env(bundle, nav=self.nav, agent=self.agent_config, semantic=True, width=w, height=h,
+                       max_steps=self.explore_steps + 100)
         frames, occ = explore(env, env.task.nav, max_steps=self.explore_steps)
-        frame = GridFrame.of(env.task.navmap)
+        frame = env.task.navmap.frame
         trav = occ.traversable() if self.planning == "explored" else env.task.navmap.navigable
         region_of = self.region_of
         if region_of is None and bundle.region_map() is not None:
@@ -229,7 +252,10 @@ class ReceptacleAStar(Agent):
         """Return the goal mask in the current observation (None when not detected or not rendered)."""
         if not self.frame_fresh:
             return None
-        return self.detector(self.ts.observation, str(self.ts.observation["objectgoal_text"]))
+        category = str(self.ts.observation["objectgoal_text"])
+        if self.detector is not None:
+            return self.detector(self.ts.observation, category)
+        return self._gt.category_mask(self.ts.observation.get("semantic"), category)
 
     def _rendered(self, action: int) -> Generator[int, object, None]:
         """Yield one action whose observation is rendered."""
@@ -258,7 +284,7 @@ class ReceptacleAStar(Agent):
     def _camera(self) -> np.ndarray:
         o = self.ts.observation
         pos = np.asarray(o["position"], float)
-        return pose_cv(pos + np.array([0.0, 0.0, self.nav.agent_height]), math.degrees(float(o["heading"][0])),
+        return pose_cv(pos + np.array([0.0, 0.0, self.agent_config.camera_height]), math.degrees(float(o["heading"][0])),
                        math.degrees(float(o["pitch"][0])))
 
     def _reconstruct(self, mask: np.ndarray) -> np.ndarray:
@@ -294,7 +320,7 @@ class ReceptacleAStar(Agent):
         self.frame_fresh = False
         yield from self._face(nv, centre)
         o = self.ts.observation
-        cam = np.asarray(o["position"], float) + np.array([0.0, 0.0, self.nav.agent_height])
+        cam = np.asarray(o["position"], float) + np.array([0.0, 0.0, self.agent_config.camera_height])
         want = math.degrees(math.atan2(centre[2] - cam[2], float(np.linalg.norm(centre[:2] - cam[:2]))))
         t = self.nav.tilt_angle
         want = float(np.clip(round(want / t) * t, -self.nav.max_tilt, self.nav.max_tilt))
@@ -381,10 +407,3 @@ class SemanticAStar(ReceptacleAStar):
         """Return the entries ranked by joint relevance (random among ties)."""
         return memory.ranked(category, self._relevance, rng)
 
-
-AGENTS: dict[str, type[Agent]] = {
-    "random-astar": RandomAStar,
-    "semantic-astar": SemanticAStar,
-    "oracle": OracleAgent,
-    "random": RandomAgent,
-}

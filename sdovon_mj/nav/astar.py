@@ -14,7 +14,7 @@ import numpy as np
 from scipy.sparse.csgraph import dijkstra
 
 from ..gridgraph import graph_of
-from .grid import GridFrame, nearest_true, segment_free
+from ..grid import GridFrame, nearest_true, segment_free
 
 _SQ2 = math.sqrt(2.0)
 _MOVES = ((-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0),

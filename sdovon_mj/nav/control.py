@@ -12,11 +12,10 @@ from typing import Callable, Generator
 
 import numpy as np
 
+from ..actions import MOVE_FORWARD, TURN_LEFT, TURN_RIGHT
 from ..gridgraph import distance_field
 from .astar import plan
-from .grid import GridFrame, segment_free
-
-MOVE_FORWARD, TURN_LEFT, TURN_RIGHT = 1, 2, 3
+from ..grid import GridFrame, segment_free
 
 
 def _pose(ts) -> tuple[np.ndarray, float]:

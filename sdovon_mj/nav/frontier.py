@@ -17,9 +17,12 @@ import numpy as np
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
 
+from ..actions import TURN_LEFT
+from ..config import AgentConfig
 from ..records import Observation
 from ..sim.camera import backproject, pose_cv
-from .grid import GridFrame, cell_graph, dilate, nearest_true
+from ..grid import GridFrame, dilate, nearest_true
+from ..gridgraph import cell_graph
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 
@@ -30,8 +33,7 @@ class OccupancyMap:
 
     frame: GridFrame
     floor_z: float = 0.0
-    agent_height: float = 0.88
-    agent_radius: float = 0.18
+    agent: AgentConfig = AgentConfig()  # body: obstacles up to its height (+ margin), planning margin its radius
     obstacle_min: float = 0.1
     state: np.ndarray = field(default=None)  # type: ignore[assignment]
     blocked: np.ndarray | None = None
@@ -58,7 +60,7 @@ class OccupancyMap:
         farv = far[np.nonzero((np.where(far, depth_max, d) > 0.01))]
         cam = T_cam[:3, 3]
         z = pts[:, 2] - self.floor_z
-        hit_obstacle = (~farv) & (z > self.obstacle_min) & (z < self.agent_height + 0.1)
+        hit_obstacle = (~farv) & (z > self.obstacle_min) & (z < self.agent.height + 0.1)
         # carve free space along each ray (2D), stopping short of the hit cell
         res = self.frame.resolution
         vec = pts[:, :2] - cam[None, :2]
@@ -106,7 +108,7 @@ class OccupancyMap:
     def traversable(self) -> np.ndarray:
         """Return cells the agent's base may plan through: free, at least a radius from obstacles, not refused."""
         occ = self.state == OCCUPIED
-        trav = (self.state == FREE) & ~dilate(occ, self.agent_radius, self.frame.resolution)
+        trav = (self.state == FREE) & ~dilate(occ, self.agent.radius, self.frame.resolution)
         return trav if self.blocked is None else trav & ~self.blocked
 
     def frontiers(self, min_cells: int = 4) -> list[np.ndarray]:
@@ -130,13 +132,18 @@ def scan_actions(turn_angle: float) -> int:
 
 
 def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random.Generator | None = None) -> tuple[list[Observation], OccupancyMap]:
-    """Explore from the environment's current episode start; return the frames seen and the occupancy map."""
+    """Explore from the environment's current episode start; return the frames seen and the occupancy map.
+
+    The agent's body and camera are the environment's (``env.task.agent``, an `AgentConfig`); moves
+    and the depth range come from ``nav``.
+    """
     from .control import Navigator, blocked_cells
 
     ts = env.reset()
     task = env.task
-    frame = GridFrame.of(task.navmap)
-    occ = OccupancyMap(frame, floor_z=float(task.navmap.height), agent_height=nav.agent_height, agent_radius=nav.agent_radius)
+    frame = task.navmap.frame
+    agent = task.agent
+    occ = OccupancyMap(frame, floor_z=float(task.navmap.height), agent=agent)
     frames: list[Observation] = []
     state = {"ts": ts, "steps": 0, "views": 0}
     K = task.K
@@ -144,7 +151,7 @@ def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random
     def record(ts) -> None:
         o = ts.observation
         pos = np.asarray(o["position"], float)
-        T = pose_cv(pos + np.array([0.0, 0.0, nav.agent_height]), math.degrees(float(o["heading"][0])), math.degrees(float(o["pitch"][0])))
+        T = pose_cv(pos + np.array([0.0, 0.0, agent.camera_height]), math.degrees(float(o["heading"][0])), math.degrees(float(o["pitch"][0])))
         occ.integrate(o["depth"], K, T, nav.depth_max)
         state["views"] += 1
         if state["views"] % keep_every == 0:
@@ -159,15 +166,15 @@ def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random
 
     def scan() -> None:
         for _ in range(scan_actions(nav.turn_angle)):
-            record(step(2, True))  # TURN_LEFT
+            record(step(TURN_LEFT, True))
 
-    occ.mark_free_disc(np.asarray(ts.observation["position"]), nav.agent_radius + 0.05)
+    occ.mark_free_disc(np.asarray(ts.observation["position"]), agent.radius + 0.05)
     record(ts)
     scan()
     tried: list[np.ndarray] = occ.targets
     while state["steps"] < max_steps and not state["ts"].last():
         pos = np.asarray(state["ts"].observation["position"], float)[:2]
-        occ.mark_free_disc(pos, nav.agent_radius + 0.05)
+        occ.mark_free_disc(pos, agent.radius + 0.05)
         trav = occ.traversable()
         clusters = occ.frontiers()
         if not clusters:

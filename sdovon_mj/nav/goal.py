@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..sim.camera import backproject
-from .grid import GeodesicField, GridFrame, nearest_true
+from ..grid import GeodesicField, GridFrame, nearest_true
 
 
 def goal_points(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, T_cam: np.ndarray, depth_min: float,

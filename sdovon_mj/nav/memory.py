@@ -12,13 +12,13 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
-from matplotlib.path import Path as MplPath
 from scipy import ndimage
 from scipy.spatial import ConvexHull, QhullError
 
+from ..geometry import points_in_polygon
 from ..records import Instance, Observation, ReceptaclePlane, Relevance
 from ..sim.camera import backproject
-from .grid import GridFrame
+from ..grid import GridFrame
 
 
 @dataclass
@@ -120,7 +120,7 @@ def sample_nav_points(plane: ReceptaclePlane, traversable: np.ndarray, frame: Gr
     h, w = traversable.shape
     rows, cols = np.mgrid[0:h, 0:w]
     centres = frame.to_world(np.stack([rows.ravel(), cols.ravel()], 1))
-    inside = MplPath(np.asarray(plane.polygon, float)).contains_points(centres).reshape(h, w)
+    inside = points_in_polygon(plane.polygon, centres).reshape(h, w)
     if not inside.any():
         c = frame.to_cell(np.asarray(plane.polygon, float).mean(axis=0)[None])[0]
         if frame.inside(c[None])[0]:

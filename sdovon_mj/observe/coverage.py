@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config import ObserveConfig
+from ..config import AgentConfig, ObserveConfig
 from ..errors import StageError
-from ..records import NavMap, Viewpoint
+from ..records import CoverageView, NavMap
 from .navmap import clearance
 
 
@@ -80,7 +80,7 @@ def coverage_fraction(mp: np.ndarray, navmap: NavMap, cfg: ObserveConfig) -> flo
 
 
 def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int],
-            weighted: bool) -> tuple[list[Viewpoint], np.ndarray, CoverageStats]:
+            weighted: bool, agent: AgentConfig) -> tuple[list[CoverageView], np.ndarray, CoverageStats]:
     """Sequential candidate sampling with rejection and M_P bookkeeping."""
     nav = np.asarray(navmap.navigable, dtype=bool)
     cells = np.argwhere(nav)
@@ -91,8 +91,8 @@ def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | li
     ok = clear[cells[:, 0], cells[:, 1]] >= cfg.min_obstacle_distance
     mp = np.zeros(nav.shape, dtype=np.float64)
     stats = CoverageStats()
-    points: list[Viewpoint] = []
-    z = float(navmap.height) + float(cfg.agent_height)
+    points: list[CoverageView] = []
+    z = float(navmap.height) + float(agent.camera_height)
     while stats.iterations < cfg.max_iterations:
         if weighted:
             wgt = 1.0 - mp[cells[:, 0], cells[:, 1]]
@@ -106,9 +106,9 @@ def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | li
         if not ok[k]:
             stats.rejected_obstacle += 1
             continue
-        xy = navmap.cell_to_world(cells[k])[0]
+        xy = navmap.frame.to_world(cells[k])[0]
         overlay(mp, navmap, xy, cfg)
-        points.append(Viewpoint(floor=int(navmap.floor), position=np.array([xy[0], xy[1], z], dtype=np.float64)))
+        points.append(CoverageView(floor=int(navmap.floor), position=np.array([xy[0], xy[1], z], dtype=np.float64)))
         stats.accepted += 1
         stats.coverage = coverage_fraction(mp, navmap, cfg)
         stats.history.append(stats.coverage)
@@ -118,11 +118,13 @@ def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | li
     return points, mp, stats
 
 
-def coverage_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0) -> tuple[list[Viewpoint], np.ndarray, CoverageStats]:
+def coverage_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0,
+                        agent: AgentConfig = AgentConfig()) -> tuple[list[CoverageView], np.ndarray, CoverageStats]:
     """Return viewpoints sampled by the paper's Gaussian coverage filter, the final M_P, and stats."""
-    return _sample(navmap, cfg, seed, weighted=True)
+    return _sample(navmap, cfg, seed, weighted=True, agent=agent)
 
 
-def uniform_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0) -> tuple[list[Viewpoint], np.ndarray, CoverageStats]:
+def uniform_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0,
+                       agent: AgentConfig = AgentConfig()) -> tuple[list[CoverageView], np.ndarray, CoverageStats]:
     """Return viewpoints drawn uniformly over navigable cells until the same coverage (baseline)."""
-    return _sample(navmap, cfg, seed, weighted=False)
+    return _sample(navmap, cfg, seed, weighted=False, agent=agent)

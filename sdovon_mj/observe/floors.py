@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..config import ObserveConfig
+from ..config import AgentConfig, ObserveConfig
 from ..errors import StageError
-from ..records import Floor
+from ..records import Floor, NavMap
 
 UP_COS = 0.9  # |angle to +Z| < ~25.8 deg counts as upward-facing (tolerates scan noise)
 MIN_STOREY_HEIGHT = 1.8  # m: floors closer than this above the previous floor are furniture
@@ -71,7 +71,7 @@ def _peaks(heights: np.ndarray, weights: np.ndarray, tol: float) -> list[tuple[f
     return out
 
 
-def find_floors(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveConfig) -> list[Floor]:
+def find_floors(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveConfig, agent: AgentConfig = AgentConfig()) -> list[Floor]:
     """Return the distinct floors of a scene mesh, lowest first (StageError when there is none)."""
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
@@ -106,7 +106,7 @@ def find_floors(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveConfig) -> 
             sel = up & (np.abs(centre[:, 2] - h) <= tol / 2)
             pts = v[f[sel]].reshape(-1, 3)[:, :2]
             lo, hi = pts.min(axis=0) - 0.5, pts.max(axis=0) + 0.5
-            z0, z1 = h + 0.3, h + max(cfg.agent_height, 0.6)
+            z0, z1 = h + 0.3, h + max(agent.height, 0.6)
             wall = _band_area(v, f, vertical & _spans(v, f, z0, z1), z0, z1, lo, hi)
             if wall < MIN_WALL_AREA:
                 continue
@@ -133,3 +133,9 @@ def _band_area(v: np.ndarray, f: np.ndarray, sel: np.ndarray, z0: float, z1: flo
     inside = np.all((xy >= lo) & (xy <= hi), axis=1)
     _n, area, _c = face_geometry(tri.reshape(-1, 3), np.arange(len(tri) * 3).reshape(-1, 3))
     return float((area * frac * inside).sum())
+
+
+def floor_below(height: float, navmaps: list[NavMap]) -> NavMap | None:
+    """Return the navmap of the highest floor at or below a height (5 cm tolerance; None when below every floor)."""
+    below = [nm for nm in navmaps if nm.height <= height + 0.05]
+    return max(below, key=lambda nm: nm.height) if below else None

@@ -23,7 +23,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..config import ObserveConfig
+from ..config import AgentConfig, ObserveConfig
+from ..grid import GridFrame
 from ..errors import StageError
 from ..records import Floor, NavMap
 from ..store import atomic_write_bytes
@@ -37,13 +38,13 @@ class OffFloorError(StageError, ValueError):
     """A point that lies on no floor's free area."""
 
 
-def obstacle_band(floor: Floor, cfg: ObserveConfig) -> tuple[float, float]:
+def obstacle_band(floor: Floor, cfg: ObserveConfig, agent: AgentConfig = AgentConfig()) -> tuple[float, float]:
     """Return the world Z band whose geometry blocks the agent on this floor."""
     if cfg.nav_slice == "plane":
         return floor.height + cfg.h_map, floor.height + cfg.h_map
     if cfg.nav_slice != "band":
         raise StageError(f"observe.nav_slice must be 'band' or 'plane', got {cfg.nav_slice!r}")
-    top = cfg.obstacle_max_height if cfg.obstacle_max_height > 0 else cfg.agent_height
+    top = cfg.obstacle_max_height if cfg.obstacle_max_height > 0 else agent.height
     return floor.height + cfg.obstacle_min_height, floor.height + max(top, cfg.obstacle_min_height)
 
 
@@ -72,7 +73,23 @@ def _raster(grid: np.ndarray, xy: np.ndarray, origin: np.ndarray, res: float) ->
 
 def obstacle_grid(vertices: np.ndarray, faces: np.ndarray, z0: float, z1: float, origin: np.ndarray,
                   shape: tuple[int, int], res: float) -> np.ndarray:
-    """Return a (H, W) bool grid of cells touched by mesh parts inside the Z band [z0, z1]."""
+    """Return a (H, W) bool grid of cells touched by mesh parts inside the Z band [z0, z1].
+
+    Parameters
+    ----------
+    vertices : (N, 3) float
+        Mesh vertices, world metres, Z up.
+    faces : (M, 3) int
+        Triangle vertex indices.
+    z0, z1 : float
+        Bottom and top of the Z band, world metres.
+    origin : (2,) float
+        World XY of the grid's lower-left corner, metres.
+    shape : tuple of int
+        Grid shape (H, W): rows along +Y, columns along +X.
+    res : float
+        Cell size, metres.
+    """
     v = np.asarray(vertices, dtype=np.float64)
     tri = v[np.asarray(faces, dtype=np.int64)]
     z = tri[:, :, 2]
@@ -97,7 +114,16 @@ def obstacle_grid(vertices: np.ndarray, faces: np.ndarray, z0: float, z1: float,
 
 def floor_presence(vertices: np.ndarray, faces: np.ndarray, floor: Floor, origin: np.ndarray,
                    shape: tuple[int, int], res: float, tol: float) -> np.ndarray:
-    """Return a (H, W) bool grid of cells above an upward surface at the floor's height (ray casts)."""
+    """Return a (H, W) bool grid of cells above an upward surface at the floor's height (ray casts).
+
+    Parameters
+    ----------
+    vertices, faces, origin, shape, res : as in `obstacle_grid`
+    floor : Floor
+        The storey; rays start above its height.
+    tol : float
+        Largest height difference between the hit and the floor, metres.
+    """
     import trimesh
 
     normal, _area, centre = face_geometry(vertices, faces)
@@ -109,8 +135,7 @@ def floor_presence(vertices: np.ndarray, faces: np.ndarray, floor: Floor, origin
     mesh = trimesh.Trimesh(np.asarray(vertices, dtype=np.float64), sub, process=False)
     h, w = shape
     jj, ii = np.meshgrid(np.arange(w), np.arange(h))
-    x = origin[0] + (jj.ravel() + 0.5) * res
-    y = origin[1] + (ii.ravel() + 0.5) * res
+    x, y = GridFrame(np.asarray(origin, dtype=float), float(res), shape).to_world(np.stack([ii.ravel(), jj.ravel()], 1)).T
     origins = np.stack([x, y, np.full(x.shape, floor.height + RAY_START)], axis=1)
     dirs = np.tile([0.0, 0.0, -1.0], (len(origins), 1))
     loc, idx_ray, idx_tri = mesh.ray.intersects_location(origins, dirs, multiple_hits=False)
@@ -128,6 +153,14 @@ def solid_interior(vertices: np.ndarray, faces: np.ndarray, z: float, origin: np
 
     A wall or cabinet that spans the whole obstacle band has no horizontal face inside it; its
     vertical faces rasterise as outlines only, and this test fills the inside.
+
+    Parameters
+    ----------
+    vertices, faces, origin, res : as in `obstacle_grid`
+    z : float
+        Height of the horizontal rays, world metres.
+    cells : (K, 2) int
+        Grid cells (row, column) to test.
     """
     import trimesh
 
@@ -179,17 +212,29 @@ def clearance(free: np.ndarray, res: float) -> np.ndarray:
     return d.astype(np.float64) * res
 
 
-def navigable_map(vertices: np.ndarray, faces: np.ndarray, floor: Floor, cfg: ObserveConfig) -> NavMap:
-    """Return the navigable map of one floor (StageError when nothing is navigable)."""
+def navigable_map(vertices: np.ndarray, faces: np.ndarray, floor: Floor, cfg: ObserveConfig,
+                  agent: AgentConfig = AgentConfig()) -> NavMap:
+    """Return the navigable map of one floor (StageError when nothing is navigable).
+
+    Parameters
+    ----------
+    vertices, faces : as in `obstacle_grid`
+    floor : Floor
+        The storey mapped.
+    cfg : ObserveConfig
+        Map resolution, floor tolerance and smallest kept component.
+    agent : AgentConfig
+        The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
+    """
     res = float(cfg.map_resolution)
     origin, shape = grid_frame(vertices, faces, floor, cfg)
     present = floor_presence(vertices, faces, floor, origin, shape, res, cfg.floor_cluster_tol)
-    z0, z1 = obstacle_band(floor, cfg)
+    z0, z1 = obstacle_band(floor, cfg, agent)
     blocked = obstacle_grid(vertices, faces, z0, z1, origin, shape, res)
     free = present & ~blocked
     cells = np.argwhere(free)
     free[tuple(cells[solid_interior(vertices, faces, (z0 + z1) / 2, origin, res, cells)].T)] = False
-    nav = clearance(free, res) > cfg.agent_radius
+    nav = clearance(free, res) > agent.radius
     n, labels, stats, _c = cv2.connectedComponentsWithStats(nav.astype(np.uint8), connectivity=8)
     min_cells = cfg.min_component_area / (res * res)
     keep = np.zeros(n, dtype=bool)
@@ -198,7 +243,7 @@ def navigable_map(vertices: np.ndarray, faces: np.ndarray, floor: Floor, cfg: Ob
     if not navigable.any():
         raise StageError(
             f"floor {floor.index} at z={floor.height:.3f} m: no navigable area (floor {present.sum() * res * res:.2f} m^2, "
-            f"free {free.sum() * res * res:.2f} m^2, after eroding by {cfg.agent_radius} m "
+            f"free {free.sum() * res * res:.2f} m^2, after eroding by {agent.radius} m "
             f"{nav.sum() * res * res:.2f} m^2, no component >= {cfg.min_component_area} m^2)")
     return NavMap(floor=floor.index, height=float(floor.height), origin=np.asarray(origin, dtype=np.float64),
                   resolution=res, navigable=navigable, free=free)
@@ -214,7 +259,7 @@ def locate(navmaps: list[NavMap], point: np.ndarray, navigable: bool = False, st
         cands = [m for m in navmaps if m.height - 0.2 <= p[2] <= m.height + storey + 0.5]
     for m in sorted(cands, key=lambda m: -m.height):
         grid = m.navigable if navigable else m.free
-        rc = m.world_to_cell(p[:2])[0]
+        rc = m.frame.to_cell(p[:2])[0]
         if 0 <= rc[0] < grid.shape[0] and 0 <= rc[1] < grid.shape[1] and grid[rc[0], rc[1]]:
             return m
     what = "navigable" if navigable else "free"
@@ -239,7 +284,7 @@ def navmap_image(navmap: NavMap, coverage: np.ndarray | None = None, points: np.
     if scale > 1:
         img = np.repeat(np.repeat(img, scale, axis=0), scale, axis=1)
     if points is not None and len(points):
-        rc = navmap.world_to_cell(np.asarray(points)[:, :2])
+        rc = navmap.frame.to_cell(np.asarray(points)[:, :2])
         for r, c in rc:
             cx, cy = int((c + 0.5) * scale), int((h - 1 - r + 0.5) * scale)
             cv2.circle(img, (cx, cy), max(2, int(math.ceil(0.1 / navmap.resolution * scale))), (220, 0, 0), -1)

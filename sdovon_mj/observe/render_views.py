@@ -12,24 +12,21 @@ along the optical axis, 0 outside [depth_min, depth_max]. Segmentation holds sce
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Iterator
 
 import numpy as np
 
-from ..config import ObserveConfig
+from ..config import AgentConfig, ObserveConfig
 from ..errors import InputError
-from ..records import Observation, SceneAsset, Viewpoint
+from ..records import CoverageView, Observation, SceneAsset
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+import mujoco
 
-import mujoco  # noqa: E402
-
-from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE  # noqa: E402
-from ..sim.camera import pose_cv  # noqa: E402
-from ..sim.model import geom_segment_ids  # noqa: E402
-from ..sim.render import SceneRenderer, clip_depth  # noqa: E402
+from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from ..sim.camera import pose_cv
+from ..sim.model import geom_segment_ids
+from ..sim.render import SceneRenderer, clip_depth
 
 
 def load_model(scene: SceneAsset | str | Path, store_root: str | Path | None = None) -> mujoco.MjModel:
@@ -46,13 +43,13 @@ def load_model(scene: SceneAsset | str | Path, store_root: str | Path | None = N
         raise InputError(path, f"MuJoCo cannot compile the scene: {e}") from None
 
 
-def view_poses(cfg: ObserveConfig) -> list[tuple[float, float, float]]:
-    """Return the (yaw deg, pitch deg, height offset m above the viewpoint) rendered at every viewpoint, in render order."""
+def view_poses(cfg: ObserveConfig, agent: AgentConfig = AgentConfig()) -> list[tuple[float, float, float]]:
+    """Return the (yaw deg, pitch deg, height offset m above the viewpoint at agent.camera_height) rendered at every viewpoint, in render order."""
     steps = max(1, int(cfg.yaw_steps))
     yaws = [360.0 * k / steps for k in range(steps)]
     out = [(y, float(p), 0.0) for y in yaws for p in cfg.pitch_angles]
     for h in cfg.camera_heights:
-        dz = float(h) - float(cfg.agent_height)
+        dz = float(h) - float(agent.camera_height)
         out.extend((y, float(p), dz) for y in yaws for p in cfg.camera_height_pitches)
     return out
 
@@ -62,11 +59,11 @@ def view_angles(cfg: ObserveConfig) -> list[tuple[float, float]]:
     return [(y, p) for y, p, _dz in view_poses(cfg)]
 
 
-def make_renderer(model: mujoco.MjModel, cfg: ObserveConfig) -> SceneRenderer:
-    """Return a SceneRenderer set up for observation rendering (speed flags, camera, groups)."""
+def make_renderer(model: mujoco.MjModel, cfg: ObserveConfig, agent: AgentConfig = AgentConfig()) -> SceneRenderer:
+    """Return a SceneRenderer set up for observation rendering (speed flags, the agent camera's hfov, groups)."""
     znear = min(0.05, cfg.depth_min / 2.0) if cfg.depth_min > 0 else 0.02
     zfar = max(cfg.depth_max * 2.0, 20.0)
-    return SceneRenderer(model, width=cfg.width, height=cfg.height, hfov=cfg.hfov, znear=znear, zfar=zfar,
+    return SceneRenderer(model, width=cfg.width, height=cfg.height, hfov=agent.hfov, znear=znear, zfar=zfar,
                          shadows=cfg.shadows, groups=(GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL))
 
 
@@ -78,7 +75,27 @@ def segment_lut(model: mujoco.MjModel) -> np.ndarray:
 def observation_at(renderer: SceneRenderer, T: np.ndarray, cfg: ObserveConfig, seg_lut: np.ndarray, view_id: int,
                    viewpoint: int, yaw: float, pitch: float, rgb: bool = True, depth: bool = True,
                    segmentation: bool = True) -> Observation:
-    """Render one Observation from camera pose T (depth clipped to the config's range, instance segmentation)."""
+    """Render one Observation from camera pose T (depth clipped to the config's range, instance segmentation).
+
+    Parameters
+    ----------
+    renderer : SceneRenderer
+        The renderer of the scene model.
+    T : (4, 4) float
+        Camera pose T_cam (world <- OpenCV camera), metres.
+    cfg : ObserveConfig
+        Image size and depth range (metres).
+    seg_lut : (G + 1,) int32
+        Geom id -> instance id (last entry: background), from ``segment_lut``.
+    view_id : int
+        Id of the observation.
+    viewpoint : int
+        Index of the view point it was taken from.
+    yaw, pitch : float
+        Camera yaw and pitch, degrees.
+    rgb, depth, segmentation : bool
+        Which images to render (a skipped one is left zero or None).
+    """
     fr = renderer.render(T, rgb=rgb, depth=depth, segmentation=segmentation)
     d = clip_depth(fr.depth, cfg.depth_min, cfg.depth_max) if fr.depth is not None else np.zeros((cfg.height, cfg.width), np.float32)
     seg = seg_lut[fr.segmentation] if fr.segmentation is not None else None
@@ -87,17 +104,37 @@ def observation_at(renderer: SceneRenderer, T: np.ndarray, cfg: ObserveConfig, s
                        viewpoint=int(viewpoint), yaw=float(yaw), pitch=float(pitch))
 
 
-def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoints: list[Viewpoint],
+def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoints: list[CoverageView],
                         cfg: ObserveConfig, store_root: str | Path | None = None, rgb: bool = True,
                         depth: bool = True, segmentation: bool = True, start_view_id: int = 0,
-                        renderer: SceneRenderer | None = None) -> Iterator[Observation]:
-    """Yield one Observation per (viewpoint, yaw, pitch, camera height), rendered with one reused renderer."""
+                        renderer: SceneRenderer | None = None, agent: AgentConfig = AgentConfig()) -> Iterator[Observation]:
+    """Yield one Observation per (viewpoint, yaw, pitch, camera height), rendered with one reused renderer.
+
+    Parameters
+    ----------
+    scene : SceneAsset or str or Path or mujoco.MjModel
+        The scene (asset, MJCF path or compiled model); unused when `renderer` is given.
+    viewpoints : list of CoverageView
+        View points (world metres) to render from.
+    cfg : ObserveConfig
+        Yaws, pitches, image size and depth range.
+    store_root : str or Path, optional
+        Store root the scene's files are relative to.
+    rgb, depth, segmentation : bool
+        Which images to render.
+    start_view_id : int
+        Id of the first observation (the next ones count up).
+    renderer : SceneRenderer, optional
+        A renderer to reuse (left open); default: one made and closed here.
+    agent : AgentConfig
+        The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
+    """
     own = renderer is None
     if renderer is None:
         model = scene if isinstance(scene, mujoco.MjModel) else load_model(scene, store_root)
-        renderer = make_renderer(model, cfg)
+        renderer = make_renderer(model, cfg, agent)
     lut = segment_lut(renderer.model)
-    poses = view_poses(cfg)
+    poses = view_poses(cfg, agent)
     view_id = int(start_view_id)
     try:
         for vi, vp in enumerate(viewpoints):

@@ -2,7 +2,7 @@
 
 Outputs under ``<out_root>/<out_rel_dir>/`` (paths in the summary are relative to out_root):
 ``floors.json`` (Floor list), ``navmap_<i>.json`` (NavMap) + ``navmap_<i>.png``,
-``coverage_<i>.png`` (M_P over the navmap with the viewpoints), ``viewpoints.json`` (Viewpoint
+``coverage_<i>.png`` (M_P over the navmap with the viewpoints), ``viewpoints.json`` (CoverageView
 list, all floors), ``obs_<k>.npz`` shards (Observation records with K and T_cam) and
 ``summary.json``..
 """
@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from ..config import ObserveConfig
+from ..config import AgentConfig, ObserveConfig
 from ..errors import InputError, StageError
-from ..records import NavMap, SceneAsset, Viewpoint, dumps, save_json
+from ..records import CoverageView, NavMap, SceneAsset, dumps, save_json
 from ..sim.model import load_scene_mesh
 from ..store import atomic_write_text
 from .coverage import coverage_viewpoints
@@ -42,17 +42,32 @@ def load_mesh(scene: SceneAsset, store_root: str | Path) -> tuple[Path, np.ndarr
 
 
 def scene_floors_and_maps(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveConfig,
-                          source: str | Path = "<mesh>") -> tuple[list, list[NavMap], dict[int, str]]:
-    """Return floors, navmaps of floors with navigable area, and why other floors were skipped."""
+                          source: str | Path = "<mesh>", agent: AgentConfig = AgentConfig()
+                          ) -> tuple[list, list[NavMap], dict[int, str]]:
+    """Return floors, navmaps of floors with navigable area, and why other floors were skipped.
+
+    Parameters
+    ----------
+    vertices : (N, 3) float
+        Scene mesh vertices, world metres, Z up.
+    faces : (M, 3) int
+        Triangle vertex indices.
+    cfg : ObserveConfig
+        Floor detection and navigable-map settings.
+    source : str or Path
+        The mesh's source (named in errors).
+    agent : AgentConfig
+        The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
+    """
     try:
-        floors = find_floors(vertices, faces, cfg)
+        floors = find_floors(vertices, faces, cfg, agent)
     except StageError as e:
         raise InputError(source, str(e)) from None
     maps: list[NavMap] = []
     skipped: dict[int, str] = {}
     for fl in floors:
         try:
-            maps.append(navigable_map(vertices, faces, fl, cfg))
+            maps.append(navigable_map(vertices, faces, fl, cfg, agent))
         except StageError as e:
             skipped[fl.index] = str(e)
     if not maps:
@@ -61,8 +76,29 @@ def scene_floors_and_maps(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveC
 
 
 def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | Path, cfg: ObserveConfig,
-                  seed: int = 0, out_root: str | Path | None = None, render: bool = True) -> dict[str, Any]:
-    """Run the observe stage on one scene and write its outputs; return a JSON-able summary."""
+                  seed: int = 0, out_root: str | Path | None = None, render: bool = True,
+                  agent: AgentConfig = AgentConfig()) -> dict[str, Any]:
+    """Run the observe stage on one scene and write its outputs; return a JSON-able summary.
+
+    Parameters
+    ----------
+    scene
+        The converted scene (its mesh sidecar is sliced for floors and navigable maps).
+    store_root
+        Run folder the scene's paths are relative to.
+    out_rel_dir
+        Output folder relative to ``out_root``.
+    cfg
+        Observe settings.
+    seed
+        Scene seed (combined with ``cfg.seed`` and the floor for coverage sampling).
+    out_root
+        Folder the outputs are written under (default ``store_root``).
+    render
+        Render the RGB-D(+seg) observation shards.
+    agent
+        The agent's body (navigable map erosion and obstacle band) and camera (height, hfov).
+    """
     t0 = time.perf_counter()
     store_root = Path(store_root)
     root = Path(out_root) if out_root is not None else store_root
@@ -70,7 +106,7 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
     out = root / rel
     out.mkdir(parents=True, exist_ok=True)
     mesh_path, v, f, _fi = load_mesh(scene, store_root)
-    floors, maps, skipped = scene_floors_and_maps(v, f, cfg, mesh_path)
+    floors, maps, skipped = scene_floors_and_maps(v, f, cfg, mesh_path, agent)
     outputs: list[str] = []
 
     def _p(name: str) -> str:
@@ -78,10 +114,10 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
         return outputs[-1]
 
     save_json(floors, root / _p("floors.json"))
-    viewpoints: list[Viewpoint] = []
+    viewpoints: list[CoverageView] = []
     per_floor = []
     for nm in maps:
-        vps, mp, stats = coverage_viewpoints(nm, cfg, seed=[int(seed), int(cfg.seed), int(nm.floor)])
+        vps, mp, stats = coverage_viewpoints(nm, cfg, seed=[int(seed), int(cfg.seed), int(nm.floor)], agent=agent)
         save_json(nm, root / _p(f"navmap_{nm.floor}.json"))
         save_png(navmap_image(nm), root / _p(f"navmap_{nm.floor}.png"))
         pts = np.array([vp.position for vp in vps]) if vps else None
@@ -96,7 +132,7 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
     frames = 0
     if render and viewpoints:
         model = load_model(scene, store_root)
-        paths = save_shards(render_observations(model, viewpoints, cfg), out, cfg.frames_per_shard)
+        paths = save_shards(render_observations(model, viewpoints, cfg, agent=agent), out, cfg.frames_per_shard)
         shards = [(rel / p.name).as_posix() for p in paths]
         outputs.extend(shards)
         frames = len(viewpoints) * len(view_angles(cfg))

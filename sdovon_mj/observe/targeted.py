@@ -17,7 +17,7 @@ from typing import Iterator
 
 import numpy as np
 
-from ..config import ConfigError, ObserveConfig
+from ..config import AgentConfig, ConfigError, ObserveConfig
 from ..records import NavMap, Observation
 from ..sim.camera import backproject, pose_cv
 from ..sim.render import SceneRenderer, clip_depth
@@ -59,7 +59,7 @@ def candidate_positions(navmap: NavMap, target: ViewTarget, cfg: ObserveConfig) 
     rows, cols = np.nonzero(navmap.navigable)
     if len(rows) == 0:
         return np.zeros((0, 2))
-    xy = navmap.cell_to_world(np.stack([rows, cols], axis=1))
+    xy = navmap.frame.to_world(np.stack([rows, cols], axis=1))
     lo, hi = np.asarray(target.lo, float), np.asarray(target.hi, float)
     d = np.linalg.norm(np.maximum(np.maximum(lo - xy, xy - hi), 0.0), axis=1)
     if len(cfg.targeted_distance) != 2:
@@ -87,14 +87,28 @@ def aim(position: np.ndarray, look_at: np.ndarray, max_down: float = 80.0) -> np
     return pose_cv(position, yaw, float(np.clip(pitch, -max_down, 30.0)))
 
 
-def camera_heights(cfg: ObserveConfig) -> list[float]:
+def camera_heights(cfg: ObserveConfig, agent: AgentConfig = AgentConfig()) -> list[float]:
     """Return the camera heights above the floor the observe stage renders at (agent height first)."""
-    return [float(cfg.agent_height)] + [float(h) for h in cfg.camera_heights]
+    return [float(agent.camera_height)] + [float(h) for h in cfg.camera_heights]
 
 
 def plan_target_views(renderer: SceneRenderer, navmaps: list[NavMap], targets: list[ViewTarget],
-                      cfg: ObserveConfig) -> list[np.ndarray]:
-    """Return camera poses T_cam (world <- OpenCV) that show the most unseen cells of each target, in target order."""
+                      cfg: ObserveConfig, agent: AgentConfig = AgentConfig()) -> list[np.ndarray]:
+    """Return camera poses T_cam (world <- OpenCV) that show the most unseen cells of each target, in target order.
+
+    Parameters
+    ----------
+    renderer : SceneRenderer
+        Renderer of the scene (its intrinsics K).
+    navmaps : list of NavMap
+        Navigation maps, one per floor (candidate camera positions come from their navigable cells).
+    targets : list of ViewTarget
+        Receptacle targets with the points seen so far.
+    cfg : ObserveConfig
+        Targeted-view cell size and views per target.
+    agent : AgentConfig
+        The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
+    """
     by_floor = {nm.floor: nm for nm in navmaps}
     cell, per_target = float(cfg.targeted_cell), int(cfg.targeted_views)
     poses: list[np.ndarray] = []
@@ -110,7 +124,7 @@ def plan_target_views(renderer: SceneRenderer, navmaps: list[NavMap], targets: l
         centre = np.array([(t.lo[0] + t.hi[0]) / 2.0, (t.lo[1] + t.hi[1]) / 2.0, t.height])
         cands: list[tuple[np.ndarray, np.ndarray]] = []
         for xy in candidate_positions(nm, t, cfg):
-            for h in camera_heights(cfg):
+            for h in camera_heights(cfg, agent):
                 pos = np.array([xy[0], xy[1], nm.height + h])
                 if pos[2] <= t.height + 0.05:
                     continue  # a camera at or below a surface cannot see its top

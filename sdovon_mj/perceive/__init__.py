@@ -14,7 +14,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Callable, Iterable
 
-from ..config import PerceiveConfig
+from ..config import AgentConfig, PerceiveConfig
 from ..records import Instance, Observation, SceneAsset
 from .backproject import backproject_detections, voxel_downsample
 from .correction import box_iou_3d, correct_fusion
@@ -34,14 +34,34 @@ def _perceive_cfg(cfg: Any) -> PerceiveConfig:
 
 def perceive_scene(observations: Iterable[Observation], scene: SceneAsset | None, cfg: Any, seed: int = 0,
                    detector: Detector | None = None, batch_size: int = 8,
-                   look_again: Callable[[list[Instance], int], Iterable[Observation]] | None = None) -> list[Instance]:
+                   look_again: Callable[[list[Instance], int], Iterable[Observation]] | None = None,
+                   agent: AgentConfig | None = None) -> list[Instance]:
     """Return the fused, error-corrected 3D instances seen in a stream of observations (ids 0..n-1).
 
     ``look_again(instances, next_view_id)``, when given, is called once with the instances of the first
     pass and returns more observations (targeted views); they are fused into the same instances.
+
+    Parameters
+    ----------
+    observations : iterable of Observation
+        RGB-D views with camera poses (world metres).
+    scene : SceneAsset or None
+        The scene (the ground-truth detector reads its instances).
+    cfg : PerceiveConfig or RunConfig
+        Perceive settings (a run config's ``perceive`` section is used).
+    seed : int
+        Seed of the detector and the depth noise.
+    detector : Detector, optional
+        Detector to use (default: the one the config names).
+    batch_size : int
+        Views per detector batch.
+    look_again : callable, optional
+        ``look_again(instances, next_view_id)`` returning targeted observations (see above).
+    agent : AgentConfig, optional
+        The agent (passed to the detector plugin; the ground-truth detector reads its ``eta_gt``).
     """
     pcfg = _perceive_cfg(cfg)
-    det = detector if detector is not None else make_detector(pcfg, scene, seed)
+    det = detector if detector is not None else make_detector(pcfg, scene, seed, agent)
     fuser = InstanceFuser(pcfg)
     next_view = 0
 

@@ -40,7 +40,23 @@ def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
 
 def make_instance(world_points: np.ndarray, label: str, confidences: list[float], source_views: list[int],
                   gt_id: int = -1, instance_id: int = -1) -> Instance:
-    """Decompose world points into centre and centred points (paper equation 2) as an Instance."""
+    """Decompose world points into centre and centred points (paper equation 2) as an Instance.
+
+    Parameters
+    ----------
+    world_points : (N, 3) float
+        Points of the instance, world metres.
+    label : str
+        Category label.
+    confidences : list of float
+        Detection scores.
+    source_views : list of int
+        Ids of the views it was seen in.
+    gt_id : int
+        Ground-truth instance id (-1: unknown).
+    instance_id : int
+        Id of the instance (-1: not yet numbered).
+    """
     p = np.asarray(world_points, dtype=np.float64)
     c = p.mean(axis=0) if len(p) else np.zeros(3)
     return Instance(id=int(instance_id), label=label, points=(p - c).astype(np.float32), center=c,
@@ -60,7 +76,21 @@ def noisy_depth(obs: Observation, sigma: float, seed: int = 0) -> np.ndarray:
 
 def backproject_detections(obs: Observation, detections: list[Detection], cfg: PerceiveConfig,
                            seed: int = 0, depth_noise_sigma: float | None = None) -> list[Instance]:
-    """Return one 3D instance per detection: masked valid depth lifted to world, voxel-downsampled."""
+    """Return one 3D instance per detection: masked valid depth lifted to world, voxel-downsampled.
+
+    Parameters
+    ----------
+    obs : Observation
+        The view: depth (H, W) metres, intrinsics K (3, 3), pose T_cam (4, 4) world <- camera.
+    detections : list of Detection
+        Detections of the view, masks (H, W) bool.
+    cfg : PerceiveConfig
+        Depth range, voxel size and minimum points per instance.
+    seed : int
+        Seed of the depth noise.
+    depth_noise_sigma : float, optional
+        Depth noise std, metres (default: the config's).
+    """
     sigma = cfg.depth_noise_sigma if depth_noise_sigma is None else float(depth_noise_sigma)
     depth = noisy_depth(obs, sigma, seed)
     K = np.asarray(obs.K, dtype=np.float64)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Iterable, Iterator, Protocol, runtime_checkable
 
-from ..config import PerceiveConfig, ReceptacleConfig
+from ..config import AgentConfig, PerceiveConfig, ReceptacleConfig
 from ..records import Detection, Observation, SceneAsset
 
 
@@ -44,12 +44,17 @@ def default_vocabulary(cfg: PerceiveConfig, receptacles: ReceptacleConfig | None
     return tuple((receptacles or ReceptacleConfig()).labels)
 
 
-def make_detector(cfg: PerceiveConfig, scene: SceneAsset | None = None, seed: int = 0) -> Detector:
-    """Build the detector plugin named by cfg.detector (`gt`, `owl-sam`, or an installed one)."""
+def make_detector(cfg: PerceiveConfig, scene: SceneAsset | None = None, seed: int = 0,
+                  agent: AgentConfig | None = None) -> Detector:
+    """Build the detector plugin named by cfg.detector (`gt`, `owl-sam`, or an installed one).
+
+    Plugins are called as ``factory(cfg=PerceiveConfig, scene=SceneAsset | None, seed=int, agent=AgentConfig)``
+    (``agent.eta_gt`` is the ground-truth detector's threshold).
+    """
     from .. import plugins
 
     factory = plugins.load("detector", cfg.detector)
-    return factory(cfg=cfg, scene=scene, seed=seed)
+    return factory(cfg=cfg, scene=scene, seed=seed, agent=agent or AgentConfig())
 
 
 def detect_stream(observations: Iterable[Observation], detector: Detector, score_threshold: float = 0.0,

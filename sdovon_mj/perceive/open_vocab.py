@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import PerceiveConfig
+from ..config import AgentConfig, PerceiveConfig
 from ..errors import InputError
 from ..records import Detection, Observation, SceneAsset
 from .detectors import BaseDetector, default_vocabulary
@@ -46,7 +46,29 @@ class OpenVocabDetector(BaseDetector):
 
     def __init__(self, cfg: PerceiveConfig | None = None, scene: SceneAsset | None = None, seed: int = 0,
                  weights: str | Path | None = None, vocabulary: tuple[str, ...] | list[str] | None = None,
-                 device: str = "cpu", max_detections: int = 50) -> None:
+                 device: str = "cpu", max_detections: int = 50, agent: AgentConfig | None = None) -> None:
+        """Load the box and mask models from a local weights folder (nothing is downloaded).
+
+        Parameters
+        ----------
+        cfg : PerceiveConfig, optional
+            Perceive settings (weights folders, score threshold).
+        scene : SceneAsset, optional
+            Unused (the detector sees images only); part of the detector plugin call.
+        seed : int
+            Unused; part of the detector plugin call.
+        weights : str or Path, optional
+            Local folder with the box and SAM weights (default: ``cfg.detector_weights``).
+        vocabulary : tuple or list of str, optional
+            Text prompts (default: the config's vocabulary).
+        device : str
+            Torch device.
+        max_detections : int
+            Most detections kept per image.
+        agent : AgentConfig, optional
+            Unused; part of the detector plugin call.
+        """
+        # `agent` is part of the detector plugin call (make_detector); only the gt detector reads it (eta_gt)
         cfg = cfg or PerceiveConfig()
         root = str(weights if weights is not None else cfg.detector_weights)
         if not root:

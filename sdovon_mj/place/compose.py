@@ -136,7 +136,27 @@ def set_physics_options(spec: mujoco.MjSpec, cfg: PlaceConfig) -> None:
 def compose(placements: list[Placement], assets: dict[str, ObjectAsset], planes: list[ReceptaclePlane],
             scene: SceneAsset | None, store_root: str | Path, cfg: PlaceConfig, with_scene: bool = False,
             visual: bool = False) -> Composed:
-    """Build and compile scene (optional) + support + objects at their spawn poses (or settled poses if set)."""
+    """Build and compile scene (optional) + support + objects at their spawn poses (or settled poses if set).
+
+    Parameters
+    ----------
+    placements : list of Placement
+        Objects to add, at their settled poses when set, else their spawn poses (world metres, wxyz).
+    assets : dict of str to ObjectAsset
+        Object assets by name.
+    planes : list of ReceptaclePlane
+        Receptacle planes (support geometry is added for each).
+    scene : SceneAsset or None
+        The scene (floors; its visual model when `with_scene`).
+    store_root : str or Path
+        Store root the assets' files are relative to.
+    cfg : PlaceConfig
+        Physics and support settings.
+    with_scene : bool
+        Include the scene's own (visual) model.
+    visual : bool
+        Include the objects' visual meshes (not only their collision hulls).
+    """
     spec = load_scene_spec(scene, store_root) if (with_scene and scene is not None) else mujoco.MjSpec()
     if not with_scene:
         spec.modelname = f"{scene.name if scene is not None else 'scene'}_settle"

@@ -56,7 +56,23 @@ def _focus(variant: SceneVariant, planes: list[ReceptaclePlane]) -> tuple[np.nda
 
 def top_down_picture(variant: SceneVariant, planes: list[ReceptaclePlane], store_root: str | Path, out_path: str | Path,
                      size: int = 800, ceiling_z: float | None = None) -> Path:
-    """Render the variant from straight above (scene + objects, no ceilings) with a marker per object."""
+    """Render the variant from straight above (scene + objects, no ceilings) with a marker per object.
+
+    Parameters
+    ----------
+    variant : SceneVariant
+        The variant (its composed model is rendered).
+    planes : list of ReceptaclePlane
+        The scene's receptacle planes (choose the floor and the framing).
+    store_root : str or Path
+        Store root the variant's model is relative to.
+    out_path : str or Path
+        PNG file to write.
+    size : int
+        Image side, pixels.
+    ceiling_z : float, optional
+        The camera stays 5 cm under this height, world metres.
+    """
     import cv2
 
     model, data = _load(variant, store_root)
@@ -90,7 +106,21 @@ def top_down_picture(variant: SceneVariant, planes: list[ReceptaclePlane], store
 
 def view_picture(variant: SceneVariant, planes: list[ReceptaclePlane], store_root: str | Path, out_path: str | Path,
                  width: int = 800, height: int = 600) -> Path:
-    """Render a perspective view looking at the receptacle plane with the most resting objects."""
+    """Render a perspective view looking at the receptacle plane with the most resting objects.
+
+    Parameters
+    ----------
+    variant : SceneVariant
+        The variant (its composed model is rendered).
+    planes : list of ReceptaclePlane
+        The scene's receptacle planes.
+    store_root : str or Path
+        Store root the variant's model is relative to.
+    out_path : str or Path
+        PNG file to write.
+    width, height : int
+        Image size, pixels.
+    """
     model, data = _load(variant, store_root)
     counts: dict[int, int] = {}
     for p in variant.resting:

@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..config import PlaceConfig
+from ..geometry import axis_quat, quat_mul, quat_to_mat, sample_in_polygon, shrink_polygon
 from ..records import ObjectAsset, Placement, ReceptaclePlane, Relevance
-from ..polygons import sample_in_polygon, shrink_polygon
 
 POSITION_TRIES = 40  # candidate positions per object before giving up on a plane
 _INSET_CACHE: dict[tuple[bytes, float], np.ndarray] = {}
@@ -46,7 +46,23 @@ def object_radius(asset: ObjectAsset, mode: str) -> float:
 
 def category_distribution(relevance: Relevance, region: str, receptacle: str, categories: list[str],
                           temperature: float, top_k: int) -> tuple[list[str], np.ndarray]:
-    """Return the categories to draw from and their probabilities (joint relevance, top-k, temperature)."""
+    """Return the categories to draw from and their probabilities (joint relevance, top-k, temperature).
+
+    Parameters
+    ----------
+    relevance : Relevance
+        Object-category relevance tables.
+    region : str
+        Region label of the plane.
+    receptacle : str
+        Receptacle label of the plane.
+    categories : list of str
+        Categories of the object library.
+    temperature : float
+        Softmax temperature on the log relevance (small: sharper).
+    top_k : int
+        Keep the k most relevant categories (0: all).
+    """
     known = [c for c in categories if c in relevance.objects]
     if not known:
         return [], np.zeros(0)
@@ -71,26 +87,7 @@ def category_distribution(relevance: Relevance, region: str, receptacle: str, ca
 def random_rotation_xyz(rng: np.random.Generator) -> np.ndarray:
     """Return a wxyz quaternion of random rotations about X, Y and Z (the paper's spawn)."""
     ax, ay, az = rng.uniform(0.0, 2.0 * math.pi, 3)
-    qx = np.array([math.cos(ax / 2), math.sin(ax / 2), 0.0, 0.0])
-    qy = np.array([math.cos(ay / 2), 0.0, math.sin(ay / 2), 0.0])
-    qz = np.array([math.cos(az / 2), 0.0, 0.0, math.sin(az / 2)])
-    return quat_mul(qz, quat_mul(qy, qx))
-
-
-def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Return the wxyz quaternion product a * b."""
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
-
-
-def quat_to_mat(q: np.ndarray) -> np.ndarray:
-    """Return the 3x3 rotation matrix of a wxyz quaternion."""
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return quat_mul(axis_quat(2, az), quat_mul(axis_quat(1, ay), axis_quat(0, ax)))
 
 
 HEADROOM_MARGIN = 0.02  # m kept free between a spawned object's top and the surface above its plane
@@ -102,6 +99,21 @@ def spawn_pose(asset: ObjectAsset, plane: ReceptaclePlane, xy: np.ndarray, cfg: 
 
     `headroom` is the free height above the plane (a shelf board above, say): the spawn is lowered
     so the object's top stays under it; None when the object cannot fit at all.
+
+    Parameters
+    ----------
+    asset : ObjectAsset
+        The object (bounding box in its body frame, metres).
+    plane : ReceptaclePlane
+        The plane it is placed on.
+    xy : (2,) float
+        World XY of the bounding-box centre, metres.
+    cfg : PlaceConfig
+        Spawn mode and spawn height.
+    rng : numpy.random.Generator
+        Random draws of the orientation.
+    headroom : float
+        Free height above the plane, metres.
     """
     lo, hi = np.asarray(asset.bbox[0], float), np.asarray(asset.bbox[1], float)
     centre = (lo + hi) / 2.0
@@ -120,7 +132,7 @@ def spawn_pose(asset: ObjectAsset, plane: ReceptaclePlane, xy: np.ndarray, cfg: 
             return None
     elif cfg.spawn_mode == "stable":
         yaw = rng.uniform(0.0, 2.0 * math.pi)
-        q = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+        q = axis_quat(2, yaw)
         R = quat_to_mat(q)
         zc = plane.height + cfg.stable_drop + (centre[2] - lo[2])
         if zc + (hi[2] - centre[2]) > top_limit:
@@ -174,7 +186,21 @@ def _fits(xy: np.ndarray, r: float, taken: list[tuple[np.ndarray, float]], gap: 
 
 def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
                       cfg: PlaceConfig, rng: np.random.Generator) -> SampleResult:
-    """Sample categories, instances and spawn poses for every plane; say in notes what was skipped."""
+    """Sample categories, instances and spawn poses for every plane; say in notes what was skipped.
+
+    Parameters
+    ----------
+    planes : list of ReceptaclePlane
+        The scene's receptacle planes.
+    relevance : Relevance
+        Object-category relevance (weights of the category draw).
+    objects : list of ObjectAsset
+        The object library.
+    cfg : PlaceConfig
+        Objects per plane, caps, temperature, spawn mode.
+    rng : numpy.random.Generator
+        Random draws of categories, instances and poses.
+    """
     res = SampleResult()
     if not planes:
         res.notes.append("no receptacle planes in this scene: nothing to place")
@@ -254,7 +280,23 @@ def _place_one(asset: ObjectAsset, plane: ReceptaclePlane, taken: list[tuple[np.
 
 def resample_pose(asset: ObjectAsset, plane: ReceptaclePlane, others: list[tuple[np.ndarray, float]], cfg: PlaceConfig,
                   rng: np.random.Generator, headroom: float = math.inf) -> tuple[np.ndarray, np.ndarray] | None:
-    """Draw a new spawn pose for an object on its plane away from `others` (xy, radius), or None."""
+    """Draw a new spawn pose for an object on its plane away from `others` (xy, radius), or None.
+
+    Parameters
+    ----------
+    asset : ObjectAsset
+        The object.
+    plane : ReceptaclePlane
+        Its plane.
+    others : list of ((2,) float, float)
+        World XY and radius (metres) of the objects already on the plane.
+    cfg : PlaceConfig
+        Spawn mode, spawn height and spacing.
+    rng : numpy.random.Generator
+        Random draws of position and orientation.
+    headroom : float
+        Free height above the plane, metres.
+    """
     return _place_one(asset, plane, list(others), cfg, rng, headroom)
 
 

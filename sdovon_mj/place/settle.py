@@ -23,7 +23,7 @@ import numpy as np
 from ..config import PlaceConfig
 from ..records import Placement, ReceptaclePlane
 from .compose import Composed
-from ..polygons import points_in_convex_polygon
+from ..geometry import points_in_convex_polygon
 
 RESTING = "resting"
 ELSEWHERE = "resting_elsewhere"

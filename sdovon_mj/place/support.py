@@ -22,7 +22,7 @@ import numpy as np
 from ..config import PlaceConfig
 from ..records import ReceptaclePlane, SceneAsset
 from ..sim import GROUP_SUPPORT
-from ..polygons import convex_hull_ccw
+from ..geometry import convex_hull_ccw
 
 SUPPORT_FRICTION = (1.0, 0.02, 0.002)  # sliding, torsional, rolling
 SUPPORT_CONDIM = 6
@@ -118,7 +118,21 @@ def floor_extent(scene: SceneAsset | None, planes: list[ReceptaclePlane], floor:
 
 def add_support(spec: mujoco.MjSpec, planes: list[ReceptaclePlane], scene: SceneAsset | None, cfg: PlaceConfig,
                 store_root: str | Path | None = None) -> SupportInfo:
-    """Add receptacle prisms (or heightfields) and floor boxes to `spec`'s worldbody."""
+    """Add receptacle prisms (or heightfields) and floor boxes to `spec`'s worldbody.
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+        The model being built.
+    planes : list of ReceptaclePlane
+        Receptacle planes (polygon world XY, height world Z, metres).
+    scene : SceneAsset or None
+        The scene (its floors; its mesh for heightfield supports).
+    cfg : PlaceConfig
+        Support settings (thickness, contact dimensions, heightfields).
+    store_root : str or Path, optional
+        Store root the scene's mesh is relative to (heightfield supports only).
+    """
     info = SupportInfo()
     wb = spec.worldbody
     floors = sorted({(f.index, f.height) for f in (scene.floors if scene is not None else [])})

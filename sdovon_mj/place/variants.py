@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from ..config import PlaceConfig
+from ..geometry import points_in_polygon
 from ..records import ObjectAsset, Placement, ReceptaclePlane, Relevance, SceneAsset, SceneVariant, save_json
+from ..seeds import variant_seed
 from .compose import compose, write_mjcf
 from .sample import object_radius, plane_headrooms, resample_pose, sample_placements
 from .settle import RESTING, Settler
@@ -39,11 +41,6 @@ class VariantStats:
         return self.sample_s + self.compose_s + self.settle_s
 
 
-def variant_seed(scene_seed: int, index: int) -> int:
-    """Return the seed of variant `index` of a scene, derived from the scene seed."""
-    return int(np.random.SeedSequence([int(scene_seed) & 0xFFFFFFFF, int(index), 0x5D0]).generate_state(1)[0])
-
-
 def variant_paths(scene_name: str, index: int) -> tuple[str, str]:
     """Return the store-relative paths of a variant's composed MJCF and its record."""
     name = f"{scene_name}_v{index:03d}"
@@ -53,7 +50,35 @@ def variant_paths(scene_name: str, index: int) -> tuple[str, str]:
 def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
                 store_root: str | Path, cfg: PlaceConfig, seed: int, index: int, write: bool = True,
                 out_root: str | Path | None = None) -> tuple[SceneVariant, VariantStats]:
-    """Place and settle one variant; return it with its timing (writes model + record under out_root when `write`)."""
+    """Place and settle one variant; return it with its timing (writes model + record under out_root when `write`).
+
+    Steps: sample placements; compose the scene with the objects at their spawn poses; settle, judge
+    and resample until nothing more can be retried; keep the settled poses of what rests; build the
+    record; write model and record.
+
+    Parameters
+    ----------
+    scene : SceneAsset
+        The converted scene (world metres, Z up).
+    planes : list of ReceptaclePlane
+        The scene's receptacle planes objects are placed on.
+    relevance : Relevance
+        Object-category relevance per receptacle and region (weights of the category draw).
+    objects : list of ObjectAsset
+        The object library to draw instances from.
+    store_root : str or Path
+        Store root the scene's and objects' files are relative to.
+    cfg : PlaceConfig
+        Placement settings (objects per plane, spawn mode, settle limits, resample attempts).
+    seed : int
+        Seed of the variant's random generator (see ``seeds.variant_seed``).
+    index : int
+        Variant index within the scene (names ``<scene>_v<index:03d>``).
+    write : bool
+        Write the composed MJCF and the record.
+    out_root : str or Path, optional
+        Folder written into (default: `store_root`).
+    """
     stats = VariantStats()
     c0 = time.process_time()
     t0 = time.perf_counter()
@@ -62,67 +87,19 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
     notes = list(sampled.notes)
     placements = sampled.placements
     stats.sample_s = time.perf_counter() - t0
-    assets = {a.name: a for a in objects}
-    plane_by_id = {p.id: p for p in planes}
-    kept: list[Placement] = []
     if placements:
         t1 = time.perf_counter()
-        composed = compose(placements, assets, planes, scene, store_root, cfg)
-        settler = Settler(composed, placements, planes, cfg)
-        for i, p in enumerate(placements):
-            settler.set_pose(i, p.spawn_pos, p.spawn_quat)
+        assets = {a.name: a for a in objects}
+        settler = _spawned(scene, planes, assets, placements, store_root, cfg)
         stats.compose_s = time.perf_counter() - t1
         t2 = time.perf_counter()
-        while True:
-            stats.rounds += 1
-            st = settler.run()
-            stats.sim_time += st.sim_time
-            stats.steps += st.steps
-            stats.settled = stats.settled and st.settled
-            judged = [i for i in range(len(placements)) if settler.live[i] or i in settler.fell_early]
-            verdicts = {i: settler.classify(i) for i in judged}
-            resampled = False
-            for i in judged:
-                p, v = placements[i], verdicts[i]
-                p.status, p.reason = v.status, v.reason
-                if v.status == RESTING:
-                    continue
-                if p.attempts <= cfg.resample_attempts:
-                    others = _occupied(settler, placements, assets, cfg, p.plane_id, exclude=i)
-                    plane = plane_by_id[p.plane_id]
-                    pose = resample_pose(assets[p.asset], plane, others, cfg, rng, plane_headrooms(planes, cfg.support_thickness)[plane.id])
-                    if pose is not None:
-                        settler.unpark(i)
-                        settler.set_pose(i, *pose)
-                        p.spawn_pos, p.spawn_quat = pose
-                        p.attempts += 1
-                        resampled = True
-                        continue
-                    p.reason = f"{v.status} ({v.reason}); no free spot left on its plane to retry"
-                else:
-                    p.reason = f"{v.status} ({v.reason}) after {p.attempts} attempts"
-                p.status = "dropped"
-                settler.park(i)
-                settler.fell_early.pop(i, None)
-            if not resampled:
-                break
-            settler.zero_velocities()
+        stats.rounds, stats.sim_time, stats.steps, stats.settled = _settle_rounds(settler, placements, assets, planes, cfg, rng)
         stats.settle_s = time.perf_counter() - t2
-        for i, p in enumerate(placements):
-            if p.status == RESTING:
-                p.settled_pos, p.settled_quat = settler.pose(i)
-                kept.append(p)
-        dropped = [p for p in placements if p.status == "dropped"]
-        if dropped:
-            notes.append(f"dropped {len(dropped)} of {len(placements)} objects that did not come to rest on their plane: "
-                         + "; ".join(f"{p.object_id} {p.category}: {p.reason}" for p in dropped))
+        _keep_settled_poses(settler, placements)
+        notes += _dropped_notes(placements)
     stats.cpu_s = time.process_time() - c0
-    for p in placements:
-        stats.counts[p.status] = stats.counts.get(p.status, 0) + 1
-    if placements and not kept:
-        notes.append("no object came to rest on its intended plane")
-    variant = SceneVariant(scene=scene.name, index=index, seed=int(seed), placements=placements, notes=notes)
-    variant.qpos = np.concatenate([np.concatenate([p.settled_pos, p.settled_quat]) for p in kept]).astype(np.float64) if kept else np.zeros(0)
+    stats.counts = _status_counts(placements)
+    variant = _variant_record(scene.name, index, seed, placements, notes)
     if write:
         t3 = time.perf_counter()
         out = Path(out_root) if out_root is not None else Path(store_root)
@@ -130,6 +107,105 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
         save_json(variant, out / variant_paths(scene.name, index)[1])
         stats.write_s = time.perf_counter() - t3
     return variant, stats
+
+
+def _spawned(scene: SceneAsset, planes: list[ReceptaclePlane], assets: dict[str, ObjectAsset],
+             placements: list[Placement], store_root: str | Path, cfg: PlaceConfig) -> Settler:
+    """Compose the scene's physics with the placed objects and return its settler, objects at their spawn poses."""
+    composed = compose(placements, assets, planes, scene, store_root, cfg)
+    settler = Settler(composed, placements, planes, cfg)
+    for i, p in enumerate(placements):
+        settler.set_pose(i, p.spawn_pos, p.spawn_quat)
+    return settler
+
+
+def _settle_rounds(settler: Settler, placements: list[Placement], assets: dict[str, ObjectAsset],
+                   planes: list[ReceptaclePlane], cfg: PlaceConfig,
+                   rng: np.random.Generator) -> tuple[int, float, int, bool]:
+    """Settle, judge and resample until a round resamples nothing; return (rounds, sim seconds, steps, all settled)."""
+    rounds, sim_time, steps, settled = 0, 0.0, 0, True
+    while True:
+        rounds += 1
+        st = settler.run()
+        sim_time += st.sim_time
+        steps += st.steps
+        settled = settled and st.settled
+        if not _judge_round(settler, placements, assets, planes, cfg, rng):
+            return rounds, sim_time, steps, settled
+        settler.zero_velocities()
+
+
+def _judge_round(settler: Settler, placements: list[Placement], assets: dict[str, ObjectAsset],
+                 planes: list[ReceptaclePlane], cfg: PlaceConfig, rng: np.random.Generator) -> bool:
+    """Set each judged object's status; respawn or drop those not resting; return whether any was respawned."""
+    judged = [i for i in range(len(placements)) if settler.live[i] or i in settler.fell_early]
+    verdicts = {i: settler.classify(i) for i in judged}
+    resampled = False
+    for i in judged:
+        p, v = placements[i], verdicts[i]
+        p.status, p.reason = v.status, v.reason
+        if v.status == RESTING:
+            continue
+        if p.attempts <= cfg.resample_attempts:
+            pose = _respawn_pose(settler, placements, assets, planes, cfg, rng, i)
+            if pose is not None:
+                settler.unpark(i)
+                settler.set_pose(i, *pose)
+                p.spawn_pos, p.spawn_quat = pose
+                p.attempts += 1
+                resampled = True
+                continue
+            p.reason = f"{v.status} ({v.reason}); no free spot left on its plane to retry"
+        else:
+            p.reason = f"{v.status} ({v.reason}) after {p.attempts} attempts"
+        p.status = "dropped"
+        settler.park(i)
+        settler.fell_early.pop(i, None)
+    return resampled
+
+
+def _respawn_pose(settler: Settler, placements: list[Placement], assets: dict[str, ObjectAsset],
+                  planes: list[ReceptaclePlane], cfg: PlaceConfig, rng: np.random.Generator,
+                  i: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Draw a new spawn pose for object `i` on its plane, clear of the objects there now (None: no free spot)."""
+    p = placements[i]
+    others = _occupied(settler, placements, assets, cfg, p.plane_id, exclude=i)
+    plane = {q.id: q for q in planes}[p.plane_id]
+    return resample_pose(assets[p.asset], plane, others, cfg, rng, plane_headrooms(planes, cfg.support_thickness)[plane.id])
+
+
+def _keep_settled_poses(settler: Settler, placements: list[Placement]) -> None:
+    """Record where each resting object came to rest."""
+    for i, p in enumerate(placements):
+        if p.status == RESTING:
+            p.settled_pos, p.settled_quat = settler.pose(i)
+
+
+def _dropped_notes(placements: list[Placement]) -> list[str]:
+    """Return the note on the dropped objects and why each was dropped (none when nothing was)."""
+    dropped = [p for p in placements if p.status == "dropped"]
+    if not dropped:
+        return []
+    return [f"dropped {len(dropped)} of {len(placements)} objects that did not come to rest on their plane: "
+            + "; ".join(f"{p.object_id} {p.category}: {p.reason}" for p in dropped)]
+
+
+def _status_counts(placements: list[Placement]) -> dict[str, int]:
+    """Return status -> number of placements (in order of first appearance)."""
+    counts: dict[str, int] = {}
+    for p in placements:
+        counts[p.status] = counts.get(p.status, 0) + 1
+    return counts
+
+
+def _variant_record(scene_name: str, index: int, seed: int, placements: list[Placement], notes: list[str]) -> SceneVariant:
+    """Return the variant record; its qpos holds (position, quaternion) of each resting object in order."""
+    kept = [p for p in placements if p.status == RESTING]
+    if placements and not kept:
+        notes = notes + ["no object came to rest on its intended plane"]
+    variant = SceneVariant(scene=scene_name, index=index, seed=int(seed), placements=placements, notes=notes)
+    variant.qpos = np.concatenate([np.concatenate([p.settled_pos, p.settled_quat]) for p in kept]).astype(np.float64) if kept else np.zeros(0)
+    return variant
 
 
 def _occupied(settler: Settler, placements: list[Placement], assets: dict[str, ObjectAsset], cfg: PlaceConfig,
@@ -146,7 +222,25 @@ def _occupied(settler: Settler, placements: list[Placement], assets: dict[str, O
 
 def write_variant_model(variant: SceneVariant, scene: SceneAsset, planes: list[ReceptaclePlane], objects: list[ObjectAsset],
                         store_root: str | Path, cfg: PlaceConfig, out_root: str | Path | None = None) -> Path:
-    """Write the composed MJCF (scene + support + resting objects at their settled poses); set variant.mjcf."""
+    """Write the composed MJCF (scene + support + resting objects at their settled poses); set variant.mjcf.
+
+    Parameters
+    ----------
+    variant : SceneVariant
+        The settled variant (its ``mjcf`` is set here).
+    scene : SceneAsset
+        The converted scene.
+    planes : list of ReceptaclePlane
+        The scene's receptacle planes.
+    objects : list of ObjectAsset
+        The object library.
+    store_root : str or Path
+        Store root the scene's and objects' files are relative to.
+    cfg : PlaceConfig
+        Placement and physics settings.
+    out_root : str or Path, optional
+        Folder written into (default: `store_root`).
+    """
     kept = [p for p in variant.placements if p.status == RESTING]
     assets = {a.name: a for a in objects}
     composed = compose(kept, assets, planes, scene, store_root, cfg, with_scene=True, visual=True)
@@ -158,13 +252,23 @@ def write_variant_model(variant: SceneVariant, scene: SceneAsset, planes: list[R
 
 def place_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
                   store_root: str | Path, cfg: PlaceConfig, seed: int, index: int) -> SceneVariant:
-    """Place and settle one scene variant; write its model and record under `store_root`."""
+    """Place and settle one scene variant; write its model and record under `store_root`.
+
+    Parameters are those of `run_variant`.
+    """
     return run_variant(scene, planes, relevance, objects, store_root, cfg, seed, index)[0]
 
 
 def place_variants(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
                    store_root: str | Path, cfg: PlaceConfig, scene_seed: int) -> list[SceneVariant]:
-    """Place cfg.k_v variants of a scene, each with its seed derived from the scene seed."""
+    """Place cfg.k_v variants of a scene, each with its seed derived from the scene seed.
+
+    Parameters
+    ----------
+    scene, planes, relevance, objects, store_root, cfg : as in `run_variant`
+    scene_seed : int
+        Seed of the scene; each variant's seed derives from it.
+    """
     return [place_variant(scene, planes, relevance, objects, store_root, cfg, variant_seed(scene_seed, k), k)
             for k in range(cfg.k_v)]
 
@@ -190,7 +294,7 @@ def planes_from_scene(scene: SceneAsset) -> list[ReceptaclePlane]:
             floor = below[-1].index if below else 0
         if room not in rooms:
             c = poly.mean(axis=0)
-            inside = [r for r in scene.rooms if r.floor == floor and _in_polygon(np.asarray(r.polygon, float), c)]
+            inside = [r for r in scene.rooms if r.floor == floor and points_in_polygon(r.polygon, c)[0]]
             room = inside[0].id if inside else -1
         region = rooms[room].type if room in rooms else ""
         out.append(ReceptaclePlane(id=k, instance_id=s.instance_id, label=label, height=float(s.height),
@@ -198,18 +302,5 @@ def planes_from_scene(scene: SceneAsset) -> list[ReceptaclePlane]:
     return out
 
 
-def _in_polygon(polygon: np.ndarray, xy: np.ndarray) -> bool:
-    """Return whether a point lies in a (possibly non-convex) polygon (even-odd rule)."""
-    x, y = float(xy[0]), float(xy[1])
-    inside = False
-    n = len(polygon)
-    for i in range(n):
-        x1, y1 = polygon[i]
-        x2, y2 = polygon[(i + 1) % n]
-        if (y1 > y) != (y2 > y) and x < x1 + (y - y1) * (x2 - x1) / (y2 - y1):
-            inside = not inside
-    return inside
-
-
-__all__ = ["place_variant", "place_variants", "run_variant", "variant_seed", "variant_paths", "planes_from_scene",
+__all__ = ["place_variant", "place_variants", "run_variant", "variant_paths", "planes_from_scene",
            "write_variant_model", "VariantStats"]

@@ -17,8 +17,8 @@ import math
 import numpy as np
 
 from ..config import ReceptacleConfig
+from ..geometry import convex_hull_ccw, points_in_polygon, polygon_area, shapely_polygon
 from ..records import Instance, ReceptaclePlane
-from ..polygons import convex_hull_ccw, polygon_area
 
 
 def fit_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -90,15 +90,13 @@ def _cells(points_xy: np.ndarray, cell: float) -> set[tuple[int, int]]:
 
 def hull_coverage(points_xy: np.ndarray, polygon: np.ndarray, cell: float) -> float:
     """Return the fraction of grid cells inside `polygon` that hold at least one point."""
-    from matplotlib.path import Path as MplPath
-
     lo = polygon.min(axis=0)
     hi = polygon.max(axis=0)
     xs = np.arange(math.floor(lo[0] / cell), math.floor(hi[0] / cell) + 1)
     ys = np.arange(math.floor(lo[1] / cell), math.floor(hi[1] / cell) + 1)
     gx, gy = np.meshgrid(xs, ys, indexing="ij")
     centres = np.stack([(gx.ravel() + 0.5) * cell, (gy.ravel() + 0.5) * cell], axis=1)
-    inside = MplPath(polygon).contains_points(centres)
+    inside = points_in_polygon(polygon, centres)
     if not inside.any():
         return 1.0
     occupied = _cells(points_xy, cell)
@@ -108,7 +106,21 @@ def hull_coverage(points_xy: np.ndarray, polygon: np.ndarray, cell: float) -> fl
 
 def free_above(all_points: np.ndarray, inliers: np.ndarray, height: float, cfg: ReceptacleConfig,
                low: float | None = None) -> np.ndarray:
-    """Return which inlier points have no point of `all_points` above them (XY within clearance_radius, Z in (low, min_clearance], low defaults to eps_t)."""
+    """Return which inlier points have no point of `all_points` above them (XY within clearance_radius, Z in (low, min_clearance], low defaults to eps_t).
+
+    Parameters
+    ----------
+    all_points : (N, 3) float
+        Every point of the instance, world metres.
+    inliers : (K, 3) float
+        The plane's inlier points, world metres.
+    height : float
+        Plane height, world metres.
+    cfg : ReceptacleConfig
+        Clearance radius and minimum clearance (metres).
+    low : float, optional
+        Points less than this above the plane do not block, metres (default: ``cfg.eps_t``).
+    """
     from scipy.spatial import cKDTree
 
     z = all_points[:, 2]
@@ -122,7 +134,23 @@ def free_above(all_points: np.ndarray, inliers: np.ndarray, height: float, cfg: 
 
 def refine_plane(points: np.ndarray, idx: np.ndarray, centroid: np.ndarray, normal: np.ndarray,
                  band: float, iterations: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Return (inliers, centroid, normal) re-fitted to the densest `band`-thick layer of an EM plane's inliers."""
+    """Return (inliers, centroid, normal) re-fitted to the densest `band`-thick layer of an EM plane's inliers.
+
+    Parameters
+    ----------
+    points : (N, 3) float
+        The instance's points, world metres.
+    idx : (K,) int
+        Indices of the plane's inliers in `points`.
+    centroid : (3,) float
+        The plane's centroid, metres (returned when nothing is refined).
+    normal : (3,) float
+        The plane's unit normal (returned when nothing is refined).
+    band : float
+        Thickness of the layer kept, metres.
+    iterations : int
+        Re-fits of the layer.
+    """
     if band <= 0 or len(idx) < 3:
         return idx, centroid, normal
     # A horizontal surface stacks its points into one thin layer; vertical faces cut by the slab
@@ -154,13 +182,11 @@ def refine_plane(points: np.ndarray, idx: np.ndarray, centroid: np.ndarray, norm
 
 def drop_covered_planes(planes: list[ReceptaclePlane], cfg: ReceptacleConfig) -> list[ReceptaclePlane]:
     """Drop planes with another plane of the same instance less than min_clearance above over most of their area (undersides of boards)."""
-    from ..polygons import _shapely
-
     def covers(q: ReceptaclePlane, p: ReceptaclePlane) -> bool:
         if q is p or q.instance_id != p.instance_id or not (cfg.fit_band < q.height - p.height <= cfg.min_clearance):
             return False
-        a = _shapely(p.polygon)
-        return a.area > 0 and a.intersection(_shapely(q.polygon)).area >= cfg.max_covered * a.area
+        a = shapely_polygon(p.polygon)
+        return a.area > 0 and a.intersection(shapely_polygon(q.polygon)).area >= cfg.max_covered * a.area
 
     keep = []
     for p in planes:

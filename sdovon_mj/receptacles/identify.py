@@ -1,7 +1,7 @@
 """Receptacle identification: instances whose label is a receptacle label.
 
 The labels are prespecified (ReceptacleConfig.labels) or, when that is empty, named by the LLM backend with
-prompt C.1 (``sdovon_mj.semantics.identify_receptacles``; the pipeline wires it in ``stages.receptacle_labels``).
+prompt C.1 (``sdovon_mj.semantics.identify_receptacles``; the pipeline wires it in ``perceive.surfaces.receptacle_labels``).
 """
 
 from __future__ import annotations

@@ -22,7 +22,21 @@ def canonical(data: Any) -> str:
 
 
 def cache_key(backend: str, model: str, prompt_version: str, inputs: Any, options: Any = None) -> str:
-    """Return the hex key of one question to one model."""
+    """Return the hex key of one question to one model.
+
+    Parameters
+    ----------
+    backend : str
+        Backend name.
+    model : str
+        Model name.
+    prompt_version : str
+        Version of the prompt template.
+    inputs : JSON-able
+        The question's inputs.
+    options : JSON-able, optional
+        Sampling options that change the answer.
+    """
     blob = canonical({"backend": backend, "model": model, "prompt": prompt_version, "inputs": inputs,
                       "options": options or {}})
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()

@@ -29,7 +29,23 @@ def _retryable(status: int) -> bool:
 
 def request_json(url: str, payload: dict[str, Any] | None = None, *, timeout: float = 60.0, retries: int = 3,
                  backoff: float = 0.5, headers: dict[str, str] | None = None) -> dict[str, Any]:
-    """POST (or GET when `payload` is None) JSON and return the decoded reply; raise TransportError."""
+    """POST (or GET when `payload` is None) JSON and return the decoded reply; raise TransportError.
+
+    Parameters
+    ----------
+    url : str
+        Endpoint URL.
+    payload : dict, optional
+        JSON body to POST (None: GET).
+    timeout : float
+        Seconds per attempt.
+    retries : int
+        Retries after the first attempt.
+    backoff : float
+        Seconds before the first retry (doubling each time).
+    headers : dict of str to str, optional
+        Extra HTTP headers.
+    """
     data = None if payload is None else json.dumps(payload).encode("utf-8")
     hdrs = {"Accept": "application/json"}
     if data is not None:

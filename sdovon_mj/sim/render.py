@@ -9,18 +9,15 @@ from __future__ import annotations
 
 import atexit
 import math
-import os
 import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+import mujoco
 
-import mujoco  # noqa: E402
-
-from . import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE  # noqa: E402
-from .camera import intrinsics, vfov_from_hfov  # noqa: E402
+from . import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from .camera import intrinsics, vfov_from_hfov
 
 
 @dataclass
@@ -46,6 +43,25 @@ class SceneRenderer:
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData | None = None, width: int = 640,
                  height: int = 480, hfov: float = 79.0, znear: float = 0.05, zfar: float = 50.0,
                  shadows: bool = False, groups: tuple[int, ...] = (GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL)) -> None:
+        """Set up an offscreen renderer of `model` with a pinhole camera of the given size and field of view.
+
+        Parameters
+        ----------
+        model : mujoco.MjModel
+            The compiled model.
+        data : mujoco.MjData, optional
+            Its state (default: a fresh one, forwarded).
+        width, height : int
+            Image size, pixels.
+        hfov : float
+            Horizontal field of view, degrees.
+        znear, zfar : float
+            Clipping distances, metres.
+        shadows : bool
+            Render shadows.
+        groups : tuple of int
+            Geom groups shown.
+        """
         self.model = model
         self.data = data if data is not None else mujoco.MjData(model)
         if data is None:

@@ -4,30 +4,31 @@
     env = suite.load("objectnav", task_kwargs={"bundle": "out/mjcf/apt_0000_v000"})
     ts = env.reset(); ts = env.step(suite.MOVE_FORWARD)
 
+The suite owns the environment and the evaluation loop (`suite.evaluate.evaluate`, the `eval`
+command); agents come from `sdovon_mj.nav` through the plugin registry.
+
 Tasks (tagged like `dm_control.suite`): ``objectnav`` (rgb+depth, 640x480), ``objectnav_semantic``
-(adds segmentation), ``objectnav_small`` (128x128, for fast training loops) and ``fixture`` (the
-built-in two-room apartment, written to a cache folder; needs no dataset).
+(adds segmentation) and ``objectnav_small`` (128x128, for fast training loops). Tests and benches run
+them on the two-room fixture apartment of `sdovon_mj.testing.bundles` (the suite itself never imports it).
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 from dm_control.rl import control
 from dm_control.utils import containers
 
+from ..actions import ACTION_NAMES, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT
 from .bundle import Bundle, find_bundles, load_bundle
-from .objectnav import (ACTION_NAMES, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT, ObjectNavTask,
-                        Physics, build_model, make_environment)
+from .objectnav import ObjectNavTask, Physics, build_model, make_environment
 
 SUITE = containers.TaggedTasks()
 
 __all__ = ["SUITE", "ALL_TASKS", "BENCHMARKING", "load", "make_environment", "Bundle", "find_bundles", "load_bundle",
            "ObjectNavTask", "Physics", "build_model", "ACTION_NAMES", "STOP", "MOVE_FORWARD", "TURN_LEFT",
-           "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN", "fixture_bundle"]
+           "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN"]
 
 
 def _bundle_arg(bundle: Any) -> Any:
@@ -59,26 +60,9 @@ def objectnav_small(bundle: Any = None, environment_kwargs: dict | None = None, 
     return make_environment(_bundle_arg(bundle), **task_kwargs, **(environment_kwargs or {}))
 
 
-def fixture_bundle(root: str | Path | None = None, variants: int = 2, seed: int = 0) -> Path:
-    """Return the folder of the built-in fixture dataset, writing it on first use."""
-    from .fixture import build_fixture
-
-    root = Path(root) if root else Path(os.environ.get("SDOVON_CACHE", Path(tempfile.gettempdir()) / "sdovon_mj_cache")) / f"fixture_s{seed}_v{variants}_vp3"
-    if not all((root / f"fixture_apartment_v{v:03d}" / "episodes.json").exists() for v in range(variants)):
-        build_fixture(root, variants=variants, seed=seed)
-    return root
-
-
-@SUITE.add("fixture", "rgbd")
-def fixture(bundle: Any = None, environment_kwargs: dict | None = None, **task_kwargs: Any) -> control.Environment:
-    """ObjectNav in the built-in two-room apartment (no dataset needed)."""
-    b = bundle or (fixture_bundle() / "fixture_apartment_v000")
-    return make_environment(b, **task_kwargs, **(environment_kwargs or {}))
-
-
 ALL_TASKS = tuple(sorted(SUITE.keys()))
 BENCHMARKING = tuple(sorted(SUITE.tagged("benchmarking")))
-TASKS_BY_TAG = {tag: tuple(sorted(SUITE.tagged(tag))) for tag in ("benchmarking", "rgbd", "semantic", "small", "fixture")}
+TASKS_BY_TAG = {tag: tuple(sorted(SUITE.tagged(tag))) for tag in ("benchmarking", "rgbd", "semantic", "small")}
 
 
 def load(task_name: str, task_kwargs: dict | None = None, environment_kwargs: dict | None = None) -> control.Environment:

@@ -1,8 +1,9 @@
 """The dm_control ObjectNav task: a kinematic cylinder agent in an MJCF episode bundle.
 
 Design (research/mjcf_and_dmcontrol.md section 4):
-- The bundle's MJCF is loaded with MjSpec and gets a mocap body ``agent`` (a 0.18 m x 0.88 m
-  cylinder, geom group 5, no contacts) carrying the camera ``agent/camera`` at the top, so
+- The bundle's MJCF is loaded with MjSpec and gets a mocap body ``agent`` (a cylinder of
+  ``AgentConfig.radius`` x ``height``, geom group 5, no contacts) carrying the camera ``agent/camera``
+  at ``camera_height``, so
   ``physics.render(camera_id="agent/camera")`` shows the agent's view too.
 - Collision: the scene is visual-only (contype 0), so, as Habitat does with its navmesh, the agent's
   base must stay on the bundle's navigable grid (free space eroded by the agent radius). A forward
@@ -18,44 +19,36 @@ Design (research/mjcf_and_dmcontrol.md section 4):
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+import mujoco
+from dm_control import mujoco as dm_mujoco
+from dm_control.mujoco import wrapper as dm_wrapper
+from dm_control.rl import control
+from dm_env import specs
 
-import mujoco  # noqa: E402
-from dm_control import mujoco as dm_mujoco  # noqa: E402
-from dm_control.mujoco import wrapper as dm_wrapper  # noqa: E402
-from dm_control.rl import control  # noqa: E402
-from dm_env import specs  # noqa: E402
+from .. import metrics as M
+from ..actions import ACTION_NAMES, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+from ..config import AgentConfig, NavConfig
+from ..errors import InputError
+from ..geometry import axis_quat, quat_mul, quat_yaw, yaw_quat
+from ..records import Episode
+from ..sim import GROUP_AGENT
+from ..sim.camera import intrinsics, pose_cv, vfov_from_hfov
+from ..sim.model import geom_segment_ids, object_segment_id, segment_image
+from ..sim.render import SceneRenderer
+from ..grid import GeodesicField, lookup, segment_free
+from ..gridgraph import cell_graph
+from .bundle import Bundle, load_bundle
 
-from .. import metrics as M  # noqa: E402
-from ..config import NavConfig  # noqa: E402
-from ..errors import InputError  # noqa: E402
-from ..records import Episode  # noqa: E402
-from ..sim import GROUP_AGENT  # noqa: E402
-from ..sim.camera import intrinsics, pose_cv, quat_yaw, vfov_from_hfov  # noqa: E402
-from ..sim.model import geom_segment_ids, object_segment_id, segment_image  # noqa: E402
-from ..sim.render import SceneRenderer  # noqa: E402
-from ..nav.grid import GeodesicField, GridFrame, cell_graph, lookup, segment_free  # noqa: E402
-from .bundle import Bundle, load_bundle  # noqa: E402
-
-STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN = range(6)
-ACTION_NAMES = ("STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN")
 _CAM_BASE = np.array([0.5, 0.5, -0.5, -0.5])  # body +X forward -> MuJoCo camera looking along +X
 
 
-def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
-
-
-def build_model(mjcf: str | Path, nav: NavConfig = NavConfig()) -> mujoco.MjModel:
+def build_model(mjcf: str | Path, agent: AgentConfig = AgentConfig()) -> mujoco.MjModel:
     """Compile a bundle MJCF with the agent's mocap body, cylinder and camera added."""
     try:
         spec = mujoco.MjSpec.from_file(str(mjcf))
@@ -63,10 +56,10 @@ def build_model(mjcf: str | Path, nav: NavConfig = NavConfig()) -> mujoco.MjMode
         raise InputError(mjcf, f"MJCF does not load: {e}") from None
     body = spec.worldbody.add_body(name="agent", mocap=True)
     body.add_geom(name="agent/body", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                  size=[nav.agent_radius, nav.agent_height / 2.0, 0.0], pos=[0, 0, nav.agent_height / 2.0],
+                  size=[agent.radius, agent.height / 2.0, 0.0], pos=[0, 0, agent.height / 2.0],
                   contype=0, conaffinity=0, group=GROUP_AGENT, rgba=[0.2, 0.4, 0.9, 0.5])
-    body.add_camera(name="agent/camera", pos=[0, 0, nav.agent_height], quat=list(_CAM_BASE),
-                    fovy=vfov_from_hfov(nav.hfov, nav.obs_width, nav.obs_height))
+    body.add_camera(name="agent/camera", pos=[0, 0, agent.camera_height], quat=list(_CAM_BASE),
+                    fovy=vfov_from_hfov(agent.hfov, agent.sensor_width, agent.sensor_height))
     try:
         return spec.compile()
     except Exception as e:
@@ -96,17 +89,19 @@ class ObjectNavTask(control.Task):
 
     def __init__(self, bundle: Bundle, nav: NavConfig = NavConfig(), semantic: bool = False,
                  episode_order: str = "sequential", random: int | np.random.Generator | None = None,
-                 categories: list[str] | None = None, pose_observations: bool = True) -> None:
+                 categories: list[str] | None = None, pose_observations: bool = True,
+                 agent: AgentConfig = AgentConfig()) -> None:
         if not bundle.episodes:
             raise InputError(bundle.root, "bundle has no episodes")
         self.bundle = bundle
         self.nav = nav
+        self.agent = agent
         self.semantic = semantic
         self.pose_observations = pose_observations
         self.episode_order = episode_order
         self.random = random if isinstance(random, np.random.Generator) else np.random.default_rng(random)
         self.categories = sorted(categories or bundle.categories())
-        self.K = intrinsics(nav.obs_width, nav.obs_height, nav.hfov)
+        self.K = intrinsics(agent.sensor_width, agent.sensor_height, agent.hfov)
         self._renderer: SceneRenderer | None = None
         self._lut: np.ndarray | None = None
         self._graphs: dict[int, tuple] = {}
@@ -139,7 +134,7 @@ class ObjectNavTask(control.Task):
         self.episode_index = idx
         self.episode = ep = self.bundle.episodes[idx]
         self.navmap = self.bundle.navmap(ep.floor)
-        self.frame = GridFrame.of(self.navmap)
+        self.frame = self.navmap.frame
         if ep.floor not in self._graphs:
             self._graphs[ep.floor] = cell_graph(self.navmap.navigable)
         vps = [vp.position for g in ep.goals for vp in g.view_points]
@@ -164,12 +159,10 @@ class ObjectNavTask(control.Task):
         m, d = physics.model.ptr, physics.data.ptr
         bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "agent")
         mid = int(m.body_mocapid[bid])
-        h = math.radians(self.state.yaw) / 2.0
         d.mocap_pos[mid] = self.state.position
-        d.mocap_quat[mid] = [math.cos(h), 0.0, 0.0, math.sin(h)]
+        d.mocap_quat[mid] = yaw_quat(self.state.yaw)
         cid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "agent/camera")
-        p = math.radians(self.state.pitch) / 2.0
-        m.cam_quat[cid] = _qmul(np.array([math.cos(p), 0.0, -math.sin(p), 0.0]), _CAM_BASE)
+        m.cam_quat[cid] = quat_mul(axis_quat(1, -math.radians(self.state.pitch)), _CAM_BASE)  # pitch up = about -Y
         physics.step()
 
     def can_stand(self, xy: np.ndarray) -> bool:
@@ -217,7 +210,7 @@ class ObjectNavTask(control.Task):
 
     def observation_spec(self, physics: Physics) -> dict:
         """Return the observation specs (defined explicitly, valid before the first reset)."""
-        h, w = self.nav.obs_height, self.nav.obs_width
+        h, w = self.agent.sensor_height, self.agent.sensor_width
         out = {
             "rgb": specs.Array((h, w, 3), np.uint8, name="rgb"),
             "depth": specs.BoundedArray((h, w, 1), np.float32, self.nav.depth_min, self.nav.depth_max, name="depth"),
@@ -239,14 +232,14 @@ class ObjectNavTask(control.Task):
         if self._renderer is None or self._renderer.model is not physics.model.ptr:
             if self._renderer is not None:
                 self._renderer.close()
-            self._renderer = SceneRenderer(physics.model.ptr, physics.data.ptr, self.nav.obs_width, self.nav.obs_height,
-                                           self.nav.hfov, znear=0.05, zfar=50.0)
+            self._renderer = SceneRenderer(physics.model.ptr, physics.data.ptr, self.agent.sensor_width,
+                                           self.agent.sensor_height, self.agent.hfov, znear=0.05, zfar=50.0)
             self._lut = geom_segment_ids(physics.model.ptr)
         return self._renderer
 
     def camera_pose(self) -> np.ndarray:
         """Return T_cam (world <- OpenCV camera) of the agent camera now."""
-        p = self.state.position + np.array([0.0, 0.0, self.nav.agent_height])
+        p = self.state.position + np.array([0.0, 0.0, self.agent.camera_height])
         return pose_cv(p, self.state.yaw, self.state.pitch)
 
     def render(self, physics: Physics, segmentation: bool | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -261,7 +254,7 @@ class ObjectNavTask(control.Task):
 
     def get_observation(self, physics: Physics) -> dict:
         """Return the observation dict matching `observation_spec` (blank frames when rendering is off)."""
-        h, w = self.nav.obs_height, self.nav.obs_width
+        h, w = self.agent.sensor_height, self.agent.sensor_width
         if self.render_frames:
             rgb, depth, ids = self.render(physics)
         else:
@@ -321,23 +314,50 @@ class ObjectNavTask(control.Task):
             self._renderer = None
 
 
-def make_physics(bundle: Bundle, nav: NavConfig = NavConfig()) -> Physics:
+def make_physics(bundle: Bundle, agent: AgentConfig = AgentConfig()) -> Physics:
     """Return the kinematic Physics of a bundle with the agent added."""
-    model = build_model(bundle.mjcf, nav)
+    model = build_model(bundle.mjcf, agent)
     return Physics.from_model(dm_wrapper.MjModel(model))
 
 
 def make_environment(bundle: str | Path | Bundle, nav: NavConfig | None = None, semantic: bool = False,
                      episode_order: str = "sequential", random: int | None = None, width: int | None = None,
                      height: int | None = None, max_steps: int | None = None, pose_observations: bool = True,
-                     **environment_kwargs) -> control.Environment:
-    """Return a dm_control Environment running ObjectNav episodes of one bundle."""
+                     agent: AgentConfig | None = None, **environment_kwargs: Any) -> control.Environment:
+    """Return a dm_control Environment running ObjectNav episodes of one bundle.
+
+    Parameters
+    ----------
+    bundle
+        Variant folder (or loaded `Bundle`) with its MJCF, episodes and navmaps.
+    nav
+        Actions, step limit and success radius (default `NavConfig()`).
+    semantic
+        Add the ``semantic`` (segment id per pixel) observation.
+    episode_order
+        ``sequential`` or ``random`` episode order across resets.
+    random
+        Seed of the random episode order.
+    width, height
+        Camera image size in pixels; overrides ``agent.sensor_width`` / ``sensor_height``.
+    max_steps
+        Episode step limit; overrides ``nav.max_steps``.
+    pose_observations
+        Add ``position`` (m, world), ``heading`` and ``pitch`` (rad) observations.
+    agent
+        The agent's body and camera (default `AgentConfig()`).
+    **environment_kwargs
+        Passed on to ``dm_control.rl.control.Environment``.
+    """
     b = bundle if isinstance(bundle, Bundle) else load_bundle(bundle)
     nav = nav or NavConfig()
-    upd = {k: v for k, v in (("obs_width", width), ("obs_height", height), ("max_steps", max_steps)) if v is not None}
-    nav = replace(nav, **upd) if upd else nav
-    physics = make_physics(b, nav)
+    agent = agent or AgentConfig()
+    if max_steps is not None:
+        nav = replace(nav, max_steps=max_steps)
+    size = {k: v for k, v in (("sensor_width", width), ("sensor_height", height)) if v is not None}
+    agent = replace(agent, **size) if size else agent
+    physics = make_physics(b, agent)
     task = ObjectNavTask(b, nav, semantic=semantic, episode_order=episode_order, random=random,
-                         pose_observations=pose_observations)
+                         pose_observations=pose_observations, agent=agent)
     environment_kwargs.setdefault("time_limit", float("inf"))
     return control.Environment(physics, task, **environment_kwargs)

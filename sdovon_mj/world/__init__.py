@@ -12,10 +12,10 @@ from .apartment import (
     STRUCTURE_LABELS,
     Apartment,
     Door,
-    Floor,
-    Instance,
-    Room,
-    SupportSurface,
+    InstanceSpec,
+    RoomSpec,
+    Storey,
+    SurfaceSpec,
     WorldMesh,
     generate_apartment,
 )
@@ -26,7 +26,7 @@ from .objects import OBJECT_CATEGORIES, HouseholdObject, ObjectCategory, generat
 
 __all__ = [
     "MATERIALS", "STRUCTURE_LABELS", "FURNITURE_LABELS", "RECEPTACLE_LABELS", "ROOM_TYPES",
-    "Apartment", "Door", "Floor", "Instance", "Room", "SupportSurface", "WorldMesh",
+    "Apartment", "Door", "InstanceSpec", "RoomSpec", "Storey", "SurfaceSpec", "WorldMesh",
     "generate_apartment", "write_apartment", "default_apartment_path", "default_name",
     "OBJECT_CATEGORIES", "HouseholdObject", "ObjectCategory", "generate_object", "write_object_library",
 ]

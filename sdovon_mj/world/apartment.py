@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 from scipy import ndimage
 
+from ..config import AgentConfig
 from . import furniture as FU
 from . import layout as LA
 from . import shapes as S
@@ -30,7 +31,7 @@ STRUCTURE_LABELS: tuple[str, ...] = ("floor", "wall", "ceiling", "door frame", "
 SKIRTING = (0.012, 0.08)  # skirting board depth and height
 WALL_T = 0.1  # wall thickness (two 5 cm room-side slabs back to back)
 STOREY_HEIGHT = 3.0  # floor-to-floor height of a two-storey apartment
-AGENT_RADIUS = 0.18
+AGENT_RADIUS = AgentConfig().radius  # apartments leave passages for the default agent (config.AgentConfig)
 NAV_IGNORE_ABOVE = 0.9  # furniture whose bottom is higher than this does not block walking
 FLAT = 0.02  # furniture lower than this (rugs) does not block walking
 OBJECT_CLEARANCE = 0.3  # free height kept above receptacle tops when placing furniture
@@ -38,16 +39,16 @@ DOOR_KEEPOUT = 0.85  # depth kept free in front of a doorway
 
 
 @dataclass(frozen=True)
-class Floor:
-    """A storey: index and floor height (world Z of the walkable surface)."""
+class Storey:
+    """A storey: index and floor height (world Z of the walkable surface); exported as a records.Floor."""
 
     index: int
     height: float
 
 
 @dataclass(frozen=True)
-class Room:
-    """A room: id, type, storey and CCW footprint polygon (world XY, wall centre lines)."""
+class RoomSpec:
+    """A room: id, type, storey and CCW footprint polygon (world XY, wall centre lines); exported as a records.Room."""
 
     id: int
     type: str
@@ -56,23 +57,23 @@ class Room:
 
 
 @dataclass(frozen=True)
-class SupportSurface:
-    """A horizontal support face of a receptacle: world Z height and CCW world XY polygon."""
+class SurfaceSpec:
+    """A horizontal support face of a receptacle: world Z height and CCW world XY polygon (records.SupportSurface)."""
 
     height: float
     polygon: np.ndarray
 
 
 @dataclass(frozen=True)
-class Instance:
-    """A labelled instance: structure (floor, wall, ...), receptacle or plain furniture."""
+class InstanceSpec:
+    """A labelled instance: structure (floor, wall, ...), receptacle or plain furniture (records.SemanticInstance)."""
 
     id: int
     label: str
     room: int
     floor: int
     kind: str  # "structure" | "receptacle" | "furniture"
-    support_surfaces: tuple[SupportSurface, ...] = ()
+    support_surfaces: tuple[SurfaceSpec, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -109,25 +110,25 @@ class Apartment:
     """A generated apartment (see the module docstring)."""
 
     seed: int
-    floors: tuple[Floor, ...]
+    floors: tuple[Storey, ...]
     wall_height: float
-    rooms: tuple[Room, ...]
-    instances: tuple[Instance, ...]
+    rooms: tuple[RoomSpec, ...]
+    instances: tuple[InstanceSpec, ...]
     doors: tuple[Door, ...]
     mesh: WorldMesh
     ceilings: bool = True
     notes: tuple[str, ...] = ()
 
-    def instance(self, instance_id: int) -> Instance:
+    def instance(self, instance_id: int) -> InstanceSpec:
         """Return the instance with this id."""
         return self.instances[instance_id]
 
-    def room(self, room_id: int) -> Room:
+    def room(self, room_id: int) -> RoomSpec:
         """Return the room with this id."""
         return self.rooms[room_id]
 
     @property
-    def receptacles(self) -> list[Instance]:
+    def receptacles(self) -> list[InstanceSpec]:
         """Return the receptacle instances."""
         return [i for i in self.instances if i.kind == "receptacle"]
 
@@ -630,11 +631,8 @@ def _door_zones(room: LA.PlanRoom, doors: list[LA.PlanDoor]) -> tuple[list[np.nd
     return keep, anchors, openings
 
 
-def _furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generator, wall_h: float,
-             notes: list[str], windows: dict[str, list[tuple]]) -> list[tuple[Model, float, float, int]]:
-    """Place the room's furniture; retries with fewer optional pieces and smaller sizes on failure."""
-    t = 0.5 * WALL_T + SKIRTING[0] + 0.003
-    interior = np.array([room.x0 + t, room.y0 + t, room.x1 - t, room.y1 - t])
+def _window_zones(interior: np.ndarray, windows: dict[str, list[tuple]]) -> list[np.ndarray]:
+    """Return the boxes (x0, y0, x1, y1, z0, z1) in front of a room's windows that tall pieces keep clear of."""
     wzones = []
     for side, wl in windows.items():
         for c, hw, sill, top in wl:
@@ -648,6 +646,19 @@ def _furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generat
                 wzones.append(np.array([interior[0], a, interior[0] + 0.35, b, *z]))
             else:
                 wzones.append(np.array([interior[2] - 0.35, a, interior[2], b, *z]))
+    return wzones
+
+
+def _furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generator, wall_h: float,
+             windows: dict[str, list[tuple]]) -> tuple[list[tuple[Model, float, float, int]], list[str]]:
+    """Place the room's furniture; retries with fewer optional pieces and smaller sizes on failure.
+
+    Returns the placed items (model, x, y, yaw in degrees; storey-relative metres) and the notes on what
+    could not be placed.
+    """
+    t = 0.5 * WALL_T + SKIRTING[0] + 0.003
+    interior = np.array([room.x0 + t, room.y0 + t, room.x1 - t, room.y1 - t])
+    wzones = _window_zones(interior, windows)
     keep, anchors, openings = _door_zones(room, doors)
     iw, idp = interior[2] - interior[0], interior[3] - interior[1]
     height_max = wall_h - 0.15
@@ -685,17 +696,29 @@ def _furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generat
                     break
                 skipped.append(g.items[0][0].label)
         if ok and _nav_ok(state, anchors, openings):
-            if skipped:
-                notes.append(f"room {room.id} ({room.type}): no room for {', '.join(skipped)}")
-            return state.placed
+            notes = [f"room {room.id} ({room.type}): no room for {', '.join(skipped)}"] if skipped else []
+            return state.placed, notes
         if ok and best is None:
             best = state.placed
-    notes.append(f"room {room.id} ({room.type}): furniture placed without the navigation guarantee")
-    return best or []
+    return best or [], [f"room {room.id} ({room.type}): furniture placed without the navigation guarantee"]
 
 
 # ------------------------------------------------------------------------------------------------
 # mesh assembly
+
+_MeshPart = tuple[S.Mesh, tuple[int, ...], str]  # a mesh (world metres, Z up), its RGB(A) colour and material
+
+
+@dataclass(frozen=True)
+class _Piece:
+    """An instance before numbering: its labels and coloured mesh parts (ids are given at assembly)."""
+
+    label: str
+    room: int
+    floor: int
+    kind: str
+    parts: tuple[_MeshPart, ...]
+    supports: tuple[SurfaceSpec, ...] = ()
 
 
 class _MeshBuilder:
@@ -727,9 +750,21 @@ class _MeshBuilder:
                          np.concatenate(self.col), np.concatenate(self.mat))
 
 
+def _assemble(pieces: list[_Piece]) -> tuple[tuple[InstanceSpec, ...], WorldMesh]:
+    """Number the pieces in order (instance id = position) and join their parts into one mesh."""
+    mb = _MeshBuilder()
+    instances = []
+    for k, p in enumerate(pieces):
+        instances.append(InstanceSpec(k, p.label, p.room, p.floor, p.kind, p.supports))
+        for mesh, rgba, material in p.parts:
+            mb.add(mesh, k, rgba, material)
+    return tuple(instances), mb.build()
+
+
 WALL_COLOURS = ((236, 233, 226), (222, 226, 230), (232, 222, 206), (214, 222, 212), (242, 242, 240), (226, 214, 214))
 FLOOR_WOOD = ((168, 124, 86), (196, 156, 112), (132, 96, 66), (210, 190, 160))
 FLOOR_TILE = ((204, 204, 198), (176, 178, 182), (226, 222, 214), (150, 140, 130))
+_WALL_SIDES = ("S", "E", "N", "W")  # wall sides of a room: south (y0), east (x1), north (y1), west (x0)
 
 
 def _wall_pieces(lo: float, hi: float, openings: list[tuple[float, float, float, float]], z0: float,
@@ -751,7 +786,7 @@ def _windows(r: LA.PlanRoom, ext: dict[str, bool], wall_h: float, rng: np.random
     """Choose windows on a room's exterior walls: side -> [(centre, half width, sill, top)] (storey-relative)."""
     out: dict[str, list[tuple]] = {}
     t = 0.5 * WALL_T
-    for side in ("S", "E", "N", "W"):
+    for side in _WALL_SIDES:
         if not ext[side]:
             continue
         lo, hi = (r.x0 + t, r.x1 - t) if side in ("S", "N") else (r.y0 + t, r.y1 - t)
@@ -772,151 +807,239 @@ def _windows(r: LA.PlanRoom, ext: dict[str, bool], wall_h: float, rng: np.random
     return out
 
 
-def generate_apartment(seed: int, floors: int | None = None, ceilings: bool = True) -> Apartment:
-    """Generate the apartment for `seed` (floors: 1, 2 or None for the seeded choice, ~30% two storeys)."""
-    if floors not in (None, 0, 1, 2):
-        raise ValueError("floors must be 1, 2 or None (0 also means the seeded choice)")
+# ------------------------------------------------------------------------------------------------
+# the apartment, step by step
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """The seeded plan of an apartment: storeys, wall height, outer size (metres), rooms and doors."""
+
+    storeys: int
+    wall_h: float
+    width: float
+    depth: float
+    rooms: list[LA.PlanRoom]
+    doors: list[LA.PlanDoor]
+    floor_z: list[float]  # world Z of each storey's walkable surface
+
+
+@dataclass(frozen=True)
+class _Finish:
+    """A room's seeded finish: colours (RGB) of floor, walls, skirting and window frames, and its windows."""
+
+    floor_rgb: tuple[int, ...]
+    tiled: bool
+    wall_rgb: tuple[int, ...]
+    skirting_rgb: tuple[int, ...]
+    windows: dict[str, list[tuple]]  # side -> [(centre, half width, sill, top)], storey-relative metres
+    frame_rgb: tuple[int, ...]
+
+
+def _plan_apartment(seed: int, floors: int | None) -> _Plan:
+    """Draw the storey count, wall height, room types and floor plan of the apartment `seed`."""
     rng = np.random.default_rng([int(seed), 0])
     two = rng.random() < 0.3
     nfl = int(floors) if floors else (2 if two else 1)
     wall_h = LA.snap(rng.uniform(2.5, 2.8))
     types = LA.choose_room_types(rng, int(seed), nfl)
     width, depth, prooms, pdoors = LA.plan(rng, types)
-    floor_z = [0.0, STOREY_HEIGHT][:nfl]
-    notes: list[str] = []
-    mb = _MeshBuilder()
-    instances: list[Instance] = []
+    return _Plan(nfl, wall_h, width, depth, prooms, pdoors, [0.0, STOREY_HEIGHT][:nfl])
+
+
+def _exterior(r: LA.PlanRoom, width: float, depth: float) -> dict[str, bool]:
+    """Return side -> whether that wall of the room is an outer wall of the apartment."""
+    return {"W": r.x0 <= 1e-6, "E": r.x1 >= width - 1e-6, "S": r.y0 <= 1e-6, "N": r.y1 >= depth - 1e-6}
+
+
+def _room_finish(r: LA.PlanRoom, ext: dict[str, bool], wall_h: float, rng: np.random.Generator) -> _Finish:
+    """Draw a room's floor, wall, skirting and window-frame colours and its windows (in this order)."""
+    tiled = r.type in ("kitchen", "bathroom")
+    fcol = FU.jitter((FLOOR_TILE if tiled else FLOOR_WOOD)[int(rng.integers(4))], rng, 5)
+    wcol = FU.jitter(WALL_COLOURS[int(rng.integers(len(WALL_COLOURS)))], rng, 3)
+    if r.type == "bathroom":
+        wcol = FU.jitter((214, 226, 232), rng, 4)
+    skc = (246, 246, 244) if rng.random() < 0.6 else FU.jitter(fcol, rng, 8)
+    wins = _windows(r, ext, wall_h, rng)
+    frame_c = (244, 244, 242) if rng.random() < 0.7 else FU.pick(rng, FU.WOODS[:4])
+    return _Finish(fcol, tiled, wcol, skc, wins, frame_c)
+
+
+def _floor_slab(r: LA.PlanRoom, ext: dict[str, bool], fl: int, z0: float, wall_h: float, finish: _Finish) -> _Piece:
+    """Return the room's floor slab (reaching under the outer walls; upper storeys fill up to the storey below)."""
     t = 0.5 * WALL_T
-    rooms = tuple(
-        Room(r.id, r.type, r.floor, FU.rect(r.x0, r.y0, r.x1, r.y1)) for r in prooms
-    )
+    fx0, fy0 = r.x0 - (t if ext["W"] else 0.0), r.y0 - (t if ext["S"] else 0.0)
+    fx1, fy1 = r.x1 + (t if ext["E"] else 0.0), r.y1 + (t if ext["N"] else 0.0)
+    slab = 0.1 if fl == 0 else STOREY_HEIGHT - wall_h - 0.05
+    material = "floor_tile" if finish.tiled else "floor_wood"
+    return _Piece("floor", r.id, fl, "structure", ((S.box((fx0, fy0, z0 - slab), (fx1, fy1, z0)), finish.floor_rgb, material),))
 
-    def new_instance(label: str, room: int, fl: int, kind: str, supports: tuple = ()) -> int:
-        instances.append(Instance(len(instances), label, room, fl, kind, supports))
-        return len(instances) - 1
 
-    for fl in range(nfl):
-        z0 = floor_z[fl]
-        storey_rooms = [r for r in prooms if r.floor == fl]
-        storey_doors = [d for d in pdoors if d.floor == fl]
-        for r in storey_rooms:
-            srng = np.random.default_rng([int(seed), 1, r.id])
-            ext = {"W": r.x0 <= 1e-6, "E": r.x1 >= width - 1e-6, "S": r.y0 <= 1e-6, "N": r.y1 >= depth - 1e-6}
-            # floor slab
-            fx0, fy0 = r.x0 - (t if ext["W"] else 0.0), r.y0 - (t if ext["S"] else 0.0)
-            fx1, fy1 = r.x1 + (t if ext["E"] else 0.0), r.y1 + (t if ext["N"] else 0.0)
-            slab = 0.1 if fl == 0 else STOREY_HEIGHT - wall_h - 0.05
-            tile = r.type in ("kitchen", "bathroom")
-            fcol = FU.jitter((FLOOR_TILE if tile else FLOOR_WOOD)[int(srng.integers(4))], srng, 5)
-            i = new_instance("floor", r.id, fl, "structure")
-            mb.add(S.box((fx0, fy0, z0 - slab), (fx1, fy1, z0)), i, fcol, "floor_tile" if tile else "floor_wood")
-            if ceilings:
-                i = new_instance("ceiling", r.id, fl, "structure")
-                mb.add(S.box((r.x0 + t, r.y0 + t, z0 + wall_h), (r.x1 - t, r.y1 - t, z0 + wall_h + 0.02)), i,
-                       (248, 248, 246), "ceiling")
-            wcol = FU.jitter(WALL_COLOURS[int(srng.integers(len(WALL_COLOURS)))], srng, 3)
-            if r.type == "bathroom":
-                wcol = FU.jitter((214, 226, 232), srng, 4)
-            skc = (246, 246, 244) if srng.random() < 0.6 else FU.jitter(fcol, srng, 8)
-            wins = _windows(r, ext, wall_h, srng)
-            rd = _room_doors(r, storey_doors)
-            sd, sh = SKIRTING
-            for side in ("S", "E", "N", "W"):
-                opens = [(d.centre, 0.5 * d.width, z0, z0 + d.height) for d, s_ in rd if s_ == side]
-                opens += [(c, hw, z0 + sill, z0 + top) for c, hw, sill, top in wins.get(side, [])]
-                i = new_instance("wall", r.id, fl, "structure")
-                if side in ("S", "N"):
-                    lo = r.x0 - (t if r.x0 <= 1e-6 else 0.0)
-                    hi = r.x1 + (t if r.x1 >= width - 1e-6 else 0.0)
-                    if side == "S":
-                        ya, yb = r.y0 - (t if ext["S"] else 0.0), r.y0 + t
-                        ka, kb = yb, yb + sd
-                    else:
-                        ya, yb = r.y1 - t, r.y1 + (t if ext["N"] else 0.0)
-                        ka, kb = ya - sd, ya
-                    for a, b, za, zb in _wall_pieces(lo, hi, opens, z0, z0 + wall_h):
-                        mb.add(S.box((a, ya, za), (b, yb, zb)), i, wcol, "wall")
-                        a2, b2 = max(a, r.x0 + t), min(b, r.x1 - t)
-                        if za <= z0 + 1e-9 and b2 - a2 > 1e-6:
-                            mb.add(S.box((a2, ka, z0), (b2, kb, z0 + sh)), i, skc, "wood")
-                else:
-                    lo, hi = r.y0 + t, r.y1 - t
-                    if side == "W":
-                        xa, xb = r.x0 - (t if ext["W"] else 0.0), r.x0 + t
-                        ka, kb = xb, xb + sd
-                    else:
-                        xa, xb = r.x1 - t, r.x1 + (t if ext["E"] else 0.0)
-                        ka, kb = xa - sd, xa
-                    for a, b, za, zb in _wall_pieces(lo, hi, opens, z0, z0 + wall_h):
-                        mb.add(S.box((xa, a, za), (xb, b, zb)), i, wcol, "wall")
-                        a2, b2 = max(a, lo + sd), min(b, hi - sd)
-                        if za <= z0 + 1e-9 and b2 - a2 > 1e-6:
-                            mb.add(S.box((ka, a2, z0), (kb, b2, z0 + sh)), i, skc, "wood")
-            # windows: frame, sill and glass in each opening
-            frame_c = (244, 244, 242) if srng.random() < 0.7 else FU.pick(srng, FU.WOODS[:4])
-            for side, wl in wins.items():
-                for c, hw, sill, top in wl:
-                    i = new_instance("window", r.id, fl, "structure")
-                    zs, zt = z0 + sill, z0 + top
-                    line = {"S": r.y0, "N": r.y1, "W": r.x0, "E": r.x1}[side]
-                    inward = {"S": 1.0, "N": -1.0, "W": 1.0, "E": -1.0}[side]
-                    ft = 0.05
-                    parts = [((c - hw, -t, zs), (c - hw + ft, t, zt)), ((c + hw - ft, -t, zs), (c + hw, t, zt)),
-                             ((c - hw + ft, -t, zt - ft), (c + hw - ft, t, zt)), ((c - hw + ft, -t, zs), (c + hw - ft, t, zs + ft))]
-                    if hw > 0.6:
-                        parts.append(((c - 0.02, -0.02, zs + ft), (c + 0.02, 0.02, zt - ft)))
-                    sill_box = ((c - hw - 0.03, t, zs - 0.03), (c + hw + 0.03, t + 0.04, zs))
-                    glass = ((c - hw + ft, -0.004, zs + ft), (c + hw - ft, 0.004, zt - ft))
+def _ceiling(r: LA.PlanRoom, fl: int, z0: float, wall_h: float) -> _Piece:
+    """Return the room's ceiling slab (2 cm thick, between the walls)."""
+    t = 0.5 * WALL_T
+    box = S.box((r.x0 + t, r.y0 + t, z0 + wall_h), (r.x1 - t, r.y1 - t, z0 + wall_h + 0.02))
+    return _Piece("ceiling", r.id, fl, "structure", ((box, (248, 248, 246), "ceiling"),))
 
-                    def place(lo_: tuple, hi_: tuple) -> S.Mesh:
-                        (a0, o0, z_0), (a1, o1, z_1) = lo_, hi_
-                        o0, o1 = sorted((line + inward * o0, line + inward * o1))
-                        if side in ("S", "N"):
-                            return S.box((a0, o0, z_0), (a1, o1, z_1))
-                        return S.box((o0, a0, z_0), (o1, a1, z_1))
 
-                    for lo_, hi_ in parts + [sill_box]:
-                        mb.add(place(lo_, hi_), i, frame_c, "plain")
-                    mb.add(place(*glass), i, (176, 206, 226, 96), "glass")
-            # furniture
-            for m, ox, oy, yaw in _furnish(r, storey_doors, srng, wall_h, notes, wins):
-                rot2 = _rot(yaw)
-                rot3 = np.eye(3)
-                rot3[:2, :2] = rot2
-                sup = tuple(
-                    SupportSurface(float(h + z0), np.asarray(poly) @ rot2.T + np.array([ox, oy])) for h, poly in m.supports
-                )
-                i = new_instance(m.label, r.id, fl, m.kind, sup)
-                for p in m.parts:
-                    mb.add(S.transform((p.vertices, p.faces), rot=rot3, shift=(ox, oy, z0)), i, p.rgba, p.material)
-        # door frames
-        frng = np.random.default_rng([int(seed), 2, fl])
-        fcol = FU.jitter((240, 238, 232), frng, 3) if frng.random() < 0.6 else FU.pick(frng, FU.WOODS[:4])
-        for d in storey_doors:
-            i = new_instance("door frame", min(d.room_a, d.room_b), fl, "structure")
-            c, half, jt, dt = d.centre, 0.5 * d.width, 0.05, 0.5 * WALL_T + 0.01
-            for a, b, za, zb in ((c - half, c - half + jt, z0, z0 + d.height), (c + half - jt, c + half, z0, z0 + d.height),
-                                 (c - half, c + half, z0 + d.height - jt, z0 + d.height)):
-                if d.vertical:
-                    mb.add(S.box((d.line - dt, a, za), (d.line + dt, b, zb)), i, fcol, "wood")
-                else:
-                    mb.add(S.box((a, d.line - dt, za), (b, d.line + dt, zb)), i, fcol, "wood")
-    doors = []
-    for d in pdoors:
-        z0 = floor_z[d.floor]
+def _wall_openings(side: str, doors: list[tuple[LA.PlanDoor, str]], windows: dict[str, list[tuple]],
+                   z0: float) -> list[tuple[float, float, float, float]]:
+    """Return the openings of one wall: (centre, half width, bottom Z, top Z) of its doors, then its windows."""
+    opens = [(d.centre, 0.5 * d.width, z0, z0 + d.height) for d, s_ in doors if s_ == side]
+    opens += [(c, hw, z0 + sill, z0 + top) for c, hw, sill, top in windows.get(side, [])]
+    return opens
+
+
+def _wall(r: LA.PlanRoom, side: str, ext: dict[str, bool], opens: list[tuple[float, float, float, float]],
+          fl: int, z0: float, wall_h: float, finish: _Finish) -> _Piece:
+    """Return one wall of a room: the room-side slab around its openings, outer walls full thickness, skirting."""
+    t = 0.5 * WALL_T
+    sd, sh = SKIRTING
+    along_x = side in ("S", "N")  # S and N walls run along X, W and E walls along Y
+    if along_x:
+        lo, hi = r.x0 - (t if ext["W"] else 0.0), r.x1 + (t if ext["E"] else 0.0)
+        clip_lo, clip_hi = r.x0 + t, r.x1 - t
+        c0, c1 = r.y0, r.y1
+    else:
+        lo, hi = r.y0 + t, r.y1 - t
+        clip_lo, clip_hi = lo + sd, hi - sd
+        c0, c1 = r.x0, r.x1
+    if side in ("S", "W"):  # across the wall: slab [a0, a1], skirting [k0, k1] on the room side
+        a0, a1 = c0 - (t if ext[side] else 0.0), c0 + t
+        k0, k1 = a1, a1 + sd
+    else:
+        a0, a1 = c1 - t, c1 + (t if ext[side] else 0.0)
+        k0, k1 = a0 - sd, a0
+
+    def box(u0: float, u1: float, v0: float, v1: float, za: float, zb: float) -> S.Mesh:
+        """Return the box spanning [u0, u1] along the wall, [v0, v1] across it and [za, zb] in Z."""
+        return S.box((u0, v0, za), (u1, v1, zb)) if along_x else S.box((v0, u0, za), (v1, u1, zb))
+
+    parts: list[_MeshPart] = []
+    for a, b, za, zb in _wall_pieces(lo, hi, opens, z0, z0 + wall_h):
+        parts.append((box(a, b, a0, a1, za, zb), finish.wall_rgb, "wall"))
+        a2, b2 = max(a, clip_lo), min(b, clip_hi)
+        if za <= z0 + 1e-9 and b2 - a2 > 1e-6:
+            parts.append((box(a2, b2, k0, k1, z0, z0 + sh), finish.skirting_rgb, "wood"))
+    return _Piece("wall", r.id, fl, "structure", tuple(parts))
+
+
+def _window(r: LA.PlanRoom, side: str, window: tuple, fl: int, z0: float, frame_rgb: tuple[int, ...]) -> _Piece:
+    """Return one window: frame and sill (in the wall, across its thickness) and the glass pane."""
+    c, hw, sill, top = window
+    t = 0.5 * WALL_T
+    zs, zt = z0 + sill, z0 + top
+    line = {"S": r.y0, "N": r.y1, "W": r.x0, "E": r.x1}[side]
+    inward = {"S": 1.0, "N": -1.0, "W": 1.0, "E": -1.0}[side]
+    ft = 0.05
+    frame = [((c - hw, -t, zs), (c - hw + ft, t, zt)), ((c + hw - ft, -t, zs), (c + hw, t, zt)),
+             ((c - hw + ft, -t, zt - ft), (c + hw - ft, t, zt)), ((c - hw + ft, -t, zs), (c + hw - ft, t, zs + ft))]
+    if hw > 0.6:
+        frame.append(((c - 0.02, -0.02, zs + ft), (c + 0.02, 0.02, zt - ft)))
+    sill_box = ((c - hw - 0.03, t, zs - 0.03), (c + hw + 0.03, t + 0.04, zs))
+    glass = ((c - hw + ft, -0.004, zs + ft), (c + hw - ft, 0.004, zt - ft))
+
+    def place(lo_: tuple, hi_: tuple) -> S.Mesh:
+        """Return a box given as (along the wall, into the room, Z) corners, in world coordinates."""
+        (a0, o0, z_0), (a1, o1, z_1) = lo_, hi_
+        o0, o1 = sorted((line + inward * o0, line + inward * o1))
+        if side in ("S", "N"):
+            return S.box((a0, o0, z_0), (a1, o1, z_1))
+        return S.box((o0, a0, z_0), (o1, a1, z_1))
+
+    parts: list[_MeshPart] = [(place(lo_, hi_), frame_rgb, "plain") for lo_, hi_ in frame + [sill_box]]
+    parts.append((place(*glass), (176, 206, 226, 96), "glass"))
+    return _Piece("window", r.id, fl, "structure", tuple(parts))
+
+
+def _furniture(r: LA.PlanRoom, placed: list[tuple[Model, float, float, int]], fl: int, z0: float) -> list[_Piece]:
+    """Return the placed furniture as pieces: parts and support surfaces moved to world coordinates."""
+    out = []
+    for m, ox, oy, yaw in placed:
+        rot2 = _rot(yaw)
+        rot3 = np.eye(3)
+        rot3[:2, :2] = rot2
+        sup = tuple(
+            SurfaceSpec(float(h + z0), np.asarray(poly) @ rot2.T + np.array([ox, oy])) for h, poly in m.supports
+        )
+        parts = tuple((S.transform((p.vertices, p.faces), rot=rot3, shift=(ox, oy, z0)), p.rgba, p.material) for p in m.parts)
+        out.append(_Piece(m.label, r.id, fl, m.kind, parts, sup))
+    return out
+
+
+def _room(seed: int, r: LA.PlanRoom, plan: _Plan, storey_doors: list[LA.PlanDoor],
+          ceilings: bool) -> tuple[list[_Piece], list[str]]:
+    """Build one room (its own seeded generator): floor, ceiling, four walls, windows, furniture; and notes."""
+    rng = np.random.default_rng([int(seed), 1, r.id])
+    fl, z0, wall_h = r.floor, plan.floor_z[r.floor], plan.wall_h
+    ext = _exterior(r, plan.width, plan.depth)
+    finish = _room_finish(r, ext, wall_h, rng)
+    placed, notes = _furnish(r, storey_doors, rng, wall_h, finish.windows)
+    doors = _room_doors(r, storey_doors)
+    pieces = [_floor_slab(r, ext, fl, z0, wall_h, finish)]
+    pieces += [_ceiling(r, fl, z0, wall_h)] if ceilings else []
+    pieces += [_wall(r, side, ext, _wall_openings(side, doors, finish.windows, z0), fl, z0, wall_h, finish) for side in _WALL_SIDES]
+    pieces += [_window(r, side, w, fl, z0, finish.frame_rgb) for side, wl in finish.windows.items() for w in wl]
+    pieces += _furniture(r, placed, fl, z0)
+    return pieces, notes
+
+
+def _door_frame_colour(seed: int, fl: int) -> tuple[int, ...]:
+    """Draw the door-frame colour of a storey (its own seeded generator)."""
+    rng = np.random.default_rng([int(seed), 2, fl])
+    return FU.jitter((240, 238, 232), rng, 3) if rng.random() < 0.6 else FU.pick(rng, FU.WOODS[:4])
+
+
+def _door_frame(d: LA.PlanDoor, z0: float, rgb: tuple[int, ...]) -> _Piece:
+    """Return a doorway's frame: two jambs and the head, slightly thicker than the wall."""
+    c, half, jt, dt = d.centre, 0.5 * d.width, 0.05, 0.5 * WALL_T + 0.01
+    parts: list[_MeshPart] = []
+    for a, b, za, zb in ((c - half, c - half + jt, z0, z0 + d.height), (c + half - jt, c + half, z0, z0 + d.height),
+                         (c - half, c + half, z0 + d.height - jt, z0 + d.height)):
         if d.vertical:
-            centre, normal = np.array([d.line, d.centre, z0]), np.array([1.0, 0.0])
+            parts.append((S.box((d.line - dt, a, za), (d.line + dt, b, zb)), rgb, "wood"))
         else:
-            centre, normal = np.array([d.centre, d.line, z0]), np.array([0.0, 1.0])
-        doors.append(Door(d.floor, (d.room_a, d.room_b), centre, normal, round(d.width - 0.1, 6), round(d.height - 0.05, 6)))
+            parts.append((S.box((a, d.line - dt, za), (b, d.line + dt, zb)), rgb, "wood"))
+    return _Piece("door frame", min(d.room_a, d.room_b), d.floor, "structure", tuple(parts))
+
+
+def _door(d: LA.PlanDoor, z0: float) -> Door:
+    """Return a plan door as a Door record (clear opening inside the frame)."""
+    if d.vertical:
+        centre, normal = np.array([d.line, d.centre, z0]), np.array([1.0, 0.0])
+    else:
+        centre, normal = np.array([d.centre, d.line, z0]), np.array([0.0, 1.0])
+    return Door(d.floor, (d.room_a, d.room_b), centre, normal, round(d.width - 0.1, 6), round(d.height - 0.05, 6))
+
+
+def generate_apartment(seed: int, floors: int | None = None, ceilings: bool = True) -> Apartment:
+    """Generate the apartment for `seed` (floors: 1, 2 or None for the seeded choice, ~30% two storeys).
+
+    Steps: draw the plan; per storey, build each room (own generator: finish, furniture, then its
+    structure and furniture pieces) and then the door frames; number the pieces and join one mesh.
+    """
+    if floors not in (None, 0, 1, 2):
+        raise ValueError("floors must be 1, 2 or None (0 also means the seeded choice)")
+    plan = _plan_apartment(seed, floors)
+    pieces: list[_Piece] = []
+    notes: list[str] = []
+    for fl in range(plan.storeys):
+        storey_doors = [d for d in plan.doors if d.floor == fl]
+        for r in (r for r in plan.rooms if r.floor == fl):
+            room_pieces, room_notes = _room(seed, r, plan, storey_doors, ceilings)
+            pieces += room_pieces
+            notes += room_notes
+        colour = _door_frame_colour(seed, fl)
+        pieces += [_door_frame(d, plan.floor_z[fl], colour) for d in storey_doors]
+    instances, mesh = _assemble(pieces)
     return Apartment(
         seed=int(seed),
-        floors=tuple(Floor(k, floor_z[k]) for k in range(nfl)),
-        wall_height=float(wall_h),
-        rooms=rooms,
-        instances=tuple(instances),
-        doors=tuple(doors),
-        mesh=mb.build(),
+        floors=tuple(Storey(k, plan.floor_z[k]) for k in range(plan.storeys)),
+        wall_height=float(plan.wall_h),
+        rooms=tuple(RoomSpec(r.id, r.type, r.floor, FU.rect(r.x0, r.y0, r.x1, r.y1)) for r in plan.rooms),
+        instances=instances,
+        doors=tuple(_door(d, plan.floor_z[d.floor]) for d in plan.doors),
+        mesh=mesh,
         ceilings=ceilings,
         notes=tuple(notes),
     )

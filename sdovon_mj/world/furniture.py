@@ -405,6 +405,23 @@ def counter(rng: np.random.Generator, width: float, height: float = 0.9, depth: 
     `sink`: "none", "recessed" (a basin let into the top) or "vessel" (a bowl standing on the top
     at one end). The counter's support surfaces are the parts of its top that stay free. Returns
     (counter, [sink, stove] as present).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Random draws of colours and details.
+    width : float
+        Length along the wall, metres.
+    height : float
+        Height to the top of the worktop, metres.
+    depth : float
+        Depth from the wall, metres.
+    sink : str
+        "none", "recessed" or "vessel".
+    sink_side : int
+        End with the sink: +1 (+x) or -1 (-x).
+    hob : bool
+        Add a stove with a hob.
     """
     w, d, h = width, depth, height
     tt = 0.04

@@ -180,7 +180,23 @@ def ply_bytes(scan: ScanMesh, comment: str = "") -> bytes:
 
 def write_apartment(apartment: Apartment, out_dir: str | os.PathLike[str], mode: str = "clean", name: str | None = None,
                     noise_sigma: float = 0.003, max_faces: int = 300_000) -> Path:
-    """Write an apartment in `mode` "clean" (GLB) or "scan" (PLY + ScanNet labels) plus its sidecar; returns the mesh path."""
+    """Write an apartment in `mode` "clean" (GLB) or "scan" (PLY + ScanNet labels) plus its sidecar; returns the mesh path.
+
+    Parameters
+    ----------
+    apartment : Apartment
+        The generated apartment.
+    out_dir : str or os.PathLike
+        Output folder.
+    mode : str
+        "clean" (GLB, +Y up) or "scan" (PLY, +Z up, ScanNet labels).
+    name : str, optional
+        File stem (default: ``apartment_<seed:04d>``).
+    noise_sigma : float
+        Scan mode: surface noise std along the normals, metres.
+    max_faces : int
+        Scan mode: about the most faces of the re-meshed scan.
+    """
     if mode not in ("clean", "scan"):
         raise ValueError(f"mode must be 'clean' or 'scan', got {mode!r}")
     out = Path(out_dir)

@@ -148,7 +148,21 @@ def _layouts(rect: tuple[float, float, float, float], items: list[tuple[int, flo
 
 def partition(rng: np.random.Generator, width: float, depth: float, types: list[str], areas: list[float],
               tries: int = 12) -> list[tuple[float, float, float, float]] | None:
-    """Cut the footprint width x depth into len(types) valid cells (None if no valid cut was found)."""
+    """Cut the footprint width x depth into len(types) valid cells (None if no valid cut was found).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Random draws of the room order and the layout chosen.
+    width, depth : float
+        Footprint size, metres.
+    types : list of str
+        Room types, one per cell.
+    areas : list of float
+        Target floor area per room, m^2.
+    tries : int
+        Room orders tried.
+    """
     for _ in range(tries):
         order = [int(i) for i in rng.permutation(len(types))]
         found = _layouts((0.0, 0.0, width, depth), [(i, areas[i], types[i]) for i in order], [400])

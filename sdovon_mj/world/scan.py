@@ -206,7 +206,23 @@ def visible_faces(apartment: Apartment) -> np.ndarray:
 
 def make_scan(apartment: Apartment, noise_sigma: float = 0.003, max_faces: int = 300_000, hole_fraction: float = 0.01,
               hole_rings: int = 3, segment_size: float = 0.5) -> ScanMesh:
-    """Return the scan-like version of an apartment's mesh (deterministic for its seed)."""
+    """Return the scan-like version of an apartment's mesh (deterministic for its seed).
+
+    Parameters
+    ----------
+    apartment : Apartment
+        The generated apartment.
+    noise_sigma : float
+        Surface noise std along the normals, metres.
+    max_faces : int
+        About the most faces of the re-meshed scan.
+    hole_fraction : float
+        Fraction of faces removed as small holes.
+    hole_rings : int
+        Largest hole size, in face rings grown from a seed face.
+    segment_size : float
+        Voxel size of the over-segmentation, metres.
+    """
     rng = np.random.default_rng([apartment.seed, 7])
     m = apartment.mesh
     seen = np.flatnonzero(visible_faces(apartment))

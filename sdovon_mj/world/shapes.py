@@ -179,7 +179,19 @@ def revolve(profile: list[tuple[float, float]] | np.ndarray, segments: int = 24,
 
 
 def cylinder(radius: float, z0: float, z1: float, segments: int = 24, centre: tuple[float, float] = (0.0, 0.0)) -> Mesh:
-    """Return a closed vertical cylinder of `radius` from z0 to z1."""
+    """Return a closed vertical cylinder of `radius` from z0 to z1.
+
+    Parameters
+    ----------
+    radius : float
+        Radius, metres.
+    z0, z1 : float
+        Bottom and top heights, metres.
+    segments : int
+        Segments around the axis.
+    centre : tuple of float
+        XY of the axis, metres.
+    """
     v, f = revolve([(0.0, z0), (radius, z0), (radius, z1), (0.0, z1)], segments)
     v = v + np.array([centre[0], centre[1], 0.0])
     return v, f
@@ -188,7 +200,21 @@ def cylinder(radius: float, z0: float, z1: float, segments: int = 24, centre: tu
 def superellipsoid(
     lo: tuple[float, float, float], hi: tuple[float, float, float], e1: float = 0.3, e2: float = 0.3, nu: int = 10, nv: int = 20
 ) -> Mesh:
-    """Return a superellipsoid filling the box lo..hi (small exponents -> cushion-like)."""
+    """Return a superellipsoid filling the box lo..hi (small exponents -> cushion-like).
+
+    Parameters
+    ----------
+    lo, hi : tuple of float
+        Corners of the box filled, metres.
+    e1 : float
+        Exponent along latitude (small: flat top and bottom).
+    e2 : float
+        Exponent along longitude (small: square in plan).
+    nu : int
+        Latitude steps.
+    nv : int
+        Longitude steps.
+    """
     lo = np.asarray(lo, dtype=np.float64)
     hi = np.asarray(hi, dtype=np.float64)
     c = 0.5 * (lo + hi)
@@ -300,7 +326,25 @@ def concat(meshes: list[Mesh]) -> Mesh:
 
 def torus_arc(centre: tuple[float, float, float], major: float, minor: float, a0: float, a1: float,
               plane: str = "xz", steps: int = 12, segments: int = 10) -> Mesh:
-    """Return a capped tube along a circular arc (a mug or teapot handle) in the given plane."""
+    """Return a capped tube along a circular arc (a mug or teapot handle) in the given plane.
+
+    Parameters
+    ----------
+    centre : tuple of float
+        Centre of the arc, metres.
+    major : float
+        Radius of the arc, metres.
+    minor : float
+        Radius of the tube, metres.
+    a0, a1 : float
+        Start and end angles of the arc, radians.
+    plane : str
+        Plane of the arc: "xz" or "xy".
+    steps : int
+        Segments along the arc.
+    segments : int
+        Segments around the tube.
+    """
     a = np.linspace(a0, a1, steps + 1)
     c = np.asarray(centre, dtype=np.float64)
     if plane == "xz":

@@ -6,7 +6,7 @@ import csv
 import io
 from pathlib import Path
 
-from exporters.base import ExportOptions, ExportReport, Exporter, RunView
+from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
 from sdovon_mj.store import atomic_write_text
 
 

@@ -14,9 +14,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from matplotlib.path import Path as MplPath
 from scipy import ndimage
 
+from ..geometry import points_in_polygon
+from ..grid import GridFrame
 from ..records import Instance, NavMap, RegionMap
 
 STRUCTURE_KINDS = ("structure",)
@@ -57,13 +58,13 @@ def room_type_grid(apt: Any, floor: int, origin: np.ndarray, shape: tuple[int, i
     """Return (per-cell index into the type list, -1 outside rooms; the type list) for a floor."""
     h, w = shape
     jj, ii = np.meshgrid(np.arange(w), np.arange(h))
-    xy = np.stack([origin[0] + (jj.ravel() + 0.5) * res, origin[1] + (ii.ravel() + 0.5) * res], axis=1)
+    xy = GridFrame(np.asarray(origin, dtype=float), float(res), shape).to_world(np.stack([ii.ravel(), jj.ravel()], 1))
     types = sorted({r.type for r in apt.rooms if r.floor == floor})
     out = np.full(h * w, -1, dtype=np.int16)
     for r in apt.rooms:
         if r.floor != floor:
             continue
-        inside = MplPath(np.asarray(r.polygon, dtype=float)).contains_points(xy)
+        inside = points_in_polygon(r.polygon, xy)
         out[inside] = types.index(r.type)
     return out.reshape(h, w), types
 

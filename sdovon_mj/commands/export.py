@@ -4,12 +4,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-from sdovon_mj import plugins
-from sdovon_mj.errors import SdovonError
-
-from .base import ExportOptions, Exporter, RunView, run_export
+from .. import plugins
+from ..export import export_run
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,23 +20,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="add this dataset next to other datasets already in --out (never mixes into one)")
 
 
-def make_exporter(fmt: str) -> Exporter:
-    """Return an exporter instance for a plugin name."""
-    obj = plugins.load("exporter", fmt)
-    exp = obj() if isinstance(obj, type) else obj
-    if not hasattr(exp, "export"):
-        raise plugins.PluginError(f"exporter plugin '{fmt}' has no export() method")
-    if not getattr(exp, "name", ""):
-        exp.name = fmt
-    return exp
-
-
-def export_run(run_dir: str | Path, fmt: str, out: str | Path, name: str = "sdovon", split: str = "val", merge: bool = False):
-    """Export a run folder with a named exporter plugin and return its ExportReport."""
-    exp = make_exporter(fmt)
-    return run_export(exp, RunView(run_dir), Path(out), ExportOptions(name=name, split=split, merge=merge))
-
-
 def run(args: argparse.Namespace) -> int:
     """Run the export subcommand."""
     report = export_run(args.run_dir, args.format, args.out, args.name, args.split, args.merge)
@@ -47,6 +27,3 @@ def run(args: argparse.Namespace) -> int:
     if not report.variants:
         print("sdovon-mj export: no variant had valid goals; nothing but the index was written", file=sys.stderr)
     return 0
-
-
-__all__ = ["add_arguments", "run", "export_run", "make_exporter", "SdovonError"]

@@ -1,8 +1,10 @@
-"""Occupancy-grid helpers on NavMap-aligned grids: cell graphs, geodesic fields, free segments, erosion.
+"""The grid frame (grid <-> world) and grid helpers: lookups, free segments, erosion, geodesic fields.
 
-Grids follow `records.NavMap`: cell (i, j) centre = origin + ((j + .5) * res, (i + .5) * res); rows
-grow with world Y, columns with world X. Graphs are `gridgraph.cell_graph` (8-connected, sqrt(2)
-diagonals, no corner cutting), the graph the episode generator measures geodesics on.
+One frame for every top-down grid (navmaps, region maps, the agents' occupancy and planning maps):
+cell (row i, col j) has its centre at origin + ((j + .5) * res, (i + .5) * res); rows grow with world
+Y, columns with world X. `records.NavMap.frame` and `records.RegionMap.frame` return it. Graphs are
+`gridgraph.cell_graph` (8-connected, sqrt(2) diagonals, no corner cutting), the graph the episode
+generator measures geodesics on.
 """
 
 from __future__ import annotations
@@ -15,24 +17,18 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from ..gridgraph import cell_graph
-from ..records import NavMap
+from .gridgraph import cell_graph
 
 NEIGHBOURS8 = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
 @dataclass
 class GridFrame:
-    """Placement of a grid in the world: origin (world XY of the corner) and resolution (m)."""
+    """Placement of a grid in the world: origin (world XY of the corner of cell (0, 0)), resolution (m/cell), shape (rows, cols)."""
 
     origin: np.ndarray
     resolution: float
     shape: tuple[int, int]
-
-    @classmethod
-    def of(cls, navmap: NavMap) -> "GridFrame":
-        """Return the frame of a NavMap."""
-        return cls(np.asarray(navmap.origin, dtype=float), float(navmap.resolution), tuple(navmap.navigable.shape))
 
     def to_cell(self, xy: np.ndarray) -> np.ndarray:
         """Return (row, col) cells (N, 2) of world XY points (N, 2)."""

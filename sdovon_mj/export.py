@@ -1,14 +1,7 @@
-"""The exporter interface: a read-only view over a run folder, an export report, and the output-folder policy.
+"""The exporter interface: options, report, the `Exporter` base and the output-folder policy.
 
-Run folder layout (paths inside records are relative to the run root)::
-
-    <run>/scenes/<scene>/scene.json                            SceneAsset (+ its asset files)
-    <run>/scenes/<scene>/observe/navmap_<floor>.json           NavMap, one per floor
-    <run>/scenes/<scene>/semantics/relevance.json              Relevance (optional)
-    <run>/scenes/<scene>/semantics/regions_<floor>.json        RegionMap, one per floor (optional)
-    <run>/scenes/<scene>/variants/<variant>/variant.json       SceneVariant (its .mjcf: composed MJCF)
-    <run>/scenes/<scene>/variants/<variant>/episodes.json      list[Episode]
-    <run>/objects/<name>/object.json                           ObjectAsset (+ its asset files)
+Exporter plugins (entry-point group ``sdovon_mj.exporters``) subclass `Exporter` and read the run through
+`sdovon_mj.runview.RunView` only. The core runs them through `run_export`.
 
 Output-folder policy (applied by ``prepare_out_dir`` for every exporter, built-in or plugin):
 every export records itself in ``<out>/sdovon_export.json`` as {format, name, split, run_id}.
@@ -25,16 +18,15 @@ every export records itself in ``<out>/sdovon_export.json`` as {format, name, sp
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sdovon_mj.errors import InputError, SdovonError
-from sdovon_mj.records import (Episode, NavMap, ObjectAsset, RecordError, RegionMap, Relevance, SceneAsset, SceneVariant,
-                               load_json)
-from sdovon_mj.store import atomic_write_text
+from . import plugins
+from .errors import InputError, SdovonError
+from .runview import RunView
+from .store import atomic_write_text
 
 MANIFEST = "sdovon_export.json"
 
@@ -71,86 +63,6 @@ class ExportReport:
         for v, why in sorted(self.skipped.items()):
             lines.append(f"  skipped {v}: {why}")
         return "\n".join(lines)
-
-
-def _load(path: Path, cls: type) -> Any:
-    """Load a record file or raise InputError naming it."""
-    if not path.exists():
-        raise InputError(path, "missing")
-    try:
-        return load_json(path, cls)
-    except RecordError as e:
-        raise InputError(path, str(e)) from None
-
-
-class RunView:
-    """Read-only view of a run folder (layout in this module's docstring)."""
-
-    def __init__(self, root: str | Path) -> None:
-        self.root = Path(root).resolve()
-        if not (self.root / "scenes").is_dir():
-            raise InputError(self.root, "not a run folder (no scenes/ inside)")
-
-    def path(self, rel: str | Path) -> Path:
-        """Return the absolute path of a run-relative path."""
-        return self.root / Path(rel)
-
-    def scene_names(self) -> list[str]:
-        """Return the scene names (sorted)."""
-        return sorted(p.parent.name for p in (self.root / "scenes").glob("*/scene.json"))
-
-    def scenes(self) -> list[SceneAsset]:
-        """Return every SceneAsset (sorted by name)."""
-        return [self.scene(n) for n in self.scene_names()]
-
-    def scene(self, name: str) -> SceneAsset:
-        """Return one SceneAsset."""
-        return _load(self.root / "scenes" / name / "scene.json", SceneAsset)
-
-    def navmaps(self, scene: str) -> list[NavMap]:
-        """Return a scene's NavMaps sorted by floor."""
-        maps = [_load(p, NavMap) for p in sorted((self.root / "scenes" / scene / "observe").glob("navmap_*.json"))]
-        return sorted(maps, key=lambda m: m.floor)
-
-    def relevance(self, scene: str) -> Relevance | None:
-        """Return a scene's relevance tables (None when the run has none)."""
-        p = self.root / "scenes" / scene / "semantics" / "relevance.json"
-        return _load(p, Relevance) if p.exists() else None
-
-    def region_maps(self, scene: str) -> list[RegionMap]:
-        """Return a scene's region maps sorted by floor ([] when the run has none)."""
-        maps = [_load(p, RegionMap) for p in sorted((self.root / "scenes" / scene / "semantics").glob("regions_*.json"))]
-        return sorted(maps, key=lambda m: m.floor)
-
-    def variants(self, scene: str) -> list[SceneVariant]:
-        """Return a scene's SceneVariants sorted by index."""
-        vs = [_load(p, SceneVariant) for p in sorted((self.root / "scenes" / scene / "variants").glob("*/variant.json"))]
-        return sorted(vs, key=lambda v: v.index)
-
-    def all_variants(self) -> list[SceneVariant]:
-        """Return every variant of every scene."""
-        return [v for s in self.scene_names() for v in self.variants(s)]
-
-    def variant_dir(self, variant: SceneVariant) -> Path:
-        """Return the folder of a variant's records."""
-        return self.root / "scenes" / variant.scene / "variants" / variant.name
-
-    def episodes(self, variant: SceneVariant) -> list[Episode]:
-        """Return a variant's episodes ([] when it has none or no episodes.json)."""
-        p = self.variant_dir(variant) / "episodes.json"
-        return _load(p, Episode) if p.exists() else []
-
-    def objects(self) -> dict[str, ObjectAsset]:
-        """Return every ObjectAsset by name."""
-        return {p.parent.name: _load(p, ObjectAsset) for p in sorted((self.root / "objects").glob("*/object.json"))}
-
-    def run_id(self) -> str:
-        """Return a digest of the run's record files (identifies the run across exports)."""
-        h = hashlib.sha256()
-        for p in sorted(self.root.glob("scenes/*/scene.json")) + sorted(self.root.glob("scenes/*/variants/*/*.json")) + sorted(self.root.glob("objects/*/object.json")):
-            h.update(p.relative_to(self.root).as_posix().encode())
-            h.update(p.read_bytes())
-        return h.hexdigest()[:20]
 
 
 class Exporter:
@@ -211,3 +123,24 @@ def run_export(exporter: Exporter, run: RunView, out_dir: Path, options: ExportO
     report = exporter.export(run, Path(out_dir), options)
     record_export(out_dir, fmt, options.name, options.split, run_id)
     return report
+
+
+def make_exporter(fmt: str) -> Exporter:
+    """Return an exporter instance for a plugin name."""
+    obj = plugins.load("exporter", fmt)
+    exp = obj() if isinstance(obj, type) else obj
+    if not hasattr(exp, "export"):
+        raise plugins.PluginError(f"exporter plugin '{fmt}' has no export() method")
+    if not getattr(exp, "name", ""):
+        exp.name = fmt
+    return exp
+
+
+def export_run(run_dir: str | Path, fmt: str, out: str | Path, name: str = "sdovon", split: str = "val",
+               merge: bool = False) -> ExportReport:
+    """Export a run folder with a named exporter plugin and return its ExportReport."""
+    return run_export(make_exporter(fmt), RunView(run_dir), Path(out), ExportOptions(name=name, split=split, merge=merge))
+
+
+__all__ = ["MANIFEST", "ExportError", "ExportOptions", "ExportReport", "Exporter", "RunView", "read_manifest",
+           "prepare_out_dir", "record_export", "run_export", "make_exporter", "export_run"]

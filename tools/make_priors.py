@@ -1,6 +1,8 @@
 """Expand the shorthand commonsense table below into priors.json (the file the package reads).
 
-    python sdovon_mj/data/semantics/make_priors.py [OUT]     (default: priors.json next to this file)
+    python tools/make_priors.py [OUT]     (default: sdovon_mj/data/semantics/priors.json of this checkout)
+
+A maintainer script, not package data: run it from any folder of the checkout.
 
 Edit the tables here, re-run, commit both files (a test checks they agree). Shorthand: region
 letters K kitchen, L living room, B bedroom, T bathroom, O office, D dining room, H hallway,
@@ -329,7 +331,8 @@ out = {
  "labels": dict(sorted(labels.items())),
 }
 for k in out["region_synonyms"]: assert k not in R.values()
-p = pathlib.Path(sys.argv[1]) if len(sys.argv) > 1 else pathlib.Path(__file__).with_name("priors.json")
+DEFAULT_OUT = pathlib.Path(__file__).resolve().parent.parent / "sdovon_mj" / "data" / "semantics" / "priors.json"
+p = pathlib.Path(sys.argv[1]) if len(sys.argv) > 1 else DEFAULT_OUT
 p.parent.mkdir(parents=True, exist_ok=True)
 # one label per line: readable diffs
 lines = ["{"]

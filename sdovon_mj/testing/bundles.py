@@ -11,17 +11,22 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 import mujoco
 
+from ..geometry import yaw_quat
+from ..grid import GeodesicField, GridFrame, erode
 from ..records import (Episode, Goal, NavMap, RegionMap, Relevance, Room, SceneAsset, SemanticInstance,
                        ViewPoint, save_json)
-from ..sim.camera import yaw_quat
-from ..store import atomic_write_text
-from ..nav.grid import GeodesicField, GridFrame, erode
+from ..store import atomic_write_text, user_cache_dir
+from .mjcf import corner_box_geom, outer_walls
+
+CACHE_VERSION = "vp4"  # bump when the written bundles change (vp4: shared box writer, source sdovon_mj.testing.bundles)
 
 RES = 0.05
 ORIGIN = np.array([-0.2, -0.2])
@@ -52,15 +57,10 @@ REGIONS = ("bedroom", "kitchen")
 
 
 def _walls() -> list[tuple[float, float, float, float]]:
+    """Return the wall footprints (xmin, ymin, xmax, ymax): the outer walls and the partition with its doorway."""
     t = 0.1
-    w, h = SIZE
-    return [(-t, -t, w + t, 0.0), (-t, h, w + t, h + t), (-t, 0.0, 0.0, h), (w, 0.0, w + t, h),
-            (4.0 - t / 2, 0.0, 4.0 + t / 2, 2.0), (4.0 - t / 2, 3.0, 4.0 + t / 2, h)]
-
-
-def _box(name: str, x0: float, y0: float, x1: float, y1: float, z0: float, z1: float, rgba: str, group: int = 0) -> str:
-    return (f'<geom name="{name}" type="box" pos="{(x0 + x1) / 2:.4f} {(y0 + y1) / 2:.4f} {(z0 + z1) / 2:.4f}" '
-            f'size="{(x1 - x0) / 2:.4f} {(y1 - y0) / 2:.4f} {(z1 - z0) / 2:.4f}" rgba="{rgba}" group="{group}" contype="0" conaffinity="0"/>')
+    h = SIZE[1]
+    return outer_walls(SIZE, t) + [(4.0 - t / 2, 0.0, 4.0 + t / 2, 2.0), (4.0 - t / 2, 3.0, 4.0 + t / 2, h)]
 
 
 def relevance_table() -> Relevance:
@@ -97,7 +97,7 @@ def region_map() -> RegionMap:
     """Return the ground-truth region map of the two rooms."""
     nm = navmap()
     h, w = nm.navigable.shape
-    frame = GridFrame.of(nm)
+    frame = nm.frame
     rows, cols = np.mgrid[0:h, 0:w]
     x = frame.to_world(np.stack([rows.ravel(), cols.ravel()], 1))[:, 0].reshape(h, w)
     lab = np.where(x < 4.0, 0, 1).astype(np.int16)
@@ -115,7 +115,7 @@ def scene_asset(mjcf_name: str) -> SceneAsset:
         insts.append(SemanticInstance(k, v[0], [f"inst_{k}"], room=REGIONS.index(v[1]), kind="receptacle",
                                       bounds=np.array([[v[2], v[3], 0.0], [v[4], v[5], v[6]]])))
     rooms = [Room(i, r, 0, np.array([[a, 0.0], [b, 0.0], [b, SIZE[1]], [a, SIZE[1]]])) for i, (r, (a, b)) in enumerate(ROOMS.items())]
-    return SceneAsset(name="fixture_apartment", mjcf=mjcf_name, source="sdovon_mj.suite.fixture", instances=insts,
+    return SceneAsset(name="fixture_apartment", mjcf=mjcf_name, source="sdovon_mj.testing.bundles", instances=insts,
                       rooms=rooms, bounds=np.array([[0.0, 0.0, 0.0], [SIZE[0], SIZE[1], WALL_H]]))
 
 
@@ -145,11 +145,12 @@ def _place_objects(rng: np.random.Generator, misplace: float) -> list[tuple[str,
 
 
 def _mjcf(objects: list[tuple[str, str, np.ndarray, tuple]]) -> str:
-    geoms = [_box("inst_1", -0.1, -0.1, SIZE[0] + 0.1, SIZE[1] + 0.1, -0.05, 0.0, "0.75 0.72 0.68 1")]
+    """MJCF of one variant: floor, walls and furniture boxes (``inst_<k>``), one box body per object."""
+    geoms = [corner_box_geom("inst_1", (-0.1, -0.1, -0.05), (SIZE[0] + 0.1, SIZE[1] + 0.1, 0.0), "0.75 0.72 0.68 1")]
     for i, (x0, y0, x1, y1) in enumerate(_walls()):
-        geoms.append(_box(f"inst_{2 + i}", x0, y0, x1, y1, 0.0, WALL_H, "0.92 0.9 0.85 1"))
+        geoms.append(corner_box_geom(f"inst_{2 + i}", (x0, y0, 0.0), (x1, y1, WALL_H), "0.92 0.9 0.85 1"))
     for k, v in sorted(FURNITURE.items()):
-        geoms.append(_box(f"inst_{k}", v[2], v[3], v[4], v[5], 0.0, v[6], v[7]))
+        geoms.append(corner_box_geom(f"inst_{k}", (v[2], v[3], 0.0), (v[4], v[5], v[6]), v[7]))
     bodies = []
     for oid, cat, c, size in objects:
         rgba = OBJECTS[cat][2]
@@ -166,7 +167,7 @@ def _view_points(model: mujoco.MjModel, data: mujoco.MjData, nm: NavMap, oid: st
                  rng: np.random.Generator, cap: int, half: np.ndarray | None = None) -> list[ViewPoint]:
     """View points as the episode generator makes them: navigable cells of a 0.25 m grid-anchored lattice
     within 1 m of the object's footprint, from which a ray at camera height reaches the object."""
-    frame = GridFrame.of(nm)
+    frame = nm.frame
     stride = max(1, int(round(0.25 / nm.resolution)))
     rc = np.argwhere(nm.navigable)
     rc = rc[(rc[:, 0] % stride == 0) & (rc[:, 1] % stride == 0)]
@@ -198,10 +199,26 @@ def _view_points(model: mujoco.MjModel, data: mujoco.MjData, nm: NavMap, oid: st
 
 def build_fixture(out_dir: str | Path, variants: int = 2, seed: int = 0, episodes_per_category: int = 3,
                   misplace: float = 0.1, max_viewpoints: int = 200) -> Path:
-    """Write `variants` bundle folders of the fixture apartment under out_dir; return out_dir."""
+    """Write `variants` bundle folders of the fixture apartment under out_dir; return out_dir.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder receiving ``fixture_apartment_v<k>/`` (MJCF, episodes, navmap, scene, region map, relevance).
+    variants : int
+        Number of object arrangements (bundles) to write.
+    seed : int
+        Seed of the arrangements and episodes (variant k uses ``default_rng([seed, k])``).
+    episodes_per_category : int
+        Episodes drawn per object category and variant.
+    misplace : float
+        Probability in [0, 1] that an object lands on a receptacle it does not prefer.
+    max_viewpoints : int
+        Most view points kept per goal object.
+    """
     out = Path(out_dir)
     nm = navmap()
-    frame = GridFrame.of(nm)
+    frame = nm.frame
     nav_xy = frame.to_world(np.argwhere(nm.navigable))
     for v in range(variants):
         rng = np.random.default_rng([seed, v])
@@ -245,3 +262,18 @@ def build_fixture(out_dir: str | Path, variants: int = 2, seed: int = 0, episode
         save_json(region_map(), root / "region_map.json")
         save_json(relevance_table(), root / "relevance.json")
     return out
+
+
+def fixture_bundle(root: str | Path | None = None, variants: int = 2, seed: int = 0) -> Path:
+    """Return the folder of the fixture dataset, writing it on first use.
+
+    Without `root` the folder is ``fixture_s<seed>_v<variants>_<CACHE_VERSION>`` in the shared cache
+    (``store.user_cache_dir("fixture")``; with SDOVON_CACHE=off, a per-user temporary folder).
+    """
+    if root is None:
+        base = user_cache_dir("fixture") or Path(tempfile.gettempdir()) / f"sdovon-mj-fixture-{os.getuid()}"
+        root = base / f"fixture_s{seed}_v{variants}_{CACHE_VERSION}"
+    root = Path(root)
+    if not all((root / f"fixture_apartment_v{v:03d}" / "episodes.json").exists() for v in range(variants)):
+        build_fixture(root, variants=variants, seed=seed)
+    return root

@@ -1,4 +1,10 @@
-"""`sdovon-mj eval DATASET --agent ...`: run agents over MJCF bundles, write per-episode JSON, print tables."""
+"""The evaluation loop and `sdovon-mj eval DATASET --agent ...`: run agents over MJCF bundles, write
+per-episode JSON, print tables.
+
+Agents are plugins (`plugins.load("agent", name)`: built-ins random-astar, semantic-astar, oracle,
+random; others from the ``sdovon_mj.agents`` entry points), built as
+``factory(nav=NavConfig, agent=AgentConfig, seed=int)``.
+"""
 
 from __future__ import annotations
 
@@ -7,16 +13,18 @@ import json
 import math
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from .. import metrics as M
-from ..config import NavConfig
+from .. import plugins
+from ..config import AgentConfig, NavConfig
 from ..errors import InputError
-from ..plugins import PluginError
 from ..progress import Progress
 from ..store import atomic_write_bytes, atomic_write_text
-from .agents import AGENTS, Agent, ReceptacleAStar
+from .bundle import find_bundles, load_bundle
+from .objectnav import make_environment
 
 PAPER = {  # SD-OVON tables 4 and 5 (ground-truth detector), for the closing comparison
     "random-astar": {"success": 0.7503, "spl": 0.3494, "soft_spl": 0.3931, "distance_to_goal": 1.5437},
@@ -26,27 +34,36 @@ PAPER = {  # SD-OVON tables 4 and 5 (ground-truth detector), for the closing com
 }
 
 
-def make_agent(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True) -> Agent:
-    """Return a built-in agent by name, or a plugin agent from the `sdovon_mj.agents` entry points."""
-    if name in AGENTS:
-        cls = AGENTS[name]
-        if issubclass(cls, ReceptacleAStar):
-            return cls(nav, seed=seed, final_nav=final_nav)
-        return cls(nav, seed=seed)
-    from importlib.metadata import entry_points
-
-    eps = [ep for ep in entry_points(group="sdovon_mj.agents") if ep.name == name]
-    if not eps:
-        raise PluginError(f"no agent named '{name}' (built in: {', '.join(AGENTS)}; plugins: entry point group sdovon_mj.agents)")
-    return eps[0].load()(nav=nav, seed=seed)
+def make_agent(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True, agent: AgentConfig | None = None) -> Any:
+    """Return the agent plugin `name` built with ``nav`` (``final_nav`` sets ``nav.final_nav``), ``agent`` and ``seed``."""
+    factory = plugins.load("agent", name)
+    return factory(nav=replace(nav, final_nav=bool(final_nav)), agent=agent or AgentConfig(), seed=seed)
 
 
-def run_agent(dataset: str | Path, agent: Agent, nav: NavConfig | None = None, episodes: int | None = None,
-              out: Path | None = None, label: str | None = None, progress: bool = True) -> list[dict]:
-    """Run an agent over a dataset's episodes; return (and optionally write) one result dict per episode."""
-    from ..suite import find_bundles, load_bundle, make_environment
+def evaluate(dataset: str | Path, agent: Any, nav: NavConfig | None = None, episodes: int | None = None,
+             out: Path | None = None, label: str | None = None, progress: bool = True) -> list[dict]:
+    """Run an agent over a dataset's episodes; return (and optionally write) one result dict per episode.
 
+    Parameters
+    ----------
+    dataset
+        MJCF bundle dataset folder (variant folders with episodes.json), or one variant folder.
+    agent
+        An agent following the protocol of `nav.agents` (prepare, reset, act, wants_frame); its
+        ``agent_config`` (`AgentConfig`, default `AgentConfig()`) builds the environments.
+    nav
+        Actions, step limit and success radius of the environments (default ``agent.nav``).
+    episodes
+        Evaluate at most this many episodes (default: all).
+    out
+        Folder for ``episodes/<label>/<episode id>.json`` (None: write nothing).
+    label
+        Name of this run in results and folders (default ``agent.name``).
+    progress
+        Show a progress bar.
+    """
     nav = nav or agent.nav
+    body = getattr(agent, "agent_config", None) or AgentConfig()
     bundles = [load_bundle(p) for p in find_bundles(dataset)]
     total = sum(len(b.episodes) for b in bundles)
     limit = total if episodes is None else min(int(episodes), total)
@@ -57,7 +74,7 @@ def run_agent(dataset: str | Path, agent: Agent, nav: NavConfig | None = None, e
             if len(results) >= limit:
                 break
             agent.prepare(b, make_environment)
-            env = make_environment(b, nav=nav, semantic=agent.needs_semantic)
+            env = make_environment(b, nav=nav, agent=body, semantic=agent.needs_semantic)
             try:
                 for i in range(len(b.episodes)):
                     if len(results) >= limit:
@@ -84,7 +101,8 @@ def run_agent(dataset: str | Path, agent: Agent, nav: NavConfig | None = None, e
     return results
 
 
-def _finite(x):
+def _finite(x: Any) -> Any:
+    """Return x with non-finite floats replaced by None (JSON has no inf/nan)."""
     if isinstance(x, float) and not math.isfinite(x):
         return None
     if isinstance(x, dict):
@@ -133,10 +151,6 @@ def trajectory_picture(dataset: str | Path, result: dict, path: Path, scale: int
     """Draw an episode's trajectory, start and goal view points on the top-down navigable map (PNG)."""
     import cv2
 
-    from ..suite import load_bundle
-
-    from ..suite import find_bundles
-
     match = [p for p in find_bundles(dataset) if p.name == result["variant"]]
     b = load_bundle(match[0] if match else dataset)
     ep = next(e for e in b.episodes if e.episode_id == result["episode_id"])
@@ -174,8 +188,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=int, default=None, help="evaluate at most N episodes")
     parser.add_argument("--no-fn", action="store_true", help="A* agents without final point-goal navigation")
     parser.add_argument("--fn-ablation", action="store_true", help="run A* agents with and without FN (paper table 5)")
-    parser.add_argument("--width", type=int, default=None, help="camera width (default NavConfig: 640)")
-    parser.add_argument("--height", type=int, default=None, help="camera height (default NavConfig: 480)")
+    parser.add_argument("--width", type=int, default=None, help="camera width (default AgentConfig.sensor_width: 640)")
+    parser.add_argument("--height", type=int, default=None, help="camera height (default AgentConfig.sensor_height: 480)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--pictures", type=int, default=5, help="trajectory pictures per agent")
     parser.add_argument("--out", required=True, help="output folder")
@@ -187,8 +201,8 @@ def run(args: argparse.Namespace) -> int:
     if not Path(args.dataset).is_dir():
         raise InputError(args.dataset, "dataset folder not found")
     nav = NavConfig()
-    upd = {k: v for k, v in (("obs_width", args.width), ("obs_height", args.height)) if v}
-    nav = replace(nav, **upd) if upd else nav
+    upd = {k: v for k, v in (("sensor_width", args.width), ("sensor_height", args.height)) if v}
+    body = replace(AgentConfig(), **upd)
     names = args.agent or ["random-astar", "semantic-astar"]
     runs: list[tuple[str, str, bool]] = []
     for n in names:
@@ -199,8 +213,8 @@ def run(args: argparse.Namespace) -> int:
             runs.append((n, f"{n} no-FN" if (astar and args.no_fn) else n, not args.no_fn))
     per_agent: dict[str, list[dict]] = {}
     for name, label, fn in runs:
-        agent = make_agent(name, nav, args.seed, final_nav=fn)
-        res = run_agent(args.dataset, agent, nav, args.episodes, out, label)
+        agent = make_agent(name, nav, args.seed, final_nav=fn, agent=body)
+        res = evaluate(args.dataset, agent, nav, args.episodes, out, label)
         per_agent[label] = res
         for r in res[: max(0, args.pictures)]:
             trajectory_picture(args.dataset, r, out / "pictures" / label.replace(" ", "_") / f"{r['episode_id']}.png")

@@ -1,7 +1,7 @@
 """A small synthetic run folder (room, table, cabinet, three objects) in the documented run layout.
 
 For tests, benches and demos of the episode and export stages without the upstream stages. Layout
-(see exporters/base.py): ``scenes/<scene>/scene.json``, ``scenes/<scene>/observe/navmap_<floor>.json``,
+(see sdovon_mj/runview.py): ``scenes/<scene>/scene.json``, ``scenes/<scene>/observe/navmap_<floor>.json``,
 ``scenes/<scene>/variants/<variant>/variant.json`` (+ ``episodes.json``), ``objects/<name>/object.json``.
 
 Variant ``room_v000`` holds a mug on the table (``obj_000``, a mesh, yaw 90 deg), a ball on the floor
@@ -15,12 +15,14 @@ import math
 from pathlib import Path
 
 import numpy as np
-import trimesh
 from scipy import ndimage
 
 from ..config import EpisodeConfig
+from ..geometry import yaw_quat
 from ..records import Floor, NavMap, ObjectAsset, Placement, SceneAsset, SceneVariant, SemanticInstance, save_json
-from ..store import atomic_write_bytes, atomic_write_text
+from ..store import atomic_write_text
+from ..world.shapes import cylinder
+from .mjcf import box_geom, corner_box_geom, obj_text, outer_walls
 
 SCENE = "room"
 ROOM = (6.0, 5.0)
@@ -32,46 +34,35 @@ BALL_POSE = (np.array([4.5, 1.0, 0.12]), 0.0)
 HIDDEN_POSE = (np.array([5.0, 4.2, 0.02]), 0.0)
 
 
-def _box(name: str, pos, size, rgba="0.8 0.8 0.8 1", group=0) -> str:
-    p = " ".join(f"{v:g}" for v in pos)
-    s = " ".join(f"{v:g}" for v in size)
-    return f'    <geom name="{name}" type="box" pos="{p}" size="{s}" rgba="{rgba}" group="{group}" contype="0" conaffinity="0"/>\n'
-
-
 def scene_geoms() -> str:
     """Return the worldbody geoms of the room (instances inst_0..inst_8)."""
     w, h = ROOM
     (tx, ty), (thx, thy), tz = TABLE
     (cx, cy), cs = CABINET
     t = 0.02
-    g = _box("inst_0", (w / 2, h / 2, -0.05), (w / 2 + 0.1, h / 2 + 0.1, 0.05), "0.6 0.5 0.4 1")
-    g += _box("inst_1", (w / 2, -0.05, 1.3), (w / 2 + 0.1, 0.05, 1.3), "0.9 0.9 0.85 1")
-    g += _box("inst_2", (w / 2, h + 0.05, 1.3), (w / 2 + 0.1, 0.05, 1.3), "0.9 0.9 0.85 1")
-    g += _box("inst_3", (-0.05, h / 2, 1.3), (0.05, h / 2 + 0.1, 1.3), "0.9 0.9 0.85 1")
-    g += _box("inst_4", (w + 0.05, h / 2, 1.3), (0.05, h / 2 + 0.1, 1.3), "0.9 0.9 0.85 1")
-    g += _box("inst_5", (tx, ty, tz / 2), (thx, thy, tz / 2), "0.5 0.3 0.1 1")
+    g = [box_geom("inst_0", (w / 2, h / 2, -0.05), (w / 2 + 0.1, h / 2 + 0.1, 0.05), "0.6 0.5 0.4 1")]
+    g += [corner_box_geom(f"inst_{1 + i}", (x0, y0, 0.0), (x1, y1, 2.6), "0.9 0.9 0.85 1")
+          for i, (x0, y0, x1, y1) in enumerate(outer_walls(ROOM))]
+    g.append(box_geom("inst_5", (tx, ty, tz / 2), (thx, thy, tz / 2), "0.5 0.3 0.1 1"))
     (px0, px1), (py0, py1) = PARTITION
-    g += _box("inst_6", ((px0 + px1) / 2, (py0 + py1) / 2, 1.3), ((px1 - px0) / 2, (py1 - py0) / 2, 1.3), "0.85 0.85 0.9 1")
+    g.append(corner_box_geom("inst_6", (px0, py0, 0.0), (px1, py1, 2.6), "0.85 0.85 0.9 1"))
     # Closed cabinet: six panels around a hollow inside.
     for j, (pos, size) in enumerate([
         ((cx, cy, t / 2), (cs, cs, t / 2)), ((cx, cy, 2 * cs - t / 2), (cs, cs, t / 2)),
         ((cx - cs + t / 2, cy, cs), (t / 2, cs, cs)), ((cx + cs - t / 2, cy, cs), (t / 2, cs, cs)),
         ((cx, cy - cs + t / 2, cs), (cs, t / 2, cs)), ((cx, cy + cs - t / 2, cs), (cs, t / 2, cs))]):
-        g += _box(f"inst_7_{j}", pos, size, "0.3 0.3 0.6 1")
-    g += _box("inst_8", (w / 2, h / 2, 2.65), (w / 2 + 0.1, h / 2 + 0.1, 0.05), "1 1 1 1", group=1)
-    return g
+        g.append(box_geom(f"inst_7_{j}", pos, size, "0.3 0.3 0.6 1"))
+    g.append(box_geom("inst_8", (w / 2, h / 2, 2.65), (w / 2 + 0.1, h / 2 + 0.1, 0.05), "1 1 1 1", group=1))
+    return "".join(f"    {line}\n" for line in g)
 
 
-def _quat_yaw(yaw_deg: float) -> np.ndarray:
-    h = math.radians(yaw_deg) / 2
-    return np.array([math.cos(h), 0.0, 0.0, math.sin(h)])
-
-
-def _fmt(v) -> str:
+def _fmt(v: np.ndarray) -> str:
+    """Numbers exactly (shortest repr), so the MJCF poses equal the recorded ones."""
     return " ".join(repr(float(x)) for x in v)
 
 
 def _object_body(oid: str, kind: str, pos: np.ndarray, quat: np.ndarray, mesh_name: str) -> str:
+    """MJCF body of one free object: a mesh mug or a sphere ball (visual group 2, collision group 3)."""
     if kind == "mug":
         vis = f'<geom name="{oid}/visual" type="mesh" mesh="{mesh_name}" group="2" contype="0" conaffinity="0" rgba="0.9 0.1 0.1 1"/>'
         col = f'<geom name="{oid}/collision" type="cylinder" size="0.05 0.05" pos="0 0 0.05" group="3"/>'
@@ -83,6 +74,7 @@ def _object_body(oid: str, kind: str, pos: np.ndarray, quat: np.ndarray, mesh_na
 
 
 def _navmap(agent_radius: float = 0.18, res: float = 0.05) -> NavMap:
+    """The room's NavMap: floor minus table, partition, cabinet and ball, eroded by a disc of the agent radius."""
     w, h = ROOM
     H, W = int(round(h / res)), int(round(w / res))
     xs = (np.arange(W) + 0.5) * res
@@ -108,9 +100,7 @@ def build_sample_run(root: str | Path, episodes: bool = False, cfg: EpisodeConfi
     root = Path(root)
     scene_dir = root / "scenes" / SCENE
     # Object asset: a mug mesh (OBJ, base at z=0) with a Menagerie-style model.xml.
-    mug = trimesh.creation.cylinder(radius=0.05, height=0.1, sections=24)
-    mug.apply_translation([0, 0, 0.05])
-    atomic_write_bytes(root / "objects" / "mug_a" / "mug.obj", mug.export(file_type="obj").encode())
+    atomic_write_text(root / "objects" / "mug_a" / "mug.obj", obj_text(*cylinder(0.05, 0.0, 0.1, segments=24)))
     atomic_write_text(root / "objects" / "mug_a" / "model.xml", (
         '<mujoco model="mug_a">\n  <asset>\n    <mesh name="mug" file="mug.obj"/>\n  </asset>\n  <worldbody>\n'
         '    <body name="object">\n      <geom type="mesh" mesh="mug" group="2" contype="0" conaffinity="0"/>\n'
@@ -143,7 +133,7 @@ def build_sample_run(root: str | Path, episodes: bool = False, cfg: EpisodeConfi
         mesh_rel = Path("../../../../objects/mug_a/mug.obj").as_posix()
         bodies, placements, qpos = "", [], []
         for oid, cat, asset, (pos, yaw) in objs:
-            q = _quat_yaw(yaw)
+            q = yaw_quat(yaw)
             bodies += _object_body(oid, cat, pos, q, "mug_a_mesh")
             placements.append(Placement(object_id=oid, asset=asset, category=cat, plane_id=0, receptacle_instance=5,
                                         region="living room", spawn_pos=pos + [0, 0, 0.3], spawn_quat=q,
@@ -156,7 +146,7 @@ def build_sample_run(root: str | Path, episodes: bool = False, cfg: EpisodeConfi
                                mjcf=f"scenes/{SCENE}/variants/{vname}/variant.xml")
         save_json(variant, vdir / "variant.json")
         if episodes:
-            from .generate import generate_episodes
+            from ..episodes.generate import generate_episodes
 
             eps = generate_episodes(variant, [nm], root, cfg or EpisodeConfig(), seed + index)
             save_json(eps, vdir / "episodes.json")

@@ -16,6 +16,8 @@ from ..records import SceneAsset, SemanticInstance, save_json
 from ..sim import GROUP_CEILING, GROUP_SCENE
 from ..sim.model import instance_geom_name, save_scene_mesh
 from ..store import atomic_write_text
+from ..world.shapes import box
+from .mjcf import obj_text
 
 
 @dataclass
@@ -26,25 +28,6 @@ class Box:
     lo: tuple[float, float, float]
     hi: tuple[float, float, float]
     kind: str = "structure"  # structure | furniture | ceiling
-
-
-_BOX_FACES = np.array([
-    [0, 2, 1], [0, 3, 2],  # bottom (-z)
-    [4, 5, 6], [4, 6, 7],  # top (+z)
-    [0, 1, 5], [0, 5, 4],  # -y
-    [2, 3, 7], [2, 7, 6],  # +y
-    [1, 2, 6], [1, 6, 5],  # +x
-    [3, 0, 4], [3, 4, 7],  # -x
-], dtype=np.int64)
-
-
-def box_mesh(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """Return vertices (8, 3) and outward-wound faces (12, 3) of an axis-aligned box."""
-    x0, y0, z0 = lo
-    x1, y1, z1 = hi
-    v = np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
-                  [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]], dtype=np.float64)
-    return v, _BOX_FACES.copy()
 
 
 def _storey(z: float, size: tuple[float, float], height: float, with_furniture: bool, roof: bool) -> list[Box]:
@@ -96,7 +79,7 @@ def write_box_scene(boxes: list[Box], out_dir: str | Path, name: str = "syntheti
     rng = np.random.default_rng(0)
     parts = []
     for b in boxes:
-        v, f = box_mesh(b.lo, b.hi)
+        v, f = box(b.lo, b.hi)
         parts.append((b.label, v, f, (*rng.uniform(0.3, 0.9, 3), 1.0), b.kind == "ceiling"))
     return write_mesh_scene(parts, out_dir, name)
 
@@ -112,8 +95,7 @@ def write_mesh_scene(parts: list[tuple[str, np.ndarray, np.ndarray, tuple[float,
     for k, (label, v, f, rgba, ceiling) in enumerate(parts):
         v = np.asarray(v, dtype=np.float64)
         f = np.asarray(f, dtype=np.int64)
-        obj = "".join(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in v) + "".join(f"f {a + 1} {c + 1} {d + 1}\n" for a, c, d in f)
-        atomic_write_text(out / "meshes" / f"inst_{k}.obj", obj)
+        atomic_write_text(out / "meshes" / f"inst_{k}.obj", obj_text(v, f))
         gname = instance_geom_name(k)
         group = GROUP_CEILING if ceiling else GROUP_SCENE
         col = " ".join(f"{c:.3f}" for c in rgba)

@@ -13,8 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..geometry import yaw_quat
 from ..records import Floor, ObjectAsset, ReceptaclePlane, Relevance, Room, SceneAsset, SemanticInstance, SupportSurface
 from ..store import atomic_write_text
+from .mjcf import box_geom
 
 _HEAD = """<mujoco model="{name}">
   <compiler angle="radian" meshdir="assets" autolimits="true"/>
@@ -33,7 +35,23 @@ KINDS = ("box", "mug", "ball", "can")  # also "cube": an 8 cm cube (bench: the s
 
 def write_primitive_object(out_dir: str | Path, store_root: str | Path, kind: str, name: str,
                            scale: float = 1.0, category: str | None = None) -> ObjectAsset:
-    """Write a primitive object model (box, mug, ball or can) and return its ObjectAsset."""
+    """Write a primitive object model (box, mug, ball or can) and return its ObjectAsset.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder receiving ``<name>/model.xml`` (+ ``assets/``).
+    store_root : str or Path
+        Folder the ObjectAsset's ``mjcf`` path is relative to (an ancestor of out_dir).
+    kind : str
+        One of `KINDS`, or ``"cube"`` (an 8 cm cube).
+    name : str
+        Object (and folder) name.
+    scale : float
+        Uniform scale of the base size (box 8 x 5 x 12 cm, mug r 4 cm h 9 cm, ball r 3.5 cm, can r 3.3 cm h 12 cm).
+    category : str or None
+        Category recorded on the asset (default: `kind`).
+    """
     out = Path(out_dir) / name
     (out / "assets").mkdir(parents=True, exist_ok=True)
     s = float(scale)
@@ -62,10 +80,10 @@ def write_primitive_object(out_dir: str | Path, store_root: str | Path, kind: st
         n = 10
         for k in range(n):
             a = 2 * math.pi * k / n
-            c = math.cos(a / 2)
+            q = yaw_quat(360.0 * k / n)
             body.append(f'<geom class="collision" type="box" size="{t / 2} {r * math.sin(math.pi / n) + t / 2} {h / 2}" '
                         f'pos="{(r - t / 2) * math.cos(a):.6f} {(r - t / 2) * math.sin(a):.6f} {h / 2}" '
-                        f'quat="{c:.6f} 0 0 {math.sin(a / 2):.6f}"/>')
+                        f'quat="{q[0]:.6f} 0 0 {q[3]:.6f}"/>')
         body.append(f'<geom class="collision" type="box" size="{0.015 * s} {t} {h * 0.3}" pos="{r + 0.015 * s} 0 {h / 2}"/>')
         mass = 0.3 * s**3
         inertia = mass * np.array([(r**2) / 2 + h**2 / 12, (r**2) / 2 + h**2 / 12, r**2])
@@ -103,7 +121,21 @@ def write_primitive_object(out_dir: str | Path, store_root: str | Path, kind: st
 
 def write_primitive_library(out_dir: str | Path, store_root: str | Path, per_kind: int = 2,
                             kinds: tuple[str, ...] = KINDS, seed: int = 0) -> list[ObjectAsset]:
-    """Write `per_kind` scaled variants of each primitive kind; return their ObjectAssets."""
+    """Write `per_kind` scaled variants of each primitive kind; return their ObjectAssets.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder receiving one ``<kind>_<i>/`` folder per object.
+    store_root : str or Path
+        Folder the ObjectAssets' ``mjcf`` paths are relative to.
+    per_kind : int
+        Variants written per kind.
+    kinds : tuple of str
+        Primitive kinds (see `write_primitive_object`).
+    seed : int
+        Seed of the scales, uniform in [0.85, 1.15].
+    """
     rng = np.random.default_rng(seed)
     out = []
     for kind in kinds:
@@ -125,24 +157,36 @@ _ROOMS = ((0, "kitchen", (0.0, 0.0, 4.0, 4.0)), (1, "living room", (4.0, 0.0, 8.
 
 def write_table_scene(out_dir: str | Path, store_root: str | Path, name: str = "flat", furniture: tuple = _FURNITURE,
                       rooms_spec: tuple = _ROOMS) -> tuple[SceneAsset, list[ReceptaclePlane]]:
-    """Write a visual-only scene of box-top receptacles (default: two rooms, four receptacles); return it and its planes."""
+    """Write a visual-only scene of box-top receptacles (default: two rooms, four receptacles); return it and its planes.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder receiving ``<name>.xml``.
+    store_root : str or Path
+        Folder the SceneAsset's ``mjcf`` path is relative to.
+    name : str
+        Scene (and MJCF model) name.
+    furniture : tuple
+        ``(label, room index, centre xy (m), half size xy (m), top height (m))`` per receptacle.
+    rooms_spec : tuple
+        ``(room id, room type, (xmin, ymin, xmax, ymax) in m)`` per room.
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     x0 = min(r[2][0] for r in rooms_spec)
     y0 = min(r[2][1] for r in rooms_spec)
     x1 = max(r[2][2] for r in rooms_spec)
     y1 = max(r[2][3] for r in rooms_spec)
-    geoms = [f'    <geom name="inst_0" type="box" size="{(x1 - x0) / 2} {(y1 - y0) / 2} 0.05" pos="{(x0 + x1) / 2} {(y0 + y1) / 2} -0.05" '
-             'rgba="0.75 0.7 0.6 1"/>']
+    geoms = [box_geom("inst_0", ((x0 + x1) / 2, (y0 + y1) / 2, -0.05), ((x1 - x0) / 2, (y1 - y0) / 2, 0.05), "0.75 0.7 0.6 1")]
     instances = [SemanticInstance(id=0, label="floor", geoms=["inst_0"], room=-1, floor=0, kind="structure")]
     planes, surfaces = [], []
     for k, (label, room, (cx, cy), (hx, hy), top) in enumerate(furniture, start=1):
-        parts = [f'    <geom name="inst_{k}_0" type="box" size="{hx} {hy} 0.02" pos="{cx} {cy} {top - 0.02}" rgba="0.55 0.35 0.2 1"/>']
+        geoms.append(box_geom(f"inst_{k}_0", (cx, cy, top - 0.02), (hx, hy, 0.02), "0.55 0.35 0.2 1"))
+        lh = (top - 0.04) / 2
         for j, (sx, sy) in enumerate(((-1, -1), (1, -1), (1, 1), (-1, 1)), start=1):
-            lh = (top - 0.04) / 2
-            parts.append(f'    <geom name="inst_{k}_{j}" type="box" size="0.03 0.03 {lh}" '
-                         f'pos="{cx + sx * (hx - 0.04)} {cy + sy * (hy - 0.04)} {lh}" rgba="0.45 0.3 0.2 1"/>')
-        geoms += parts
+            geoms.append(box_geom(f"inst_{k}_{j}", (cx + sx * (hx - 0.04), cy + sy * (hy - 0.04), lh), (0.03, 0.03, lh),
+                                  "0.45 0.3 0.2 1"))
         poly = np.array([[cx - hx, cy - hy], [cx + hx, cy - hy], [cx + hx, cy + hy], [cx - hx, cy + hy]])
         instances.append(SemanticInstance(id=k, label=label, geoms=[f"inst_{k}_{j}" for j in range(5)], room=room, floor=0,
                                           kind="receptacle", bounds=np.array([[cx - hx, cy - hy, 0.0], [cx + hx, cy + hy, top]])))
@@ -151,7 +195,7 @@ def write_table_scene(out_dir: str | Path, store_root: str | Path, name: str = "
                                       normal=np.array([0.0, 0.0, 1.0]), region=rooms_spec[room][1], floor=0))
     xml = ("<mujoco model=\"%s\">\n  <default>\n    <geom contype=\"0\" conaffinity=\"0\" group=\"0\"/>\n  </default>\n"
            "  <worldbody>\n    <light pos=\"%g %g 3\" dir=\"0 0 -1\" directional=\"true\"/>\n%s\n  </worldbody>\n</mujoco>\n") % (
-        name, (x0 + x1) / 2, (y0 + y1) / 2, "\n".join(geoms))
+        name, (x0 + x1) / 2, (y0 + y1) / 2, "\n".join("    " + g for g in geoms))
     atomic_write_text(out / f"{name}.xml", xml)
     rel = (out / f"{name}.xml").resolve().relative_to(Path(store_root).resolve()).as_posix()
     rooms = [Room(id=i, type=t, floor=0, polygon=np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float))

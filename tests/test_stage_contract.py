@@ -1,0 +1,122 @@
+"""The stage contract: declarations, fingerprints from them, per-stage commands = generate, byte identity."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from sdovon_mj import stages
+from sdovon_mj.cli import main
+from sdovon_mj.config import RunConfig, load_config, to_dict
+from sdovon_mj.errors import StageError
+from sdovon_mj.pipeline import generate
+from sdovon_mj.store import Store
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+from run_digests import run_digests  # noqa: E402
+
+# A small default-world run: one apartment, two cheap object categories, small images, one variant.
+SMALL = {
+    "world": {"scene_seeds": [0], "floors": 1, "object_variants": 1, "object_categories": ["apple", "book"]},
+    "observe": {"width": 160, "height": 120, "yaw_steps": 4, "pitch_angles": [-30.0]},
+    "place": {"k_v": 1, "m": 1},
+    "episodes": {"k_e": 1},
+}
+
+
+def test_every_declaration_is_consistent():
+    cfg = RunConfig()
+    keys = set()
+    for name, st in stages.STAGES.items():
+        assert st.name == name and st.scope in stages.SCOPES
+        for need in st.needs:  # a stage needs only stages declared before it
+            assert list(stages.STAGES).index(need) < list(stages.STAGES).index(name), (name, need)
+        for sec in st.read_sections(cfg):
+            stages.section_value(cfg, sec)  # raises AttributeError for a section that does not exist
+        assert st.key not in keys
+        keys.add(st.key)
+    assert stages.closure(["episodes"]) == ["world:objects", "objects", "world:scene", "convert", "observe", "perceive",
+                                            "semantics", "place", "episodes"]
+    assert stages.closure(["observe"]) == ["world:scene", "convert", "observe"]
+    with pytest.raises(StageError, match="unknown stage 'nope'"):
+        stages.closure(["nope"])
+    assert "perceive" in stages.describe()
+
+
+def test_fingerprints_follow_the_declared_config(tmp_path):
+    store = Store(tmp_path)
+    store.write_json("inputs.json", {"scenes": [], "objects": []})
+    base = RunConfig()
+
+    def fp(stage: str, cfg: RunConfig) -> str:
+        return stages.stage_fingerprint(stages.STAGES[stage], stages.StageContext(store, cfg, "apt_0000", 0))
+
+    other_place = load_config(None, ["place.k_v=7"])
+    other_observe = load_config(None, ["observe.yaw_steps=5"])
+    other_seed = load_config(None, ["seed=3"])
+    assert fp("observe", other_place) == fp("observe", base)  # observe does not read place
+    assert fp("observe", other_observe) != fp("observe", base)
+    assert fp("observe", other_seed) != fp("observe", base)  # the scene seed is an input
+    assert fp("place", other_place) != fp("place", base)
+    # perceive reads the semantics config only when the LLM names the receptacles
+    other_sem = load_config(None, ["semantics.window_radius=3.0"])
+    assert fp("perceive", other_sem) == fp("perceive", base)
+    llm = load_config(None, ["receptacles.labels=[]"])
+    assert fp("perceive", load_config(None, ["receptacles.labels=[]", "semantics.window_radius=3.0"])) != fp("perceive", llm)
+
+
+@pytest.mark.slow
+def test_stage_commands_write_the_same_bytes_as_generate(tmp_path):
+    """`sdovon-mj observe/perceive/semantics/place/episodes` one after the other = `generate`'s stages."""
+    cfg_file = tmp_path / "small.yaml"
+    cfg_file.write_text(yaml.safe_dump(SMALL))
+    a, b = tmp_path / "a", tmp_path / "b"
+    generate(a, load_config(cfg_file), progress=False, exporters=[])
+    assert main(["observe", str(b), "--config", str(cfg_file), "--quiet"]) == 0
+    assert (b / "scenes" / "apt_0000" / "observe" / ".done.json").exists()
+    assert not (b / "scenes" / "apt_0000" / "perceive").exists() and not (b / "objects").exists()
+    for stage in ("perceive", "semantics", "place", "episodes"):
+        assert main([stage, str(b), "--quiet"]) == 0, stage
+    da, db = run_digests(a), run_digests(b)
+    keep = lambda d: {k: v for k, v in d.items() if k.startswith(("scenes/", "objects/", "inputs/"))}  # noqa: E731
+    assert keep(da) == keep(db)  # every record, MJCF, picture and stage marker (fingerprints included)
+    assert any(k.endswith("episodes.json") for k in keep(da))
+    # a rerun of a stage command finds everything done
+    assert main(["place", str(b), "--quiet"]) == 0
+    assert run_digests(b) == db
+
+
+def test_stage_command_errors_name_the_input(tmp_path, capsys):
+    missing = tmp_path / "nothere.glb"
+    assert main(["observe", str(tmp_path / "run"), "--scenes", str(missing), "--quiet"]) == 1
+    assert "nothere.glb" in capsys.readouterr().err
+    (tmp_path / "file").write_text("x")
+    assert main(["perceive", str(tmp_path / "file")]) == 1
+    assert main(["place", str(tmp_path / "run"), "--scene", "apt_9999", "--quiet"]) == 1
+    assert "apt_9999" in capsys.readouterr().err
+
+
+GOLDEN = ROOT / "tests" / "data" / "golden" / "demo_generate_digests.json"
+# Files whose bytes are the config itself (config.yaml, manifest.json) or hash it (the stage markers): the
+# one-shape redesign moved config fields (one AgentConfig, one eta_gt) and derives fingerprints from the stage
+# declarations, so these differ from the digests recorded before it; every other output must not.
+CONFIG_SHAPED = ("config.yaml", "manifest.json", ".done.json")
+
+
+@pytest.mark.slow
+def test_generate_outputs_match_the_digests_recorded_before_the_redesign(tmp_path):
+    from sdovon_mj.commands.demo import demo_config_path
+
+    generate(tmp_path / "run", load_config(demo_config_path()), jobs=2, progress=False)
+    got = run_digests(tmp_path / "run")
+    want = json.loads(GOLDEN.read_text())
+    data = lambda d: {k: v for k, v in d.items() if not k.endswith(CONFIG_SHAPED)}  # noqa: E731
+    differ = sorted(k for k in data(want).keys() | data(got).keys() if data(want).get(k) != data(got).get(k))
+    assert not differ, f"{len(differ)} outputs differ from the recorded digests: {differ[:20]}"
+    assert set(got) == set(want)  # the same files, config-shaped ones included
+    assert to_dict(load_config(tmp_path / "run" / "config.yaml")) == to_dict(load_config(demo_config_path()))
