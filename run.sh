@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # sdovon-mj set-up and entry point. Two commands do everything on a fresh Debian machine:
 #   ./run.sh demo    create the environment if needed, run the pipeline on the embedded default world
-#   ./run.sh test    create the environment if needed, run the test suite (CI runs exactly this)
-# Extra arguments go to `sdovon-mj demo` / pytest. RUN_SLOW=1 also runs the slow end-to-end tests.
+#   ./run.sh test    create the environment if needed, run the whole test suite, slow tests included
+#                    (CI runs exactly this: .ci/run); `./run.sh test --quick` (or QUICK=1) skips the slow ones
+# Extra arguments go to `sdovon-mj demo` / pytest.
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -76,6 +77,14 @@ case "$cmd" in
   setup) echo "environment ready: $VENV" ;;
   demo) exec "$VENV/bin/sdovon-mj" demo "$@" ;;
   test)
-    if [ "${RUN_SLOW:-0}" = 1 ]; then marks=(); else marks=(-m "not slow"); fi
-    exec "$VENV/bin/python" -m pytest "${marks[@]}" "$@" ;;
+    quick="${QUICK:-0}"; args=()
+    for a in "$@"; do if [ "$a" = --quick ]; then quick=1; else args+=("$a"); fi; done
+    if [ "$quick" = 1 ]; then
+      exec "$VENV/bin/python" -m pytest -m "not slow" ${args[@]+"${args[@]}"}
+    fi
+    # The habitat-lab client test needs habitat-lab's own venv (tests/habitat_lab_env.py): build or reuse it.
+    t0=$SECONDS
+    "$VENV/bin/python" tests/habitat_lab_env.py >/dev/null || die "could not build the habitat-lab client venv"
+    echo "run.sh: habitat-lab client venv ready ($((SECONDS - t0)) s)" >&2
+    exec "$VENV/bin/python" -m pytest --durations=20 ${args[@]+"${args[@]}"} ;;
 esac
