@@ -2,6 +2,8 @@
 
 Folder: ``$SDOVON_CACHE/convert`` when SDOVON_CACHE is set (``off`` disables caching), else ``~/.cache/sdovon-mj/convert``.
 A finished entry is a folder renamed into place atomically; a hit hard-links (or copies) it out.
+Each entry records the sha256 of its files (``.entry.json``); a hit whose files no longer match (a truncated
+or edited file, an entry from before the record) is discarded and converted again, never used as it is.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from typing import Any
 
 from sdovon_mj.store import CACHE_OFF, user_cache_dir
 
-CONVERTER_VERSION = "assets_convert-7"  # bump whenever the output of a conversion changes
+CONVERTER_VERSION = "assets_convert-8"  # bump whenever the output of a conversion changes (8: no wall seconds in report.json)
 
 
 def cache_root(cache_dir: str | Path | None = None) -> Path | None:
@@ -43,12 +45,56 @@ def cache_key(files: list[Path], params: dict[str, Any]) -> str:
     return h.hexdigest()[:32]
 
 
+ENTRY = ".entry.json"  # {relative file: sha256} of a cache entry, written before the entry is renamed in
+
+
+def _entry_digests(folder: Path) -> dict[str, str]:
+    """Return {relative POSIX path: sha256} of every file of an entry folder (its record aside)."""
+    out = {}
+    for p in sorted(folder.rglob("*")):
+        if p.is_file() and p.name != ENTRY:
+            out[p.relative_to(folder).as_posix()] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return out
+
+
+def entry_problem(entry: Path) -> str:
+    """Return why a cache entry cannot be used ('' when its files match its record)."""
+    if not (entry / "asset.json").is_file():
+        return "no asset.json"
+    try:
+        want = json.loads((entry / ENTRY).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return f"no {ENTRY} (an entry of an older converter)"
+    except (OSError, ValueError) as e:
+        return f"unreadable {ENTRY} ({e})"
+    got = _entry_digests(entry)
+    if got != want:
+        bad = sorted(k for k in set(got) | set(want) if got.get(k) != want.get(k))
+        return "files changed since it was stored: " + ", ".join(bad[:3]) + (" ..." if len(bad) > 3 else "")
+    return ""
+
+
 def lookup(root: Path | None, key: str) -> Path | None:
-    """Return the cached folder of a key, or None."""
+    """Return the cached folder of a key, or None (a damaged entry is discarded: a miss)."""
     if root is None:
         return None
     p = root / key
-    return p if (p / "asset.json").is_file() else None
+    if not p.is_dir():
+        return None
+    if entry_problem(p):
+        discard(p)
+        return None
+    return p
+
+
+def discard(entry: Path) -> None:
+    """Remove a cache entry (renamed away first, so no reader sees half of it)."""
+    gone = entry.with_name(f".{entry.name}.bad.{os.getpid()}")
+    try:
+        os.rename(entry, gone)
+    except OSError:
+        return  # another process discarded (or replaced) it first
+    shutil.rmtree(gone, ignore_errors=True)
 
 
 def store(root: Path | None, key: str, src: Path) -> None:
@@ -59,6 +105,7 @@ def store(root: Path | None, key: str, src: Path) -> None:
     tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=root))
     try:
         shutil.copytree(src, tmp, dirs_exist_ok=True)
+        (tmp / ENTRY).write_text(json.dumps(_entry_digests(tmp), sort_keys=True), encoding="utf-8")
         try:
             os.rename(tmp, root / key)
         except OSError:
@@ -79,7 +126,7 @@ def link_tree(src: Path, dst: Path) -> None:
         except OSError:
             shutil.copy2(s, d)
 
-    shutil.copytree(src, tmp, copy_function=_link, dirs_exist_ok=True)
+    shutil.copytree(src, tmp, copy_function=_link, dirs_exist_ok=True, ignore=shutil.ignore_patterns(ENTRY))
     replace_dir(tmp, dst)
 
 

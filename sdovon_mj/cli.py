@@ -3,7 +3,8 @@
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
 the per-stage commands come from the stage declarations (``sdovon_mj.commands.stage``); this file only
 lists them. Exit codes: 0 success, 1 failure (one-line cause on stderr), 2 usage
-error or a subcommand that is not built yet.
+error (bad arguments, a config value out of range, missing or unreadable inputs: `errors.UsageError`, found
+before any work) or a subcommand that is not built yet.
 """
 
 from __future__ import annotations
@@ -23,12 +24,14 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "observe": ("sdovon_mj.commands.stage:observe", "floors, navigable maps, coverage viewpoints, RGB-D renders"),
     "perceive": ("sdovon_mj.commands.stage:perceive", "detect, back-project and fuse instances; receptacle planes"),
     "semantics": ("sdovon_mj.commands.stage:semantics", "region map and object-region-receptacle relevance"),
+    "semantics-eval": ("sdovon_mj.commands.semantics_eval", "score a semantics backend on human judgements (ORR/OR mAP); also `semantics eval`"),
     "place": ("sdovon_mj.commands.stage:place", "place objects semantically and settle them with physics"),
     "episodes": ("sdovon_mj.commands.stage:episodes", "ObjectNav episodes for scene variants"),
     "generate": ("sdovon_mj.commands.generate", "the whole pipeline over scenes and objects (resumable)"),
     "export": ("sdovon_mj.commands.export", "export a run to habitat, mjcf or a plugin format"),
     "eval": ("sdovon_mj.suite.evaluate", "evaluate agents on an MJCF dataset (SR, SPL, Soft SPL, DTG)"),
     "show": ("sdovon_mj.commands.show", "pictures of a run: maps, receptacles, placements, episodes"),
+    "verify": ("sdovon_mj.commands.verify", "check a run folder's stage outputs and exports against their done-markers"),
 }
 
 
@@ -73,6 +76,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:2] == ["semantics", "eval"]:  # `semantics eval` is semantics-eval (a run folder named eval: ./eval)
+        argv = ["semantics-eval"] + argv[2:]
     only = next((a for a in argv if a in COMMANDS), None)
     parser = build_parser(only)
     args = parser.parse_args(argv)
@@ -83,16 +88,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     if mod is None:
         print(f"sdovon-mj {args.command}: not built yet", file=sys.stderr)
         return 2
-    from .errors import SdovonError
+    from .errors import SdovonError, UsageError
 
     try:
         return int(mod.run(args) or 0)
+    except UsageError as e:  # a bad config value or input named before any work: a usage error
+        print(f"sdovon-mj {args.command}: error: {e}", file=sys.stderr)
+        return 2
     except SdovonError as e:
         print(f"sdovon-mj {args.command}: error: {e}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"sdovon-mj {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM during generate (`pipeline.Interrupted`)
+        why = f": {e}" if str(e) else ""
+        print(f"sdovon-mj {args.command}: interrupted{why}", file=sys.stderr)
+        return int(getattr(e, "exit_code", 130))
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,8 +1,10 @@
 """Every hyperparameter of the pipeline: the paper's appendix E table plus ours.
 
-Configs are frozen dataclasses grouped by stage. Each field carries its unit, a one-line meaning
-and, where the paper names it, its symbol (``field.metadata``). YAML in and out; an unknown key is
-an error that names the key (and the file, when there is one).
+Configs are frozen dataclasses grouped by stage. Each field carries its unit, a one-line meaning,
+where the paper names it its symbol, and its allowed range or choices (``field.metadata``). YAML in and
+out; an unknown key, a value outside its declared range and values that contradict each other
+(`check_cross_fields`, e.g. ``observe.r_min < observe.r_max``) are errors that name the key, the value,
+what is allowed and the file (or ``--set``), raised at load before any work (`validate`).
 """
 
 from __future__ import annotations
@@ -16,18 +18,27 @@ from typing import Any, get_type_hints
 
 import yaml
 
-from .errors import SdovonError
+from .errors import UsageError
 
 
-class ConfigError(SdovonError, ValueError):
+class ConfigError(UsageError, ValueError):
     """A config file or override that cannot be applied (unknown key, wrong type)."""
 
 
-def _p(default: Any, unit: str, doc: str, symbol: str = "") -> Any:
-    """Declare a config field with its unit, one-line meaning and paper symbol."""
+def _p(default: Any, unit: str, doc: str, symbol: str = "", *, ge: float | None = None, gt: float | None = None,
+       le: float | None = None, lt: float | None = None, choices: tuple[Any, ...] | None = None,
+       min_len: int | None = None, max_len: int | None = None) -> Any:
+    """Declare a config field with its unit, one-line meaning, paper symbol and allowed values.
+
+    ``ge``/``gt``/``le``/``lt`` bound a number (each element of a tuple field); ``choices`` lists the
+    allowed values; ``min_len``/``max_len`` bound a tuple's length. `validate` checks them at load.
+    """
     if isinstance(default, (list, dict)):
         raise TypeError("use tuples for sequence defaults so configs stay frozen and hashable")
-    return field(default=default, metadata={"unit": unit, "doc": doc, "symbol": symbol})
+    limits = {k: v for k, v in (("ge", ge), ("gt", gt), ("le", le), ("lt", lt)) if v is not None}
+    return field(default=default, metadata={"unit": unit, "doc": doc, "symbol": symbol, "limits": limits,
+                                            "choices": tuple(choices) if choices is not None else None,
+                                            "min_len": min_len, "max_len": max_len})
 
 
 @dataclass(frozen=True)
@@ -39,24 +50,24 @@ class AgentConfig:
     the A* agents' gt detector all use it).
     """
 
-    radius: float = _p(0.18, "m", "agent cylinder radius; the navigable map is eroded by it")
-    height: float = _p(0.88, "m", "agent cylinder height: geometry from the floor up to this blocks the agent")
-    camera_height: float = _p(0.88, "m", "agent camera height above the floor (observation renders, episode view points, the suite)")
-    hfov: float = _p(79.0, "deg", "agent camera horizontal field of view (Habitat ObjectNav default)")
-    sensor_width: int = _p(640, "px", "agent camera image width in the suite")
-    sensor_height: int = _p(480, "px", "agent camera image height in the suite")
-    eta_gt: float = _p(1e-4, "-", "ground-truth detector: an object is seen when its pixels cover at least this fraction of the image", "eta_gt")
+    radius: float = _p(0.18, "m", "agent cylinder radius; the navigable map is eroded by it", gt=0)
+    height: float = _p(0.88, "m", "agent cylinder height: geometry from the floor up to this blocks the agent", gt=0)
+    camera_height: float = _p(0.88, "m", "agent camera height above the floor (observation renders, episode view points, the suite)", gt=0)
+    hfov: float = _p(79.0, "deg", "agent camera horizontal field of view (Habitat ObjectNav default)", gt=0,lt=180)
+    sensor_width: int = _p(640, "px", "agent camera image width in the suite", ge=1)
+    sensor_height: int = _p(480, "px", "agent camera image height in the suite", ge=1)
+    eta_gt: float = _p(1e-4, "-", "ground-truth detector: an object is seen when its pixels cover at least this fraction of the image", "eta_gt", ge=0,le=1)
 
 
 @dataclass(frozen=True)
 class WorldConfig:
     """The embedded default world: procedural apartments and objects."""
 
-    scene_seeds: tuple[int, ...] = _p((0,), "-", "seeds of the default apartments used as scenes (k_s = len)", "k_s")
-    scene_mode: str = _p("clean", "-", "clean (artist-like GLB) or scan (noisy fused PLY, ScanNet style)")
-    floors: int = _p(0, "-", "storeys per apartment: 1, 2, or 0 for the seeded choice")
-    object_seed: int = _p(0, "-", "seed of the procedural object library")
-    object_variants: int = _p(3, "-", "shape variants per object category")
+    scene_seeds: tuple[int, ...] = _p((0,), "-", "seeds of the default apartments used as scenes (k_s = len)", "k_s", ge=0,min_len=1)
+    scene_mode: str = _p("clean", "-", "clean (artist-like GLB) or scan (noisy fused PLY, ScanNet style)", choices=("clean","scan"))
+    floors: int = _p(0, "-", "storeys per apartment: 1, 2, or 0 for the seeded choice", choices=(0,1,2))
+    object_seed: int = _p(0, "-", "seed of the procedural object library", ge=0)
+    object_variants: int = _p(3, "-", "shape variants per object category", ge=1)
     object_categories: tuple[str, ...] = _p((), "-", "restrict the object library to these categories (empty = all)")
 
 
@@ -66,62 +77,63 @@ class ConvertConfig:
 
     units: str = _p("auto", "-", "auto, m, cm, mm, or a number: metres per file unit")
     up: str = _p("auto", "-", "auto (glTF: +Y, else +Z), +Y, +Z, -Y, ...")
-    target_size: float = _p(0.0, "m", "rescale objects of unknown units so the largest extent equals this (0: off)")
-    coacd_threshold: float = _p(0.05, "-", "CoACD concavity threshold")
-    coacd_max_hulls: int = _p(32, "-", "maximum convex hulls per object")
-    coacd_max_hull_vertices: int = _p(64, "-", "maximum vertices per hull")
-    coacd_preprocess_resolution: int = _p(50, "-", "CoACD manifold preprocessing resolution")
-    coacd_seed: int = _p(0, "-", "CoACD random seed")
-    coacd_mcts_iterations: int = _p(60, "-", "CoACD MCTS iterations per cut (CoACD default 150: 2-3x slower, same hulls on our objects)")
-    coacd_mcts_nodes: int = _p(10, "-", "CoACD MCTS child nodes per level (CoACD default 20)")
-    coacd_mcts_max_depth: int = _p(2, "-", "CoACD MCTS search depth (CoACD default 3)")
-    coacd_resolution: int = _p(1000, "-", "CoACD surface samples for its concavity metric (CoACD default 2000)")
-    remesh_resolution: int = _p(80, "-", "open meshes: offset-surface grid steps across the largest extent before CoACD (closed manifolds are used as they are)")
-    remesh_offset: float = _p(0.45, "grid steps", "open meshes: the CoACD input surface lies this far outside the triangles (>= 0.44 keeps sheets of any thickness)")
-    default_density: float = _p(500.0, "kg/m^3", "density for categories without a known one")
-    texture_max_size: int = _p(1024, "px", "textures are downscaled to at most this edge length")
-    timeout_s: float = _p(300.0, "s", "per-object conversion timeout in a batch")
-    coacd_closed_budget_s: float = _p(30.0, "s", "CoACD on a thin-walled closed mesh as it is runs in a child process this long at most; when it crashes or runs out, the offset surface goes to CoACD instead")
-    jobs: int = _p(0, "-", "worker processes for batch conversion (0: number of cores)")
+    target_size: float = _p(0.0, "m", "rescale objects of unknown units so the largest extent equals this (0: off)", ge=0)
+    coacd_threshold: float = _p(0.05, "-", "CoACD concavity threshold", gt=0,le=1)
+    coacd_max_hulls: int = _p(32, "-", "maximum convex hulls per object", ge=1)
+    coacd_max_hull_vertices: int = _p(64, "-", "maximum vertices per hull", ge=4)
+    coacd_preprocess_resolution: int = _p(50, "-", "CoACD manifold preprocessing resolution", ge=1)
+    coacd_seed: int = _p(0, "-", "CoACD random seed", ge=0)
+    coacd_mcts_iterations: int = _p(60, "-", "CoACD MCTS iterations per cut (CoACD default 150: 2-3x slower, same hulls on our objects)", ge=1)
+    coacd_mcts_nodes: int = _p(10, "-", "CoACD MCTS child nodes per level (CoACD default 20)", ge=1)
+    coacd_mcts_max_depth: int = _p(2, "-", "CoACD MCTS search depth (CoACD default 3)", ge=1)
+    coacd_resolution: int = _p(1000, "-", "CoACD surface samples for its concavity metric (CoACD default 2000)", ge=1)
+    remesh_resolution: int = _p(80, "-", "open meshes: offset-surface grid steps across the largest extent before CoACD (closed manifolds are used as they are)", ge=2)
+    remesh_offset: float = _p(0.45, "grid steps", "open meshes: the CoACD input surface lies this far outside the triangles (>= 0.44 keeps sheets of any thickness)", gt=0)
+    default_density: float = _p(500.0, "kg/m^3", "density for categories without a known one", gt=0)
+    texture_max_size: int = _p(1024, "px", "textures are downscaled to at most this edge length", ge=1)
+    timeout_s: float = _p(300.0, "s", "per-object conversion timeout in a batch", gt=0)
+    coacd_closed_budget_s: float = _p(30.0, "s", "CoACD on a thin-walled closed mesh as it is runs in a child process this long at most; when it crashes or runs out, the offset surface goes to CoACD instead", ge=0)
+    jobs: int = _p(0, "-", "worker processes for batch conversion (0: number of cores)", ge=0)
+    add_floor: bool = _p(False, "-", "scenes: add a ground slab under the footprint (+0.5 m) for scenes modelled without a floor")
 
 
 @dataclass(frozen=True)
 class ObserveConfig:
     """Floors, navigable maps, coverage sampling and rendering (paper section 3.1)."""
 
-    h_map: float = _p(0.3, "m", "slice height above the floor for the top-down map", "h_map")
-    map_resolution: float = _p(0.05, "m/cell", "navigable map grid resolution")
-    floor_cluster_tol: float = _p(0.15, "m", "heights closer than this belong to one floor")
-    min_floor_area: float = _p(2.0, "m^2", "smallest horizontal area that counts as a floor")
-    min_component_area: float = _p(1.0, "m^2", "navigable components smaller than this are dropped")
-    eps_p_obs: float = _p(0.5, "-", "strong observation threshold on M_P", "epsilon_p_obs")
-    r_min: float = _p(0.5, "m", "invalid observation radius (depth too close)", "r_min")
-    r_max: float = _p(1.5, "m", "observation range; sigma of the coverage Gaussian (1.5: enough viewpoints that receptacle surfaces are seen from several sides, bench/bench_perceive.py --world)", "r_max")
-    coverage_threshold: float = _p(0.95, "-", "stop when this fraction of navigable cells has M_P >= eps_p_obs (0.9 leaves small rooms unseen)")
-    max_iterations: int = _p(500, "-", "maximum candidate draws of the coverage sampler")
-    min_obstacle_distance: float = _p(0.3, "m", "candidates closer than this to an obstacle are rejected")
-    yaw_steps: int = _p(6, "-", "camera yaw steps per viewpoint (360 deg / yaw_steps)")
-    pitch_angles: tuple[float, ...] = _p((-30.0, 0.0), "deg", "camera pitch angles per yaw (negative looks down)")
-    width: int = _p(640, "px", "image width of the observation renders (field of view: agent.hfov)")
-    height: int = _p(480, "px", "image height of the observation renders")
-    depth_min: float = _p(0.1, "m", "depth below this is invalid (0)")
-    depth_max: float = _p(10.0, "m", "depth above this is invalid (0)")
+    h_map: float = _p(0.3, "m", "slice height above the floor for the top-down map", "h_map", gt=0)
+    map_resolution: float = _p(0.05, "m/cell", "navigable map grid resolution", gt=0)
+    floor_cluster_tol: float = _p(0.15, "m", "heights closer than this belong to one floor", gt=0)
+    min_floor_area: float = _p(2.0, "m^2", "smallest horizontal area that counts as a floor", ge=0)
+    min_component_area: float = _p(1.0, "m^2", "navigable components smaller than this are dropped", ge=0)
+    eps_p_obs: float = _p(0.5, "-", "strong observation threshold on M_P", "epsilon_p_obs", gt=0,le=1)
+    r_min: float = _p(0.5, "m", "invalid observation radius (depth too close)", "r_min", ge=0)
+    r_max: float = _p(1.5, "m", "observation range; sigma of the coverage Gaussian (1.5: enough viewpoints that receptacle surfaces are seen from several sides, bench/bench_perceive.py --world)", "r_max", gt=0)
+    coverage_threshold: float = _p(0.95, "-", "stop when this fraction of navigable cells has M_P >= eps_p_obs (0.9 leaves small rooms unseen)", gt=0,le=1)
+    max_iterations: int = _p(500, "-", "maximum candidate draws of the coverage sampler", ge=1)
+    min_obstacle_distance: float = _p(0.3, "m", "candidates closer than this to an obstacle are rejected", ge=0)
+    yaw_steps: int = _p(6, "-", "camera yaw steps per viewpoint (360 deg / yaw_steps)", ge=1)
+    pitch_angles: tuple[float, ...] = _p((-30.0, 0.0), "deg", "camera pitch angles per yaw (negative looks down)", ge=-90,le=90,min_len=1)
+    width: int = _p(640, "px", "image width of the observation renders (field of view: agent.hfov)", ge=1)
+    height: int = _p(480, "px", "image height of the observation renders", ge=1)
+    depth_min: float = _p(0.1, "m", "depth below this is invalid (0)", ge=0)
+    depth_max: float = _p(10.0, "m", "depth above this is invalid (0)", gt=0)
     shadows: bool = _p(False, "-", "render shadows (off for data generation: speed)")
-    seed: int = _p(0, "-", "coverage sampling seed offset (combined with the scene seed)")
-    nav_slice: str = _p("band", "-", "obstacles: band (all geometry between obstacle_min_height and obstacle_max_height) or plane (the paper's single slice at h_map)")
-    obstacle_min_height: float = _p(0.1, "m", "geometry above floor + this blocks the agent (band mode)")
-    obstacle_max_height: float = _p(0.0, "m", "geometry below floor + this blocks the agent (band mode; 0: agent.height)")
-    coverage_combine: str = _p("add", "-", "how a viewpoint's Gaussian is overlaid on M_P: add (sum, clipped to 1) or max")
-    frames_per_shard: int = _p(24, "-", "observations per compressed npz shard")
-    camera_heights: tuple[float, ...] = _p((2.0,), "m", "extra camera heights above the floor, rendered at every viewpoint and yaw with camera_height_pitches besides agent.camera_height (the agent camera cannot see the tops of shelves above it); empty: agent.camera_height only")
-    camera_height_pitches: tuple[float, ...] = _p((-40.0,), "deg", "camera pitch angles at the extra camera_heights (negative looks down)")
-    targeted_views: int = _p(2, "-", "targeted views per receptacle surface after a first perception pass: cameras around it that show most of what no view showed yet (0: coverage views only, as in the paper)")
-    targeted_distance: tuple[float, ...] = _p((0.4, 2.0), "m", "targeted cameras stand on navigable cells this far (min, max) from the surface's XY box")
-    targeted_spacing: float = _p(0.3, "m", "lattice spacing of targeted camera candidates")
-    targeted_candidates: int = _p(24, "-", "at most this many candidate positions per surface (each tried at every camera height)")
-    targeted_cell: float = _p(0.03, "m", "grid cell for what part of a surface a view shows")
-    targeted_min_gain: float = _p(0.03, "-", "a targeted view must show at least this fraction of the surface's box unseen so far")
-    targeted_width: int = _p(128, "px", "image width of the depth renders that score candidates (height keeps the aspect ratio)")
+    seed: int = _p(0, "-", "coverage sampling seed offset (combined with the scene seed)", ge=0)
+    nav_slice: str = _p("band", "-", "obstacles: band (all geometry between obstacle_min_height and obstacle_max_height) or plane (the paper's single slice at h_map)", choices=("band","plane"))
+    obstacle_min_height: float = _p(0.1, "m", "geometry above floor + this blocks the agent (band mode)", ge=0)
+    obstacle_max_height: float = _p(0.0, "m", "geometry below floor + this blocks the agent (band mode; 0: agent.height)", ge=0)
+    coverage_combine: str = _p("add", "-", "how a viewpoint's Gaussian is overlaid on M_P: add (sum, clipped to 1) or max", choices=("add","max"))
+    frames_per_shard: int = _p(24, "-", "observations per compressed npz shard", ge=1)
+    camera_heights: tuple[float, ...] = _p((2.0,), "m", "extra camera heights above the floor, rendered at every viewpoint and yaw with camera_height_pitches besides agent.camera_height (the agent camera cannot see the tops of shelves above it); empty: agent.camera_height only", gt=0)
+    camera_height_pitches: tuple[float, ...] = _p((-40.0,), "deg", "camera pitch angles at the extra camera_heights (negative looks down)", ge=-90,le=90,min_len=1)
+    targeted_views: int = _p(2, "-", "targeted views per receptacle surface after a first perception pass: cameras around it that show most of what no view showed yet (0: coverage views only, as in the paper)", ge=0)
+    targeted_distance: tuple[float, ...] = _p((0.4, 2.0), "m", "targeted cameras stand on navigable cells this far (min, max) from the surface's XY box", ge=0,min_len=2,max_len=2)
+    targeted_spacing: float = _p(0.3, "m", "lattice spacing of targeted camera candidates", gt=0)
+    targeted_candidates: int = _p(24, "-", "at most this many candidate positions per surface (each tried at every camera height)", ge=1)
+    targeted_cell: float = _p(0.03, "m", "grid cell for what part of a surface a view shows", gt=0)
+    targeted_min_gain: float = _p(0.03, "-", "a targeted view must show at least this fraction of the surface's box unseen so far", ge=0,le=1)
+    targeted_width: int = _p(128, "px", "image width of the depth renders that score candidates (height keeps the aspect ratio)", ge=1)
 
 
 @dataclass(frozen=True)
@@ -130,20 +142,20 @@ class PerceiveConfig:
 
     detector: str = _p("gt", "-", "detector plugin name (entry point group sdovon_mj.detectors)")
     detector_weights: str = _p("", "path", "local weights folder for open-vocabulary detectors")
-    score_threshold: float = _p(0.3, "-", "detections below this score are dropped")
-    gt_score_noise: float = _p(0.0, "-", "std of noise added to gt detection scores (0: score 1.0)")
-    depth_noise_sigma: float = _p(0.0, "m", "Gaussian noise added to depth before back-projection (robustness tests)")
-    fusion_preset: str = _p("paper", "-", "paper (k_sem 0.4 / k_geo 1.6 / phi_min 0.8), conceptgraphs, or custom (use k_sem/k_geo/phi_min as given)")
-    k_sem: float = _p(0.4, "-", "weight of the label-embedding similarity term", "k_sem")
-    k_geo: float = _p(1.6, "-", "weight of the point-overlap term", "k_geo")
-    phi_min: float = _p(0.8, "-", "minimum similarity for a match", "phi_min")
-    overlap_radius: float = _p(0.025, "m", "points closer than this count as overlapping")
-    voxel_size: float = _p(0.02, "m", "voxel downsampling of fused instances")
-    iou_min: float = _p(0.9, "-", "3D box IoU for fusion error correction", "IoU_min")
-    min_points: int = _p(30, "-", "instances with fewer points are dropped")
-    depth_min: float = _p(0.1, "m", "depth below this is not back-projected")
-    depth_max: float = _p(10.0, "m", "depth above this is not back-projected")
-    label_similarity: str = _p("minilm", "-", "label term of fusion: minilm (cosine of all-MiniLM-L6-v2 sentence embeddings, clipped to [0, 1]) or exact (1 if equal else 0)")
+    score_threshold: float = _p(0.3, "-", "detections below this score are dropped", ge=0,le=1)
+    gt_score_noise: float = _p(0.0, "-", "std of noise added to gt detection scores (0: score 1.0)", ge=0)
+    depth_noise_sigma: float = _p(0.0, "m", "Gaussian noise added to depth before back-projection (robustness tests)", ge=0)
+    fusion_preset: str = _p("paper", "-", "paper (k_sem 0.4 / k_geo 1.6 / phi_min 0.8), conceptgraphs, or custom (use k_sem/k_geo/phi_min as given)", choices=("paper","conceptgraphs","custom"))
+    k_sem: float = _p(0.4, "-", "weight of the label-embedding similarity term", "k_sem", ge=0)
+    k_geo: float = _p(1.6, "-", "weight of the point-overlap term", "k_geo", ge=0)
+    phi_min: float = _p(0.8, "-", "minimum similarity for a match", "phi_min", ge=0)
+    overlap_radius: float = _p(0.025, "m", "points closer than this count as overlapping", gt=0)
+    voxel_size: float = _p(0.02, "m", "voxel downsampling of fused instances", gt=0)
+    iou_min: float = _p(0.9, "-", "3D box IoU for fusion error correction", "IoU_min", ge=0,le=1)
+    min_points: int = _p(30, "-", "instances with fewer points are dropped", ge=1)
+    depth_min: float = _p(0.1, "m", "depth below this is not back-projected", ge=0)
+    depth_max: float = _p(10.0, "m", "depth above this is not back-projected", gt=0)
+    label_similarity: str = _p("minilm", "-", "label term of fusion: minilm (cosine of all-MiniLM-L6-v2 sentence embeddings, clipped to [0, 1]) or exact (1 if equal else 0)", choices=("minilm","exact"))
     vocabulary: tuple[str, ...] = _p((), "-", "text prompts of open-vocabulary detectors (empty: the receptacle labels)")
     owl_weights: str = _p("owlv2", "path", "box model subfolder of detector_weights (OWLv2 or Grounding DINO, transformers format)")
     sam_weights: str = _p("sam", "path", "mask model subfolder of detector_weights (SAM, transformers format)")
@@ -157,21 +169,21 @@ class ReceptacleConfig:
         ("table", "desk", "dresser", "bookshelf", "shelf", "bed", "sofa", "couch", "counter",
          "nightstand", "coffee table", "cabinet"),
         "-", "receptacle labels (prespecified); empty: ask the LLM backend", "L_rec")
-    eps_t: float = _p(0.03, "m", "plane slab thickness", "epsilon_t")
-    rho_min: int = _p(50, "points", "minimum points in a slab to try a plane", "rho_min")
-    eps_c: float = _p(0.95, "-", "convergence: fraction of inliers kept between iterations", "epsilon_c")
-    max_em_iterations: int = _p(20, "-", "cap on EM iterations per slab")
-    max_normal_tilt: float = _p(10.0, "deg", "planes tilted more than this from +Z are rejected")
-    min_plane_area: float = _p(0.01, "m^2", "planes smaller than this are rejected")
-    merge_height_tol: float = _p(0.02, "m", "planes closer than this in height (and overlapping) are merged")
-    coverage_cell: float = _p(0.05, "m", "XY grid cell for plane connectivity, hull coverage and clearance tests")
-    min_coverage: float = _p(0.5, "-", "planes whose hull cells hold inlier points less often than this are rejected (slabs through legs or walls)")
-    min_clearance: float = _p(0.10, "m", "free height needed above a plane; receptacle points in (eps_t, this] above it count as covering")
-    max_covered: float = _p(0.5, "-", "planes with more than this fraction of their points covered from just above are rejected (undersides)")
-    clearance_radius: float = _p(0.015, "m", "XY radius within which a receptacle point above a plane point covers it")
-    fit_band: float = _p(0.01, "m", "final fit and polygon use the densest layer of this half-thickness (vertical faces within eps_t excluded); 0: off")
-    min_width: float = _p(0.15, "m", "support regions narrower than this are cut off (strips around a sink, points seen through a gap); real shelves are >= 0.2 m deep")
-    open_cell: float = _p(0.025, "m", "XY grid cell of the min_width opening")
+    eps_t: float = _p(0.03, "m", "plane slab thickness", "epsilon_t", gt=0)
+    rho_min: int = _p(50, "points", "minimum points in a slab to try a plane", "rho_min", ge=1)
+    eps_c: float = _p(0.95, "-", "convergence: fraction of inliers kept between iterations", "epsilon_c", gt=0,le=1)
+    max_em_iterations: int = _p(20, "-", "cap on EM iterations per slab", ge=1)
+    max_normal_tilt: float = _p(10.0, "deg", "planes tilted more than this from +Z are rejected", ge=0,le=90)
+    min_plane_area: float = _p(0.01, "m^2", "planes smaller than this are rejected", ge=0)
+    merge_height_tol: float = _p(0.02, "m", "planes closer than this in height (and overlapping) are merged", ge=0)
+    coverage_cell: float = _p(0.05, "m", "XY grid cell for plane connectivity, hull coverage and clearance tests", gt=0)
+    min_coverage: float = _p(0.5, "-", "planes whose hull cells hold inlier points less often than this are rejected (slabs through legs or walls)", ge=0,le=1)
+    min_clearance: float = _p(0.10, "m", "free height needed above a plane; receptacle points in (eps_t, this] above it count as covering", ge=0)
+    max_covered: float = _p(0.5, "-", "planes with more than this fraction of their points covered from just above are rejected (undersides)", ge=0,le=1)
+    clearance_radius: float = _p(0.015, "m", "XY radius within which a receptacle point above a plane point covers it", gt=0)
+    fit_band: float = _p(0.01, "m", "final fit and polygon use the densest layer of this half-thickness (vertical faces within eps_t excluded); 0: off", ge=0)
+    min_width: float = _p(0.15, "m", "support regions narrower than this are cut off (strips around a sink, points seen through a gap); real shelves are >= 0.2 m deep", ge=0)
+    open_cell: float = _p(0.025, "m", "XY grid cell of the min_width opening", gt=0)
 
 
 @dataclass(frozen=True)
@@ -181,91 +193,99 @@ class SemanticsConfig:
     backend: str = _p("offline", "-", "LLM backend plugin (offline, ollama, openai, ...)")
     model: str = _p("", "-", "model name for server backends (e.g. llama3.1:8b)")
     url: str = _p("", "-", "server base URL (ollama default http://localhost:11434)")
-    timeout_s: float = _p(60.0, "s", "per-request timeout")
-    retries: int = _p(3, "-", "re-asks after an invalid reply / retries after a transport error")
+    timeout_s: float = _p(60.0, "s", "per-request timeout", gt=0)
+    retries: int = _p(3, "-", "re-asks after an invalid reply / retries after a transport error", ge=0)
     fallback: str = _p("offline", "-", "backend to fall back to after the retries ('' = fail)")
-    window_radius: float = _p(2.5, "m", "sliding window radius (walls cut windows, so a window may span a room; bench/bench_regions.py)", "r")
-    window_step: float = _p(0.5, "m", "sliding window step", "Delta d")
+    offline_model: str = _p("learned", "-", "offline relevance: learned (trained on human votes, tools/train_semantics.py) or table (the curated priors)", choices=("learned", "table"))
+    window_radius: float = _p(2.5, "m", "sliding window radius (walls cut windows, so a window may span a room; bench/bench_regions.py)", "r", gt=0)
+    window_step: float = _p(0.5, "m", "sliding window step", "Delta d", gt=0)
     region_labels: tuple[str, ...] = _p(
         ("kitchen", "living room", "bedroom", "bathroom", "office", "dining room"),
-        "-", "region vocabulary offered to the region-proposal prompt")
+        "-", "region vocabulary offered to the region-proposal prompt", min_len=1)
     cache: bool = _p(True, "-", "cache LLM replies on disk")
-    backoff_s: float = _p(0.5, "s", "first wait before retrying a failed request (doubles each retry)")
-    temperature: float = _p(0.0, "-", "sampling temperature sent to server backends")
-    seed: int = _p(0, "-", "sampling seed sent to server backends (the cache, not the seed, makes re-runs exact)")
+    backoff_s: float = _p(0.5, "s", "first wait before retrying a failed request (doubles each retry)", ge=0)
+    temperature: float = _p(0.0, "-", "sampling temperature sent to server backends", ge=0)
+    seed: int = _p(0, "-", "sampling seed sent to server backends (the cache, not the seed, makes re-runs exact)", ge=0)
     window_walls: bool = _p(True, "-", "walls cut windows: a window covers only the floor space connected to its centre (False: the paper's plain disc)")
+    regions: str = _p("window", "-", "region map: window (LLM sliding window, the paper) or input (the scene's own region annotations: HM3D/MP3D regions, Habitat region_annotations)", choices=("window", "input"))
 
 
 @dataclass(frozen=True)
 class PlaceConfig:
     """Semantic placement and physical settling (paper section 3.4)."""
 
-    k_v: int = _p(2, "-", "variants per scene", "k_v")
-    m: int = _p(3, "-", "categories sampled per (receptacle plane, region)", "m")
-    max_objects: int = _p(30, "-", "cap on objects per variant")
-    temperature: float = _p(1.0, "-", "softmax temperature over joint relevance")
-    top_k: int = _p(8, "-", "sample among the top-k categories of each (region, receptacle)")
-    min_distance: float = _p(0.05, "m", "minimum gap between object footprints")
-    h_spawn: float = _p(0.3, "m", "spawn height above the plane", "h_spawn")
-    spawn_mode: str = _p("paper", "-", "paper (random X/Y/Z rotation from h_spawn) or stable (stable pose, random yaw, small drop)")
-    stable_drop: float = _p(0.02, "m", "drop height in stable mode")
-    timestep: float = _p(0.002, "s", "physics timestep while settling")
-    max_settle_time: float = _p(3.0, "s", "cap on simulated settling time")
-    settle_window: float = _p(0.2, "s", "speeds must stay below thresholds this long")
-    lin_vel_tol: float = _p(0.01, "m/s", "settled linear speed")
-    ang_vel_tol: float = _p(0.1, "rad/s", "settled angular speed")
-    resample_attempts: int = _p(2, "-", "resampling rounds for failed objects")
-    support_thickness: float = _p(0.05, "m", "thickness of support prisms built from receptacle polygons (thin ones let heavy objects sink in)")
+    k_v: int = _p(2, "-", "variants per scene", "k_v", ge=1)
+    m: int = _p(3, "-", "categories sampled per (receptacle plane, region)", "m", ge=1)
+    max_objects: int = _p(30, "-", "cap on objects per variant", ge=1)
+    temperature: float = _p(1.0, "-", "softmax temperature over joint relevance", gt=0)
+    top_k: int = _p(8, "-", "sample among the top-k categories of each (region, receptacle)", ge=1)
+    min_distance: float = _p(0.05, "m", "minimum gap between object footprints", ge=0)
+    h_spawn: float = _p(0.3, "m", "spawn height above the plane", "h_spawn", ge=0)
+    spawn_mode: str = _p("paper", "-", "paper (random X/Y/Z rotation from h_spawn) or stable (stable pose, random yaw, small drop)", choices=("paper","stable"))
+    stable_drop: float = _p(0.02, "m", "drop height in stable mode", ge=0)
+    timestep: float = _p(0.002, "s", "physics timestep while settling", gt=0)
+    max_settle_time: float = _p(3.0, "s", "cap on simulated settling time", gt=0)
+    settle_window: float = _p(0.2, "s", "speeds must stay below thresholds this long", gt=0)
+    lin_vel_tol: float = _p(0.01, "m/s", "settled linear speed", gt=0)
+    ang_vel_tol: float = _p(0.1, "rad/s", "settled angular speed", gt=0)
+    resample_attempts: int = _p(2, "-", "resampling rounds for failed objects", ge=0)
+    support_thickness: float = _p(0.05, "m", "thickness of support prisms built from receptacle polygons (thin ones let heavy objects sink in)", gt=0)
     support_hfield: bool = _p(False, "-", "use a heightfield from ray casts on the scene mesh where a plane's surface is not flat")
-    hfield_resolution: float = _p(0.02, "m", "heightfield raster step")
-    hfield_flatness: float = _p(0.01, "m", "surfaces whose height range is below this keep the flat prism")
-    check_every: int = _p(25, "steps", "settling checks object speeds every this many physics steps")
-    fell_drop: float = _p(0.1, "m", "an object whose centre ends this far below its plane (or on a floor) fell")
+    hfield_resolution: float = _p(0.02, "m", "heightfield raster step", gt=0)
+    hfield_flatness: float = _p(0.01, "m", "surfaces whose height range is below this keep the flat prism", ge=0)
+    check_every: int = _p(25, "steps", "settling checks object speeds every this many physics steps", ge=1)
+    fell_drop: float = _p(0.1, "m", "an object whose centre ends this far below its plane (or on a floor) fell", gt=0)
     sleep: bool = _p(True, "-", "let MuJoCo put resting objects to sleep while settling (faster; speeds are still checked)")
-    support_condim: int = _p(6, "-", "contact dimension of support geoms: 6 adds torsional and rolling friction so round objects stop")
+    support_condim: int = _p(6, "-", "contact dimension of support geoms: 6 adds torsional and rolling friction so round objects stop", choices=(1,3,4,6))
 
 
 @dataclass(frozen=True)
 class EpisodeConfig:
     """ObjectNav episode generation (paper section 3.5)."""
 
-    k_e: int = _p(3, "-", "episodes per object category per variant", "k_e")
-    viewpoint_radius: float = _p(1.0, "m", "goal view points lie within this distance of the object")
-    max_viewpoints: int = _p(50, "-", "cap on view points per goal object")
-    min_start_distance: float = _p(1.0, "m", "minimum geodesic distance from start to goal")
-    max_start_tries: int = _p(200, "-", "start pose draws per episode")
-    success_distance: float = _p(0.1, "m", "success radius around view points")
-    viewpoint_step: float = _p(0.25, "m", "lattice step of view point candidates")
-    vis_width: int = _p(160, "px", "width of the visibility-check segmentation render")
-    vis_height: int = _p(120, "px", "height of the visibility-check segmentation render")
-    pitches: tuple[float, ...] = _p((-30.0, 0.0), "deg", "pitches tried after the one aimed at the object centre")
+    k_e: int = _p(3, "-", "episodes per object category per variant", "k_e", ge=1)
+    viewpoint_radius: float = _p(1.0, "m", "goal view points lie within this distance of the object", gt=0)
+    max_viewpoints: int = _p(0, "-", "cap on view points per goal object (0: none; a cap thins the dense lattice, so a fair stop near the object may miss every view point)", ge=0)
+    min_start_distance: float = _p(1.0, "m", "start filter (Habitat closest_dist_limit): minimum geodesic distance from start to the nearest view point", ge=0)
+    max_start_distance: float = _p(30.0, "m", "start filter (Habitat furthest_dist_limit): maximum geodesic distance from start to the nearest view point", gt=0)
+    start_ratio_threshold: float = _p(1.05, "-", "start filter (Habitat geodesic_to_euclid_min_ratio): a start whose geodesic / Euclidean distance to the nearest view point is below this is kept only with probability 20 * (ratio - 0.98)^2; 1 or less: off", ge=0)
+    max_start_tries: int = _p(200, "-", "start pose draws per episode", ge=1)
+    success_distance: float = _p(0.1, "m", "success radius around view points", gt=0)
+    viewpoint_step: float = _p(0.0, "m", "lattice step of view point candidates; 0: the sparsest lattice of navmap cells that puts every cell within success_distance of a lattice point (0.15 m on a 0.05 m map for 0.1 m); cells near the edge of the seen area are tested at the map resolution too", ge=0)
+    vis_width: int = _p(160, "px", "width of the visibility-check segmentation render", ge=1)
+    vis_height: int = _p(120, "px", "height of the visibility-check segmentation render", ge=1)
+    pitches: tuple[float, ...] = _p((-30.0, 0.0), "deg", "pitches tried after the one aimed at the object centre", ge=-90,le=90)
 
 
 @dataclass(frozen=True)
 class NavConfig:
     """Actions, step limit and the A* baselines (appendix D); the agent's body and camera are `AgentConfig`."""
 
-    forward_step: float = _p(0.25, "m", "MOVE_FORWARD distance")
-    turn_angle: float = _p(30.0, "deg", "TURN_LEFT/TURN_RIGHT angle")
-    tilt_angle: float = _p(30.0, "deg", "LOOK_UP/LOOK_DOWN angle")
-    max_steps: int = _p(500, "-", "episode step limit")
-    eps_nav: float = _p(0.5, "m", "navigation error tolerance", "epsilon_nav")
-    d_next: float = _p(1.0, "m", "minimum distance to the next navigation point", "d_next")
+    forward_step: float = _p(0.25, "m", "MOVE_FORWARD distance", gt=0)
+    turn_angle: float = _p(30.0, "deg", "TURN_LEFT/TURN_RIGHT angle", gt=0,le=180)
+    tilt_angle: float = _p(30.0, "deg", "LOOK_UP/LOOK_DOWN angle", gt=0,le=90)
+    max_steps: int = _p(500, "-", "episode step limit", ge=1)
+    eps_nav: float = _p(0.5, "m", "navigation error tolerance", "epsilon_nav", gt=0)
+    d_next: float = _p(1.0, "m", "minimum distance to the next navigation point", "d_next", ge=0)
     final_nav: bool = _p(True, "-", "final point-goal navigation after detection (FN)")
-    depth_min: float = _p(0.5, "m", "agent depth sensor minimum")
-    depth_max: float = _p(5.0, "m", "agent depth sensor maximum")
-    max_tilt: float = _p(60.0, "deg", "LOOK_UP/LOOK_DOWN camera pitch limit")
-    success_distance: float = _p(0.1, "m", "STOP within this geodesic distance of a view point succeeds")
-    fn_viewpoint_radius: float = _p(1.0, "m", "FN: inferred view points lie within this distance of the detected object")
-    fn_viewpoint_step: float = _p(0.25, "m", "FN: lattice step of inferred view points (as the episode generator's)")
-    fn_max_checks: int = _p(4, "-", "FN: inferred view points walked to and checked by looking, at most")
+    depth_min: float = _p(0.5, "m", "agent depth sensor minimum", ge=0)
+    depth_max: float = _p(5.0, "m", "agent depth sensor maximum", gt=0)
+    max_tilt: float = _p(60.0, "deg", "LOOK_UP/LOOK_DOWN camera pitch limit", ge=0,le=90)
+    success_distance: float = _p(0.1, "m", "STOP within this geodesic distance of a view point succeeds", gt=0)
+    fn_viewpoint_radius: float = _p(1.0, "m", "FN: inferred view points lie within this distance of the detected object", gt=0)
+    fn_viewpoint_step: float = _p(0.25, "m", "FN: lattice step of inferred view points (as the episode generator's)", gt=0)
+    fn_max_checks: int = _p(4, "-", "FN: inferred view points walked to and checked by looking, at most", ge=1)
+    fn_mode: str = _p("paper", "-", "FN after a detection: paper (Navigate(p_g | eps_nav) to the detected object's centre, face it, STOP) or lattice (our variant: walk to inferred view points on the episode generator's lattice and check each by looking)", choices=("paper", "lattice"))
+    map_size: float = _p(40.0, "m", "side of the square map an agent builds around where it starts (its own frame)", gt=0)
+    map_resolution: float = _p(0.05, "m", "cell size of the agent's own occupancy map", gt=0)
+    frontier_radius: float = _p(2.0, "m", "no-prior agent: labels detected within this distance of a frontier score it", gt=0)
 
 
 @dataclass(frozen=True)
 class RunConfig:
     """The whole pipeline: one config file for `sdovon-mj generate`."""
 
-    seed: int = _p(0, "-", "master seed; per-scene and per-variant seeds are derived from it")
+    seed: int = _p(0, "-", "master seed; per-scene and per-variant seeds are derived from it", ge=0)
     name: str = _p("sdovon", "-", "dataset name used by exporters")
     split: str = _p("val", "-", "dataset split name")
     exporters: tuple[str, ...] = _p(("habitat", "mjcf"), "-", "exporter plugins run at the end")
@@ -393,7 +413,9 @@ def from_dict(cls: type, data: dict[str, Any], source: str = "", prefix: str = "
             kwargs[f.name] = from_dict(typ, data[f.name] or {}, source, f"{prefix}{f.name}.")
         else:
             kwargs[f.name] = _coerce(data[f.name], typ, f"{prefix}{f.name}", source)
-    return cls(**kwargs)
+    out = cls(**kwargs)
+    _check_fields(out, source, prefix)  # declared ranges and choices (cross-field rules: `validate`)
+    return out
 
 
 def _closest(key: str, known: set[str]) -> str:
@@ -402,6 +424,124 @@ def _closest(key: str, known: set[str]) -> str:
 
     m = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.6)
     return m[0] if m else ""
+
+
+# unit names the converter knows (assets_convert.load.UNIT_NAMES; the core may not import it)
+_UNIT_WORDS = ("auto", "m", "cm", "mm", "in", "ft")
+_UP_WORDS = ("auto", "x", "y", "z", "+x", "-x", "+y", "-y", "+z", "-z")
+
+
+def _allowed(meta: Any) -> str:
+    """Return the allowed values of a field's metadata as text (e.g. '>= 0 and <= 1', 'one of: a, b')."""
+    if meta.get("choices") is not None:
+        return "one of: " + ", ".join(str(c) for c in meta["choices"])
+    ops = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
+    return " and ".join(f"{ops[k]} {v:g}" for k, v in meta.get("limits", {}).items())
+
+
+def _field_problem(value: Any, meta: Any) -> str:
+    """Return what is wrong with a field value under its declared range/choices ('' when it is allowed)."""
+    items = value if isinstance(value, tuple) else (value,)
+    if isinstance(value, tuple):
+        lo, hi = meta.get("min_len"), meta.get("max_len")
+        if lo is not None and len(value) < lo:
+            return f"needs at least {lo} value{'s' if lo > 1 else ''}" + (f" and at most {hi}" if hi is not None else "")
+        if hi is not None and len(value) > hi:
+            return f"takes at most {hi} value{'s' if hi > 1 else ''}"
+    choices = meta.get("choices")
+    limits = meta.get("limits") or {}
+    for v in items:
+        if choices is not None and v not in choices:
+            return f"allowed: {_allowed(meta)}"
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            if v != v or v in (float("inf"), float("-inf")):
+                return "must be a finite number"
+            bad = (("ge" in limits and not v >= limits["ge"]) or ("gt" in limits and not v > limits["gt"])
+                   or ("le" in limits and not v <= limits["le"]) or ("lt" in limits and not v < limits["lt"]))
+            if bad:
+                return f"allowed: {_allowed(meta)}"
+    return ""
+
+
+def _check_fields(cfg: Any, source: str, prefix: str) -> None:
+    """Raise ConfigError for the first field of one config section outside its declared range or choices."""
+    where = f" in {source}" if source else ""
+    for f in fields(cfg):
+        v = getattr(cfg, f.name)
+        if is_dataclass(v):
+            continue
+        problem = _field_problem(v, f.metadata)
+        if problem:
+            shown = list(v) if isinstance(v, tuple) else v
+            raise ConfigError(f"config key '{prefix}{f.name}'{where}: value {shown!r} is out of range ({problem})")
+    if isinstance(cfg, ConvertConfig):
+        u = cfg.units.strip().lower()
+        if u not in _UNIT_WORDS:
+            try:
+                ok = 0.0 < float(u) < float("inf")
+            except ValueError:
+                ok = False
+            if not ok:
+                raise ConfigError(f"config key '{prefix}units'{where}: value {cfg.units!r} is out of range "
+                                  f"(allowed: {', '.join(_UNIT_WORDS)} or a positive number of metres per file unit)")
+        if cfg.up.strip().lower() not in _UP_WORDS:
+            raise ConfigError(f"config key '{prefix}up'{where}: value {cfg.up!r} is out of range "
+                              "(allowed: auto, +X, -X, +Y, -Y, +Z, -Z)")
+
+
+def check_cross_fields(cfg: RunConfig, source: str = "") -> None:
+    """Raise ConfigError when values that constrain each other disagree (e.g. ``observe.r_min < observe.r_max``).
+
+    ``source`` names where the values came from (a file, ``--set``), for the message.
+    """
+    where = f" in {source}" if source else ""
+    o, a = cfg.observe, cfg.agent
+
+    def need(ok: bool, keys: str, what: str) -> None:
+        if not ok:
+            raise ConfigError(f"config keys {keys}{where}: {what}")
+
+    need(o.r_min < o.r_max, "'observe.r_min', 'observe.r_max'", f"r_min ({o.r_min:g}) must be below r_max ({o.r_max:g})")
+    for sec in ("observe", "perceive", "nav"):
+        s = getattr(cfg, sec)
+        need(s.depth_min < s.depth_max, f"'{sec}.depth_min', '{sec}.depth_max'",
+             f"depth_min ({s.depth_min:g}) must be below depth_max ({s.depth_max:g})")
+    lo, hi = o.targeted_distance
+    need(lo <= hi, "'observe.targeted_distance'", f"the minimum ({lo:g}) must not exceed the maximum ({hi:g})")
+    band = o.obstacle_min_height
+    need(a.height > band, "'agent.height', 'observe.obstacle_min_height'",
+         f"the agent height ({a.height:g} m) must lie above the floor band ({band:g} m)")
+    need(a.camera_height > band, "'agent.camera_height', 'observe.obstacle_min_height'",
+         f"the camera height ({a.camera_height:g} m) must lie above the floor band ({band:g} m)")
+    for h in o.camera_heights:
+        need(h > band, "'observe.camera_heights', 'observe.obstacle_min_height'",
+             f"camera height {h:g} m must lie above the floor band ({band:g} m)")
+    need(o.obstacle_max_height == 0 or o.obstacle_max_height > band,
+         "'observe.obstacle_max_height', 'observe.obstacle_min_height'",
+         f"the obstacle band top ({o.obstacle_max_height:g} m; 0 = agent.height) must lie above its bottom ({band:g} m)")
+    need(o.h_map > 0 and (o.nav_slice != "plane" or o.h_map < a.height), "'observe.h_map', 'agent.height'",
+         f"the map slice ({o.h_map:g} m) must lie below the agent height ({a.height:g} m)")
+    e = cfg.episodes
+    need(e.min_start_distance < e.max_start_distance, "'episodes.min_start_distance', 'episodes.max_start_distance'",
+         f"min_start_distance ({e.min_start_distance:g} m) must be below max_start_distance ({e.max_start_distance:g} m)")
+
+
+def validate(cfg: RunConfig, source: str = "") -> RunConfig:
+    """Check every field's declared range/choices and the cross-field rules; return `cfg` or raise ConfigError.
+
+    `load_config` and `apply_overrides` call it; the message names the key, the value, what is allowed
+    and ``source`` (the file or ``--set``).
+    """
+    def walk(c: Any, prefix: str) -> None:
+        _check_fields(c, source, prefix)
+        for f in fields(c):
+            v = getattr(c, f.name)
+            if is_dataclass(v):
+                walk(v, f"{prefix}{f.name}.")
+
+    walk(cfg, "")
+    check_cross_fields(cfg, source)
+    return cfg
 
 
 def load_config(path: str | Path | None = None, overrides: list[str] | tuple[str, ...] = ()) -> RunConfig:
@@ -414,20 +554,27 @@ def load_config(path: str | Path | None = None, overrides: list[str] | tuple[str
             text = Path(path).read_text(encoding="utf-8")
         except FileNotFoundError:
             raise ConfigError(f"config file not found: {path}") from None
+        except UnicodeDecodeError as e:
+            raise ConfigError(f"config file {path} is not UTF-8 text ({e.reason} at byte {e.start})") from None
+        except OSError as e:
+            raise ConfigError(f"config file {path} cannot be read: {e.strerror or e}") from None
         try:
             data = yaml.safe_load(text) or {}
         except yaml.YAMLError as e:
             raise ConfigError(f"config file {path} is not valid YAML: {e}") from None
     explicit = {f"{sec}.{k}" for sec, v in data.items() if isinstance(v, dict) for k in v} if isinstance(data, dict) else set()
     cfg = from_dict(RunConfig, data, source)
-    return apply_overrides(cfg, overrides, explicit)
+    return apply_overrides(cfg, overrides, explicit, source=source)
 
 
-def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...], explicit: set[str] | frozenset[str] = frozenset()) -> RunConfig:
-    """Apply dotted KEY=VALUE overrides (values parsed as YAML scalars or lists) and resolve presets.
+def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...], explicit: set[str] | frozenset[str] = frozenset(),
+                    source: str = "") -> RunConfig:
+    """Apply dotted KEY=VALUE overrides (values parsed as YAML scalars or lists), resolve presets, validate.
 
     ``explicit`` names keys (``section.key``) the caller set besides the overrides (a YAML file's);
-    an explicit fusion weight wins over the fusion preset (see `resolve_fusion_preset`).
+    an explicit fusion weight wins over the fusion preset (see `resolve_fusion_preset`). Each override is
+    checked against its field's declared range/choices (the error names it), then the whole config against
+    the cross-field rules (`validate`; ``source``, the config file, is named in their messages).
     """
     data = to_dict(cfg)
     explicit = set(explicit)
@@ -448,8 +595,15 @@ def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...], expl
             raise ConfigError(f"unknown config key '{key.strip()}' in --set {item}")
         node[parts[-1]] = yaml.safe_load(raw) if raw != "" else ""
         explicit.add(key.strip())
+        try:
+            from_dict(RunConfig, data, f"--set {item}")
+        except ConfigError as e:
+            if key.strip() in str(e):  # this override is the bad value; other keys are checked below
+                raise
     out = from_dict(RunConfig, data, "--set")
-    return replace(out, perceive=resolve_fusion_preset(out.perceive, {k.split(".", 1)[1] for k in explicit if k.startswith("perceive.")}))
+    out = replace(out, perceive=resolve_fusion_preset(out.perceive, {k.split(".", 1)[1] for k in explicit if k.startswith("perceive.")}))
+    labels = [s for s in (source, "--set " + " ".join(overrides) if overrides else "") if s]
+    return validate(out, " with ".join(labels))
 
 
 def save_config(cfg: Any, path: str | Path) -> None:

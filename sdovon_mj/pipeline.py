@@ -23,7 +23,9 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
+import threading
 import time
 import traceback
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -34,10 +36,10 @@ from typing import Any, Callable, Iterable
 
 from . import __version__
 from .config import RunConfig, dump_yaml, load_config, to_dict
-from .errors import SdovonError, StageError
+from .errors import InputError, InputsError, SdovonError, StageError
 from .records import dumps
 from .seeds import scene_seed
-from .store import Store, Timer, clean_temp_files
+from .store import RunLock, Store, Timer, clean_temp_files
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,8 @@ class TaskResult:
     skipped: list[str] = field(default_factory=list)
     counters: dict[str, Any] = field(default_factory=dict)
     attempts: int = 1
+    notes: list[str] = field(default_factory=list)  # e.g. a finished stage redone because its outputs changed
+    caused_by: str = ""  # a follow-on failure: the task whose failure kept this one from running
 
 
 class StageRunner:
@@ -82,9 +86,14 @@ class StageRunner:
     def run(self, key: str, fp: str, fn: Callable[[], list[str]]) -> bool:
         """Run `fn` (returning its output paths) unless `key` is done with fingerprint `fp`."""
         short = stage_name(key)
-        if self.store.is_done(key, fp):
-            self.result.skipped.append(key)
-            return False
+        mark = self.store.mark(key)
+        if mark is not None and mark.fingerprint == fp:
+            problems = self.store.check_outputs(key, mark)
+            if not problems:
+                self.result.skipped.append(key)
+                return False
+            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+            self.result.notes.append(f"{key}: finished before, but {problems[0]}{more}; recomputing the stage")
         self.store.invalidate(key)
         reset_peak_rss()
         with Timer() as t:
@@ -265,8 +274,13 @@ class RunSummary:
 
     @property
     def failures(self) -> list[TaskResult]:
-        """Return the failed tasks."""
+        """Return the failed tasks (root causes and the follow-on ones, which name theirs in `caused_by`)."""
         return [r for r in self.results if not r.ok]
+
+    @property
+    def root_failures(self) -> list[TaskResult]:
+        """Return the failed tasks that are root causes (not follow-on failures)."""
+        return [r for r in self.failures if not r.caused_by]
 
     def table(self) -> str:
         """Return the end-of-run summary: dataset statistics, seconds per stage, failed tasks."""
@@ -280,7 +294,11 @@ class RunSummary:
             lines.append("")
             lines.append("failed tasks:")
             for r in self.failures:
-                lines.append(f"  {r.spec.label}: {r.error}")
+                if not r.caused_by:
+                    lines.append(f"  {r.spec.label}: {r.error}")
+            follow = [r.spec.label for r in self.failures if r.caused_by]
+            if follow:
+                lines.append(f"  not run because of the failures above: {', '.join(follow)}")
         return "\n".join(lines)
 
 
@@ -312,6 +330,84 @@ def prepare_run(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None =
               "objects": [str(Path(o).resolve()) for o in (objects or [])]}
     store.write_json("inputs.json", inputs)
     return store
+
+
+# What a readable file of each known format starts with (after leading white space for text formats).
+_MAGIC = {".glb": (b"glTF",), ".gltf": (b"{",), ".ply": (b"ply",), ".stl": None, ".obj": None, ".json": (b"{",)}
+SCENE_CONFIG_SUFFIXES = (".json",)  # Habitat *.scene_instance.json / *.scene_dataset_config.json scenes
+
+
+def _shown(path: str | Path) -> str:
+    """Return a path as printable text (bytes of a non-UTF-8 name as \\x escapes)."""
+    return os.fsencode(str(path)).decode("utf-8", "backslashreplace")
+
+
+def _input_problem(path: Path, known: tuple[str, ...]) -> str:
+    """Return why one input file cannot be used ('' when it exists, is readable and looks like its format)."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        return "the file name is not UTF-8 (run folders record input names in UTF-8 JSON): rename the file"
+    if not path.exists():
+        return "file not found"
+    if path.is_dir():
+        return "is a folder, not a file"
+    if path.suffix.lower() not in known:
+        return f"unknown format '{path.suffix or path.name}' (known: {', '.join(known)})"
+    try:
+        with open(path, "rb") as f:
+            head = f.read(64)
+    except OSError as e:
+        return f"cannot be read ({e.strerror or e})"
+    if not head:
+        return "is empty (0 bytes)"
+    magic = _MAGIC.get(path.suffix.lower())
+    if magic and not head.lstrip().startswith(magic):
+        return f"is not a {path.suffix.lower()[1:].upper()} file (it does not start with {magic[0]!r})"
+    return ""
+
+
+def check_inputs(scenes: list[str] | None = None, objects: list[str] | None = None) -> None:
+    """Check every scene and object input before any work; raise InputsError naming each bad one and why.
+
+    A scene must be a readable file of a known format whose first bytes fit it; an object is such a file or
+    a folder holding at least one. Contents are checked by the converter later (a corrupt mesh fails its task).
+    """
+    from .stages import OBJECT_SUFFIXES
+
+    problems: list[tuple[str, str]] = []
+    for s in scenes or []:
+        why = _input_problem(Path(s), OBJECT_SUFFIXES + SCENE_CONFIG_SUFFIXES)
+        if why:
+            problems.append((f"scene {_shown(s)}", why))
+    for o in objects or []:
+        p = Path(o)
+        if p.is_dir():
+            found = [q for q in sorted(p.rglob("*")) if q.suffix.lower() in OBJECT_SUFFIXES and q.is_file()]
+            if not found:
+                problems.append((f"objects folder {_shown(o)}", f"holds no {'/'.join(x[1:].upper() for x in OBJECT_SUFFIXES)} files"))
+            bad = [(f"object {_shown(q)}", w) for q in found for w in [_input_problem(q, OBJECT_SUFFIXES)] if w]
+            problems += bad
+        else:
+            why = _input_problem(p, OBJECT_SUFFIXES)
+            if why:
+                problems.append((f"object {_shown(o)}", why))
+    if problems:
+        raise InputsError(problems)
+
+
+class Interrupted(KeyboardInterrupt):
+    """The run was stopped by a signal (SIGTERM, SIGINT); finished stages are kept for a resume."""
+
+    def __init__(self, signum: int) -> None:
+        self.exit_code = 128 + signum
+        name = signal.Signals(signum).name
+        super().__init__(f"stopped by {name}; finished stages are kept, run the same command again to resume")
+
+
+def _raise_interrupted(signum: int, _frame: Any) -> None:
+    """Signal handler: stop the run with `Interrupted` (temp files are removed, the lock released)."""
+    raise Interrupted(signum)
 
 
 def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = None, objects: list[str] | None = None,
@@ -346,6 +442,30 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
     only_scenes : iterable of str, optional
         Only these scenes of the run (default: all).
     """
+    check_inputs(scenes, objects)  # before the run folder is touched or anything expensive starts
+    lock = RunLock(Path(run_root).resolve())
+    in_main = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGTERM, _raise_interrupted) if in_main else None  # before the lock shows
+    try:
+        try:
+            lock.acquire()
+        except OSError as e:  # a read-only or missing parent folder, a full disk
+            raise InputError(Path(run_root), f"cannot write to the run folder ({e.strerror or e})") from None
+        if lock.note:
+            print(f"note: {lock.note}", file=sys.stderr)
+        return _generate(run_root, cfg, scenes, objects, executor, jobs, address, retries, progress, exporters,
+                         until, only_scenes)
+    finally:
+        if in_main:
+            signal.signal(signal.SIGTERM, old)
+        lock.release()
+
+
+def _generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None, objects: list[str] | None,
+              executor: str, jobs: int, address: str | None, retries: int, progress: bool | None,
+              exporters: Iterable[str] | None, until: Iterable[str] | None,
+              only_scenes: Iterable[str] | None) -> RunSummary:
+    """Run the pipeline with the run folder locked (`generate` holds the lock; the parameters are its own)."""
     from . import stages
     from .progress import Progress
 
@@ -367,6 +487,8 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
     with Progress(total=total, enabled=progress, desc="generate") as bar:
         def tick(r: TaskResult) -> None:
             bar.update(1, r.spec.label + ("" if r.ok else " FAILED"))
+            for note in r.notes:
+                print(f"note: {r.spec.label}: {note}", file=sys.stderr)
 
         if run_st:
             results += ex.map([TaskSpec("objects", root, stages=run_st)], tick)
@@ -381,7 +503,16 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
             bar.total -= (len(scene_names) - len(good)) * cfg.place.k_v
             results += ex.map([TaskSpec("variant", root, s, v, stages=var_st) for s in good for v in range(cfg.place.k_v)],
                               tick)
+        roots = [r for r in results if not r.ok]
+        variants_ok = [r for r in results if r.spec.kind == "variant" and r.ok]
         for fmt in fmts:
+            if roots and not variants_ok:  # nothing to export: say why once, not once per exporter
+                cause = ", ".join(r.spec.label for r in roots)
+                r = TaskResult(TaskSpec("export", root, fmt=fmt), ok=False, caused_by=cause,
+                               error=f"not run: no variant finished because {cause} failed")
+                results.append(r)
+                bar.update(1, r.spec.label + " not run")
+                continue
             results += ex.map([TaskSpec("export", root, fmt=fmt)], tick)
     seconds: dict[str, float] = {}
     for r in results:
@@ -409,7 +540,8 @@ def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
         "scene_seeds": {s: scene_seed(cfg.seed, s) for s in summary.scenes},
         "packages": package_versions(),
         "stages": fps,
-        "failures": [{"task": r.spec.label, "error": r.error, "attempts": r.attempts} for r in summary.failures],
+        "failures": [{"task": r.spec.label, "error": r.error, "attempts": r.attempts,
+                      **({"caused_by": r.caused_by} if r.caused_by else {})} for r in summary.failures],
     }
     store.write_json("manifest.json", manifest)
     timings = {

@@ -22,6 +22,8 @@ _BUILTIN: dict[str, dict[str, str]] = {
     "sdovon_mj.exporters": {
         "habitat": "exporters.habitat:HabitatExporter",
         "mjcf": "exporters.mjcf_bundle:MjcfBundleExporter",
+        "usd": "exporters.usd:UsdExporter",
+        "urdf": "exporters.urdf:UrdfExporter",
     },
     "sdovon_mj.detectors": {
         "gt": "sdovon_mj.perceive.gt_detector:GroundTruthDetector",
@@ -33,6 +35,7 @@ _BUILTIN: dict[str, dict[str, str]] = {
     "sdovon_mj.agents": {
         "random-astar": "sdovon_mj.nav.agents:RandomAStar",
         "semantic-astar": "sdovon_mj.nav.agents:SemanticAStar",
+        "semantic-frontier": "sdovon_mj.nav.agents:SemanticFrontierAgent",
         "oracle": "sdovon_mj.nav.agents:OracleAgent",
         "random": "sdovon_mj.nav.agents:RandomAgent",
     },

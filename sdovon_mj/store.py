@@ -3,7 +3,9 @@
 Every file is written to a temporary name in the same folder, flushed, fsync'ed and renamed over
 the target, so a reader (or a rerun after a kill) sees either the old file or the new one, never a
 half one. A stage is *done* when its marker ``<key>/.done.json`` holds the fingerprint of its
-inputs + config + code version; the marker is written last, after all the stage's outputs.
+inputs + config + code version; the marker is written last, after all the stage's outputs, and records
+each output's size and sha256 so a resume (and ``sdovon-mj verify``) notices an output damaged after
+the stage finished (`Store.check_outputs`). One writer per run folder: `RunLock` (``.sdovon.lock``).
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import socket
 import tempfile
 import time
 from dataclasses import dataclass
@@ -18,8 +21,10 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from . import __version__
+from .errors import RunLockedError
 
 DONE = ".done.json"
+LOCK = ".sdovon.lock"  # the run folder's writer: pid, host, process start time (removed when the run ends)
 TIMING = ".timing.json"  # wall seconds of a stage: kept apart so outputs compare byte for byte
 
 
@@ -50,11 +55,13 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(e, OSError) and e.errno is not None and e.filename is None:  # e.g. disk full: name the file
+            raise type(e)(e.errno, e.strerror, str(path)) from e
         raise
 
 
@@ -100,11 +107,38 @@ def clean_temp_files(root: Path) -> int:
 
 @dataclass
 class StageMark:
-    """What a finished stage left: fingerprint, outputs, seconds."""
+    """What a finished stage left: fingerprint, outputs, seconds, and each output's size and sha256."""
 
     fingerprint: str
     outputs: list[str]
     seconds: float
+    digests: dict[str, dict[str, Any]] | None = None  # None: a marker written before digests were recorded
+
+
+def output_digest(path: Path) -> dict[str, Any]:
+    """Return what a done-marker records of one output: ``{"size": bytes, "sha256": hex}`` (``{"dir": true}``)."""
+    if path.is_dir():
+        return {"dir": True}
+    return {"size": path.stat().st_size, "sha256": file_hash(path)}
+
+
+def check_digest(path: Path, want: dict[str, Any] | None) -> str:
+    """Return what is wrong with an output against its recorded digest ('' when it matches).
+
+    The size is compared first (a truncated file costs one ``stat``); the sha256 only when sizes agree.
+    """
+    if not path.exists():
+        return "missing"
+    if want is None:
+        return ""
+    if want.get("dir"):
+        return "" if path.is_dir() else "not a folder any more"
+    size = path.stat().st_size
+    if size != want.get("size"):
+        return f"size {size} bytes, recorded {want.get('size')}"
+    if file_hash(path) != want.get("sha256"):
+        return "contents changed (sha256 differs from the recorded one)"
+    return ""
 
 
 class Store:
@@ -149,14 +183,34 @@ class Store:
     def _marker(self, stage: str) -> Path:
         return self.path(stage) / DONE
 
-    def is_done(self, stage: str, fp: str | None = None) -> bool:
-        """Return whether `stage` finished (with fingerprint `fp`, when given) and its outputs exist."""
+    def is_done(self, stage: str, fp: str | None = None, verify: bool = False) -> bool:
+        """Return whether `stage` finished (with fingerprint `fp`, when given) and its outputs exist.
+
+        With ``verify``, every output must also match the size and digest its marker recorded.
+        """
         mark = self.mark(stage)
         if mark is None:
             return False
         if fp is not None and mark.fingerprint != fp:
             return False
+        if verify:
+            return not self.check_outputs(stage, mark)
         return all(self.path(o).exists() for o in mark.outputs)
+
+    def check_outputs(self, stage: str, mark: StageMark | None = None) -> list[str]:
+        """Return one line per output of a finished stage that is missing or no longer matches its marker.
+
+        An empty list: every output is as the stage left it (or the stage has no marker).
+        """
+        mark = mark or self.mark(stage)
+        if mark is None:
+            return []
+        problems = []
+        for o in mark.outputs:
+            why = check_digest(self.path(o), (mark.digests or {}).get(o))
+            if why:
+                problems.append(f"{o}: {why}")
+        return problems
 
     def mark(self, stage: str) -> StageMark | None:
         """Return a stage's marker, or None when it has not finished."""
@@ -167,15 +221,34 @@ class Store:
             d = json.loads(p.read_text(encoding="utf-8"))
             t = self.path(stage) / TIMING
             seconds = float(json.loads(t.read_text(encoding="utf-8"))["seconds"]) if t.exists() else 0.0
-            return StageMark(d["fingerprint"], list(d["outputs"]), seconds)
-        except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+            digests = d.get("digests")
+            return StageMark(d["fingerprint"], list(d["outputs"]), seconds,
+                             dict(digests) if isinstance(digests, dict) else None)
+        except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError, ValueError, AttributeError):
             return None
 
     def mark_done(self, stage: str, fp: str, outputs: Iterable[str | Path], seconds: float = 0.0) -> None:
         """Record that `stage` finished with fingerprint `fp` (written after its outputs)."""
         outs = sorted(o if isinstance(o, str) else self.rel(o) for o in outputs)
+        digests = {o: output_digest(self.path(o)) for o in outs if self.path(o).exists()}
         self.write_json(Path(stage) / TIMING, {"seconds": round(seconds, 4)})
-        self.write_json(Path(stage) / DONE, {"fingerprint": fp, "outputs": outs})
+        self.write_json(Path(stage) / DONE, {"fingerprint": fp, "outputs": outs, "digests": digests})
+
+    def stage_keys(self) -> list[str]:
+        """Return the marker key of every stage that left a done-marker in this run folder (sorted)."""
+        return sorted(p.parent.relative_to(self.root).as_posix() for p in self.root.rglob(DONE))
+
+    def verify(self) -> dict[str, list[str]]:
+        """Check every finished stage's outputs against its marker; return key -> problems (empty: intact).
+
+        An unreadable marker is a problem of its own; a marker written before digests were recorded is
+        checked for the existence of its outputs only.
+        """
+        out: dict[str, list[str]] = {}
+        for key in self.stage_keys():
+            mark = self.mark(key)
+            out[key] = ([f"{key}/{DONE}: unreadable done-marker"] if mark is None else self.check_outputs(key, mark))
+        return out
 
     def invalidate(self, stage: str) -> None:
         """Forget that `stage` finished (its outputs stay until overwritten)."""
@@ -183,6 +256,105 @@ class Store:
             self._marker(stage).unlink()
         except FileNotFoundError:
             pass
+
+
+def _start_time(pid: int) -> str:
+    """Return a process's start time (clock ticks since boot, Linux ``/proc``), '' when unknown."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
+        return stat.rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return ""
+
+
+def process_alive(pid: int, started: str) -> bool:
+    """Return whether process `pid` (on this host) runs and is the one that started at `started` (not a reused pid)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    now = _start_time(pid)
+    return not (started and now and now != started)
+
+
+class RunLock:
+    """One writer per run folder: ``<root>/.sdovon.lock`` holds the owner's pid, host and start time.
+
+    `acquire` creates it exclusively. A lock held by a live process refuses with `RunLockedError` naming
+    the owner; a stale one (its process is gone, on this host) is taken over and `note` says so. A lock of
+    another host cannot be checked and refuses (the message says how to remove it). `release` removes it.
+    """
+
+    def __init__(self, root: str | Path) -> None:
+        self.path = Path(root) / LOCK
+        self.note = ""
+        self.held = False
+
+    def _owner(self) -> dict[str, Any]:
+        """Return this process as a lock owner."""
+        return {"pid": os.getpid(), "host": socket.gethostname(), "started": _start_time(os.getpid()),
+                "since": time.strftime("%Y-%m-%dT%H:%M:%S")}
+
+    def acquire(self) -> "RunLock":
+        """Take the lock (or raise RunLockedError naming the live owner); return self."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        me = self._owner()
+        for _attempt in range(3):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                self._take_over_if_stale(me)
+                continue
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.write(json.dumps(me, sort_keys=True) + "\n")
+            self.held = True
+            return self
+        raise RunLockedError(f"{self.path.parent}: could not take the run-folder lock {self.path}")
+
+    def _take_over_if_stale(self, me: dict[str, Any]) -> None:
+        """Remove a stale lock (noting it) or raise RunLockedError naming its live owner."""
+        try:
+            raw = self.path.read_bytes()
+            owner = json.loads(raw.decode("utf-8"))
+            pid, host = int(owner["pid"]), str(owner["host"])
+        except FileNotFoundError:
+            return
+        except (OSError, ValueError, KeyError, TypeError, UnicodeDecodeError):
+            raw = self.path.read_bytes() if self.path.exists() else b""
+            owner, pid, host = {}, -1, me["host"]  # unreadable: its writer died while writing it
+        if host != me["host"]:
+            raise RunLockedError(f"run folder {self.path.parent} is being written by pid {pid} on host {host} "
+                                 f"(lock {self.path}); if that run is gone, remove the lock file")
+        if pid > 0 and process_alive(pid, str(owner.get("started", ""))):
+            raise RunLockedError(f"run folder {self.path.parent} is being written by pid {pid} on host {host} "
+                                 f"since {owner.get('since', '?')} (lock {self.path}); wait for it or stop it")
+        self.note = (f"took over a stale lock of pid {pid} on host {host} (that process is gone)" if pid > 0
+                     else f"took over an unreadable lock file {self.path}")
+        try:
+            if self.path.read_bytes() == raw:  # not replaced meanwhile by a writer that took it over first
+                self.path.unlink()
+        except FileNotFoundError:
+            pass
+
+    def release(self) -> None:
+        """Remove the lock if this process holds it."""
+        if not self.held:
+            return
+        self.held = False
+        try:
+            owner = json.loads(self.path.read_text(encoding="utf-8"))
+            if int(owner.get("pid", -1)) == os.getpid():
+                self.path.unlink()
+        except (OSError, ValueError):
+            pass
+
+    def __enter__(self) -> "RunLock":
+        return self.acquire()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.release()
 
 
 class Timer:

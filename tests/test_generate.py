@@ -168,22 +168,22 @@ def test_show_renders_run(reference_run, tmp_path) -> None:
 
 
 def test_config_errors_name_the_cause(tmp_path, tiny_config) -> None:
-    """Bad --config files and --set keys stop the command with exit code 1 and the cause, before any work."""
+    """Bad --config files and --set keys stop the command with exit code 2 (a usage error) and the cause, before any work."""
     out = tmp_path / "run"
     proc = cli("generate", "--out", str(out), "--config", str(tmp_path / "nope.yaml"))
-    assert proc.returncode == 1 and "config file not found" in proc.stderr and "nope.yaml" in proc.stderr
+    assert proc.returncode == 2 and "config file not found" in proc.stderr and "nope.yaml" in proc.stderr
     bad = tmp_path / "bad.yaml"
     bad.write_text("observe: [unclosed\n", encoding="utf-8")
     proc = cli("generate", "--out", str(out), "--config", str(bad))
-    assert proc.returncode == 1 and "bad.yaml" in proc.stderr and "YAML" in proc.stderr
+    assert proc.returncode == 2 and "bad.yaml" in proc.stderr and "YAML" in proc.stderr
     typo = tmp_path / "typo.yaml"
     typo.write_text("observe:\n  widht: 3\n", encoding="utf-8")
     proc = cli("generate", "--out", str(out), "--config", str(typo))
-    assert proc.returncode == 1 and "widht" in proc.stderr
+    assert proc.returncode == 2 and "widht" in proc.stderr
     proc = cli("generate", "--out", str(out), "--config", str(tiny_config), "--set", "place.kv=3")
-    assert proc.returncode == 1 and "place.kv" in proc.stderr
+    assert proc.returncode == 2 and "place.kv" in proc.stderr
     proc = cli("generate", "--out", str(out), "--config", str(tiny_config), "--set", "place.k_v")
-    assert proc.returncode == 1 and "KEY=VALUE" in proc.stderr
+    assert proc.returncode == 2 and "KEY=VALUE" in proc.stderr
     assert not out.exists()
 
 
@@ -238,7 +238,7 @@ def test_failing_scene_from_scratch(reference_run, tmp_path) -> None:
     ref, _ = reference_run
     good = _fresh_input_glb(ref, tmp_path / "in")
     bad = tmp_path / "in" / "bad.glb"
-    bad.write_bytes(b"\x00" * 100)
+    bad.write_bytes(b"glTF\x02\x00\x00\x00" + b"\x00" * 100)  # a GLB header (zeros alone are refused up front)
     run = tmp_path / "run"
     proc = cli(*generate_args(run, ref / "config.yaml", "--scenes", str(good), str(bad), "--jobs", "2"))
     _check_failing_scene(proc, run, bad)

@@ -311,6 +311,24 @@ def test_second_run_is_cached_and_identical(serve, protocol, tmp_path):
     assert len(fake.chat_requests) == n + 2
 
 
+def test_corrupt_cache_entries_are_asked_again_and_rewritten(serve, protocol, tmp_path):
+    """A truncated entry and one that is not UTF-8 JSON count as misses: those prompts are asked again, the
+    answers equal the first run's, and the entries are written anew (issue 20: faults tried on purpose)."""
+    fake = serve("good")
+    objs, regs, recs = ["mug", "pillow"], ["kitchen", "bedroom"], ["table", "bed"]
+    r1 = relevance(objs, regs, recs, get_backend(cfg_for(protocol, fake.url), cache_dir=tmp_path))
+    n = len(fake.chat_requests)
+    entries = sorted(tmp_path.glob("*/*/*.json"))  # <backend>/<key[:2]>/<key>.json
+    assert len(entries) == n >= 2
+    entries[0].write_bytes(entries[0].read_bytes()[:20])
+    entries[1].write_bytes(b"\xff\xfe\x00garbage")
+    b2 = get_backend(cfg_for(protocol, fake.url), cache_dir=tmp_path)
+    r2 = relevance(objs, regs, recs, b2)
+    assert len(fake.chat_requests) == n + 2 and b2.cache.misses == 2 and b2.cache.hits == n - 2
+    assert records_equal(r1, r2)
+    assert all(json.loads(p.read_text(encoding="utf-8"))["result"] for p in entries[:2])
+
+
 def test_ollama_plain_json_mode_on_old_server():
     fake = FakeLLM("ollama", "good", version=None)  # no /api/version: pre-0.5 server
     try:

@@ -21,18 +21,60 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, default=1, help="parallel tasks (local workers / Ray CPUs)")
     p.add_argument("--retries", type=int, default=1, help="retries of a failed task")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--allow-empty", action="store_true",
+                   help="exit 0 even when a scene yields no receptacle or no episode (default: a warning and exit 1)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and print the summary table."""
     from ..pipeline import generate
 
+    from ..stages import expand_scene_inputs
+
     cfg = load_config(args.config, args.overrides)
-    summary = generate(args.out, cfg, scenes=args.scenes, objects=args.objects, executor=args.executor,
+    summary = generate(args.out, cfg, scenes=expand_scene_inputs(args.scenes, cfg), objects=args.objects,
+                       executor=args.executor,
                        jobs=args.jobs, address=args.address, retries=args.retries,
                        progress=False if args.quiet else None)
     print(summary.table())
-    for f in summary.failures:
-        print(f"failed: {f.spec.label}: {f.error}", file=sys.stderr)
+    for f in summary.failures:  # root causes; a follow-on failure names its cause instead of repeating it
+        print(f"not run: {f.spec.label} (caused by {f.caused_by})" if f.caused_by else f"failed: {f.spec.label}: {f.error}",
+              file=sys.stderr)
+    empty = empty_warnings(summary.run_root, {f.spec.label for f in summary.failures})
+    for line in empty:
+        print(f"WARNING: {line}", file=sys.stderr)
+    if empty and not args.allow_empty:
+        print("sdovon-mj generate: the run produced an empty result (above); pass --allow-empty to accept it",
+              file=sys.stderr)
     # Partial runs keep every finished output; the exit code still tells scripts that something failed.
-    return 1 if summary.failures else 0
+    return 1 if summary.failures or (empty and not args.allow_empty) else 0
+
+
+def empty_warnings(run_root: str, failed: set[str] | None = None) -> list[str]:
+    """Return one line per scene of a finished run that yielded no episode, saying whether it found no receptacle plane.
+
+    A last line says so when the whole run has no episode.
+
+    A scene whose tasks failed is left out (its failure is reported already).
+    """
+    from ..stats import dataset_statistics
+
+    st = dataset_statistics(run_root)
+    out = []
+    for sc in st.get("scenes", []):
+        name = sc.get("name", "")
+        if any(name in f for f in failed or ()):
+            continue
+        if sc.get("episodes", 0) > 0:
+            continue
+        if sc.get("receptacle_planes", 0) == 0:
+            out.append(f"scene {name}: no receptacle plane found ({sc.get('instances', 0)} instances): nothing can be "
+                       "placed; check the instance labels against receptacles.labels, or set receptacles.labels=[] "
+                       "to let the semantics backend name them")
+        else:
+            out.append(f"scene {name}: 0 episodes ({sc.get('placed_objects', 0)} objects resting on "
+                       f"{sc.get('receptacle_planes', 0)} receptacle planes)")
+    total = sum(sc.get("episodes", 0) for sc in st.get("scenes", []))
+    if st.get("scenes") and total == 0:
+        out.append("the run has 0 episodes")
+    return out

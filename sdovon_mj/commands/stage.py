@@ -58,19 +58,26 @@ class StageCommand:
         base = args.config or (existing if existing.exists() else None)
         cfg = load_config(base, args.overrides)
         scenes, objects = args.scenes, args.objects
+        if scenes is None and objects is None and not (root / "inputs.json").exists() \
+                and (root / "convert_report.json").is_file():
+            scenes = [str(root)]  # the folder `sdovon-mj convert --kind scene` wrote: its scene is the input
         if (root / "inputs.json").exists() and scenes is None and objects is None:
             import json
 
             inputs = json.loads((root / "inputs.json").read_text(encoding="utf-8"))
             scenes, objects = inputs["scenes"], inputs["objects"]
-        summary = generate(root, cfg, scenes=scenes, objects=objects, jobs=args.jobs, until=[self.stage.name],
+        from ..stages import expand_scene_inputs
+
+        summary = generate(root, cfg, scenes=expand_scene_inputs(scenes, cfg), objects=objects, jobs=args.jobs,
+                           until=[self.stage.name],
                            only_scenes=getattr(args, "scene", None), progress=False if args.quiet else None)
         ran = sorted(summary.seconds)
         skipped = sorted({k for r in summary.results for k in r.skipped})
         print(f"{self.stage.name}: {len(summary.results)} task(s); ran: {', '.join(ran) or 'nothing'}; "
               f"already done: {len(skipped)} stage run(s) -> {root.resolve()}")
         for f in summary.failures:
-            print(f"failed: {f.spec.label}: {f.error}", file=sys.stderr)
+            print(f"not run: {f.spec.label} (caused by {f.caused_by})" if f.caused_by else f"failed: {f.spec.label}: {f.error}",
+                  file=sys.stderr)
         return 1 if summary.failures else 0
 
 
