@@ -16,7 +16,7 @@ from typing import Sequence
 from ..config import SemanticsConfig
 from ..errors import StageError
 from .backends import Backend
-from .regions import annotate_planes, region_map, region_picture
+from .regions import annotate_planes, input_region_map, region_map, region_picture
 from .relevance import relevance
 
 
@@ -41,4 +41,4 @@ def identify_receptacles(labels: Sequence[str], backend: Backend) -> list[str]:
     return backend.receptacles(seen) if seen else []
 
 
-__all__ = ["Backend", "annotate_planes", "get_backend", "identify_receptacles", "region_map", "region_picture", "relevance"]
+__all__ = ["Backend", "annotate_planes", "get_backend", "identify_receptacles", "input_region_map", "region_map", "region_picture", "relevance"]

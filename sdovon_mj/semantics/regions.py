@@ -25,7 +25,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from ..config import SemanticsConfig
-from ..records import Instance, NavMap, ReceptaclePlane, RegionMap
+from ..records import Instance, NavMap, ReceptaclePlane, RegionMap, Room
 from ..store import atomic_write_bytes
 from .backends import Backend
 from .priors import default_priors
@@ -221,6 +221,36 @@ def region_map(instances: Sequence[Instance], navmap: NavMap, backend: Backend,
         labels=list(vocab.names), label_map=label_map, scores=scores[:, :, :n_lab].astype(np.float32),
         backend=backend.label, fallbacks=list(backend.fallbacks[n_fb:]),
     )
+
+
+def input_region_map(rooms: Sequence[Room], navmap: NavMap) -> RegionMap:
+    """Return the region map of the NavMap's floor from the input's region annotations (``semantics.regions=input``).
+
+    Each cell takes the type of the room (`SceneAsset.rooms`: HM3D/MP3D regions, Habitat ``region_annotations``,
+    the default world's rooms) whose polygon holds its centre; cells in no room are -1 (unknown). Scores are one-hot.
+    Raises ValueError when no room lies on this floor.
+    """
+    from ..geometry import points_in_polygon
+
+    mine = [r for r in rooms if int(r.floor) == int(navmap.floor)]
+    if not mine:
+        raise ValueError(f"semantics.regions=input, but the scene has no region annotations on floor {navmap.floor} "
+                         f"({len(rooms)} on other floors); use semantics.regions=window")
+    labels = sorted({str(r.type) for r in mine})
+    frame = navmap.frame
+    h, w = frame.shape
+    ii, jj = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+    xy = frame.to_world(np.stack([ii.ravel(), jj.ravel()], axis=1))
+    label_map = np.full(h * w, -1, dtype=np.int16)
+    for r in mine:
+        label_map[(label_map < 0) & points_in_polygon(np.asarray(r.polygon, dtype=float), xy)] = labels.index(str(r.type))
+    label_map = label_map.reshape(h, w)
+    scores = np.zeros((h, w, len(labels)), dtype=np.float32)
+    known = label_map >= 0
+    scores[known, label_map[known]] = 1.0
+    return RegionMap(floor=int(navmap.floor), origin=np.asarray(navmap.origin, dtype=np.float64).copy(),
+                     resolution=float(navmap.resolution), labels=labels, label_map=label_map, scores=scores,
+                     backend="input")
 
 
 PALETTE = np.array([

@@ -23,6 +23,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ...config import SemanticsConfig
 from ...errors import StageError
 from .. import prompts as P
@@ -142,6 +144,50 @@ class Backend:
     def score_regions(self, obj: str, regions: list[str]) -> dict[str, float]:
         """Return 0-10 relevance scores between `obj` and each region (prompt C.4)."""
         return dict(self.ask(P.REGION_RELEVANCE, {"regions": list(regions), "object": obj}))
+
+    def pair_scores(self, obj: str, regions: list[str], receptacles: list[str], region_scores: np.ndarray,
+                    receptacle_scores: np.ndarray) -> np.ndarray:
+        """Return 0-1 scores (R, C) of each (region, receptacle) as a place for `obj` (search direction).
+
+        The base rule asks nothing more: the product of the object's 0-10 region and receptacle
+        answers (given), divided by 100. A backend with its own pair model overrides this.
+
+        Parameters
+        ----------
+        obj : str
+            Object category.
+        regions : list of str
+            Region names (R).
+        receptacles : list of str
+            Receptacle names (C).
+        region_scores : ndarray, shape (R,)
+            The object's 0-10 region answers (`score_regions`), same order.
+        receptacle_scores : ndarray, shape (C,)
+            The object's 0-10 receptacle answers (`score_receptacles`), same order.
+        """
+        return np.outer(np.asarray(region_scores, dtype=float), np.asarray(receptacle_scores, dtype=float)) / 100.0
+
+    def answer_pairs(self, obj: str, regions: list[str], receptacles: list[str], region_scores: np.ndarray,
+                     receptacle_scores: np.ndarray, fell_back: bool = False) -> np.ndarray:
+        """Return `pair_scores` from whoever answered this object's questions: the fallback's model when `fell_back`.
+
+        Parameters
+        ----------
+        obj : str
+            Object category.
+        regions, receptacles : list of str
+            Region names (R) and receptacle names (C).
+        region_scores, receptacle_scores : ndarray, shapes (R,) and (C,)
+            The object's 0-10 answers, same order.
+        fell_back : bool
+            Whether some of this object's answers came from the fallback backend.
+        """
+        who = self.fallback_backend() if (fell_back and self.cfg.fallback and self.cfg.fallback != self.name) else self
+        return who.pair_scores(obj, regions, receptacles, region_scores, receptacle_scores)
+
+    def row_source(self, obj: str) -> str:
+        """Return what produces this backend's answers about `obj` (recorded per Relevance row)."""
+        return self.name
 
 
 class ServerBackend(Backend):

@@ -1,5 +1,9 @@
-"""Offline backend: answers the four appendix C questions from the shipped commonsense priors.
+"""Offline backend: answers the four appendix C questions without a server.
 
+Relevance (C.3, C.4 and the pair scores of both directions) comes from the learned model
+(`semantics.learned`, trained on human votes; ``semantics.offline_model = learned``, the default) or
+from the curated priors table (``table``, the earlier behaviour). Receptacle naming (C.1) and region
+proposals (C.2) use the table in both modes.
 No server, no randomness: the same question always gets the same answer.
 - receptacles: labels the table (or its head noun) calls a receptacle;
 - region proposals: naive-Bayes score of each region over the window's distinct labels,
@@ -16,8 +20,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
+from ...errors import StageError
 from .. import prompts as P
-from ..priors import Priors, default_priors, with_floor
+from ..priors import FLOOR, Priors, default_priors, with_floor
 from ..validate import normalise
 from . import Backend
 
@@ -33,8 +40,38 @@ class OfflineBackend(Backend):
     def __init__(self, *args: Any, priors: Priors | None = None, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.cache = None  # answers are computed, not fetched
-        self.model = "priors-v" + (priors or default_priors()).table["version"]
+        self.mode = getattr(self.cfg, "offline_model", "learned")
+        if self.mode not in ("learned", "table"):
+            raise StageError(f"semantics.offline_model must be 'learned' or 'table', got {self.mode!r}")
         self._priors = priors
+        if self.mode == "learned":
+            from ..learned import default_model
+
+            self.model = "learned-v" + default_model().version
+        else:
+            self.model = "priors-v" + (priors or default_priors()).table["version"]
+
+    def pair_scores(self, obj: str, regions: list[str], receptacles: list[str], region_scores: np.ndarray,
+                    receptacle_scores: np.ndarray) -> np.ndarray:
+        """Return 0-1 pair scores (R, C): the learned pair head (floored), or the table's product rule.
+
+        Parameters
+        ----------
+        obj, regions, receptacles, region_scores, receptacle_scores
+            As `Backend.pair_scores`; the answers (0-10, shapes (R,), (C,)) serve the table mode only.
+        """
+        if self.mode != "learned":
+            return super().pair_scores(obj, regions, receptacles, region_scores, receptacle_scores)
+        from ..learned import default_model
+
+        p = default_model().score_pairs(obj, list(regions), list(receptacles))
+        return np.round(FLOOR / 10.0 + (1.0 - FLOOR / 10.0) * p, 6)
+
+    def row_source(self, obj: str) -> str:
+        """Return 'learned', or 'table' / 'embedding' (a label the table lacks) in table mode."""
+        if self.mode == "learned":
+            return "learned"
+        return "table" if self.priors.resolve(obj, embed=False) is not None else "embedding"
 
     @property
     def priors(self) -> Priors:
@@ -60,6 +97,17 @@ class OfflineBackend(Backend):
             return out
         if prompt_id == P.REGION_PROPOSALS:
             return self._propose(list(payload["objects"]), list(payload.get("_vocabulary") or []))
+        if self.mode == "learned" and prompt_id in (P.RECEPTACLE_RELEVANCE, P.REGION_RELEVANCE):
+            from ..learned import default_model
+
+            m = default_model()
+            if prompt_id == P.RECEPTACLE_RELEVANCE:
+                names = list(payload["furniture"])
+                p = m.score_receptacles(payload["object"], names)
+            else:
+                names = list(payload["regions"])
+                p = m.score_rooms(payload["object"], names)
+            return {k: round(with_floor(10.0 * float(v)), 4) for k, v in zip(names, p)}
         if prompt_id == P.RECEPTACLE_RELEVANCE:
             raw = self.priors.scores(payload["object"], list(payload["furniture"]), "receptacles")
             return {k: round(with_floor(v), 4) for k, v in raw.items()}
