@@ -79,6 +79,36 @@ def episodes_in(out: Path) -> tuple[int, int]:
     return len(files), sum(len(json.loads(p.read_text())) for p in files)
 
 
+def episode_breakdown(out: Path, cfg, limit: int) -> None:
+    """Re-run the episodes stage's function on up to `limit` variants and print where its time goes."""
+    from sdovon_mj.episodes.generate import generate_episodes_with_report
+    from sdovon_mj.records import SceneVariant, load_json
+    from sdovon_mj.runview import RunView
+
+    view = RunView(out)
+    tot: dict[str, float] = {}
+    n = goals = 0
+    for vf in sorted(out.glob("scenes/*/variants/*/variant.json"))[:limit]:
+        v = load_json(vf, SceneVariant)
+        t0 = time.perf_counter()
+        _eps, rep = generate_episodes_with_report(v, view.navmaps(v.scene), out, cfg.episodes, 0, cfg.agent)
+        tot["total_s"] = tot.get("total_s", 0.0) + time.perf_counter() - t0
+        for k, x in rep.timing.items():
+            tot[k] = tot.get(k, 0.0) + float(x)
+        n += 1
+        goals += len(rep.kept)
+    if not n:
+        return
+    m = {k: x / n for k, x in tot.items()}
+    other = m["total_s"] - m["load_s"] - m["rays_s"] - m["pixel_rays_s"] - m["render_s"] - m["starts_s"]
+    print(f"\nepisodes stage, where the time goes (mean of {n} variants, {goals / n:.1f} goals and "
+          f"{m['view_points']:.0f} view points per variant):")
+    print(f"  total {m['total_s']:.2f} s = model load {m['load_s']:.2f} + ray pre-test {m['rays_s']:.2f} "
+          f"({m['rays']:.0f} candidates) + pixel rays {m['pixel_rays_s']:.2f} ({m['ray_confirmed']:.0f} view points "
+          f"confirmed without a render) + visibility renders {m['render_s']:.2f} ({m['renders']:.0f} renders, "
+          f"{1000 * m['render_s'] / max(m['renders'], 1):.1f} ms each) + start poses {m['starts_s']:.2f} + other {other:.2f}")
+
+
 def main() -> None:
     """Run the scaled job (+ the scan apartment) and print figures."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -94,6 +124,7 @@ def main() -> None:
     ap.add_argument("--out", default=None, help="work folder (default: a temp folder)")
     ap.add_argument("--scan-faces", type=int, default=500_000, help="triangles of the scan-mode apartment")
     ap.add_argument("--no-scan", action="store_true", help="skip the scan-mode memory run")
+    ap.add_argument("--breakdown", type=int, default=4, help="variants re-run to print where the episodes stage's time goes")
     args = ap.parse_args()
     work = Path(args.out or tempfile.mkdtemp(prefix="bench_generate_"))
     work.mkdir(parents=True, exist_ok=True)
@@ -131,6 +162,8 @@ def main() -> None:
     print("where the time goes at full size: " + ", ".join(f"{k} {100 * v / tot:.0f}%" for k, v in
                                                             sorted(full_split.items(), key=lambda kv: -kv[1])))
     print(f"peak memory, any stage: {max(peak.values()):.0f} MiB (main process {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB)")
+    print(f"load average while running (1, 5, 15 min): {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs")
+    episode_breakdown(out, cfg, args.breakdown)
 
     if args.no_scan:
         return

@@ -1,10 +1,9 @@
-"""The grid frame (grid <-> world) and grid helpers: lookups, free segments, erosion, geodesic fields.
+"""The grid frame (grid <-> world) and grid helpers: lookups, free segments, erosion, dilation.
 
 One frame for every top-down grid (navmaps, region maps, the agents' occupancy and planning maps):
 cell (row i, col j) has its centre at origin + ((j + .5) * res, (i + .5) * res); rows grow with world
-Y, columns with world X. `records.NavMap.frame` and `records.RegionMap.frame` return it. Graphs are
-`gridgraph.cell_graph` (8-connected, sqrt(2) diagonals, no corner cutting), the graph the episode
-generator measures geodesics on.
+Y, columns with world X. `records.NavMap.frame` and `records.RegionMap.frame` return it. Geodesic
+distances on these grids live in one place, `gridgraph` (`GeodesicField`, `cell_graph`).
 """
 
 from __future__ import annotations
@@ -14,10 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
-from scipy.sparse import coo_matrix, csr_matrix
-from scipy.sparse.csgraph import dijkstra
-
-from .gridgraph import cell_graph
 
 NEIGHBOURS8 = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
@@ -99,62 +94,3 @@ def nearest_true(mask: np.ndarray, cell: np.ndarray) -> np.ndarray | None:
         return np.array([r, c])
     _, idx = ndimage.distance_transform_edt(~m, return_indices=True)
     return np.array([idx[0][r, c], idx[1][r, c]])
-
-
-class GeodesicField:
-    """Geodesic distance (m) on a grid to the nearest of a set of world XY targets.
-
-    Targets enter through a virtual source linked to each target's cell with the exact Euclidean
-    offset to the cell centre; queries add the offset from the query point to the best neighbouring
-    cell centre, and use the straight distance when the segment to a target is free. So distances
-    are exact on open floor and grid-geodesic around obstacles.
-    """
-
-    def __init__(self, mask: np.ndarray, frame: GridFrame, targets_xy: np.ndarray,
-                 graph: tuple[csr_matrix, np.ndarray] | None = None) -> None:
-        self.mask = np.asarray(mask, dtype=bool)
-        self.frame = frame
-        self.targets = np.atleast_2d(np.asarray(targets_xy, dtype=float))[:, :2] if len(targets_xy) else np.zeros((0, 2))
-        g, index = graph if graph is not None else cell_graph(self.mask)
-        n = g.shape[0]
-        self.field = np.full(self.mask.shape, np.inf)
-        cells = frame.to_cell(self.targets) if len(self.targets) else np.zeros((0, 2), np.int64)
-        ok = frame.inside(cells)
-        nodes = np.full(len(cells), -1, dtype=np.int64)
-        nodes[ok] = index[cells[ok, 0], cells[ok, 1]]
-        keep = nodes >= 0
-        if not keep.any() or n == 0:
-            return
-        offs = np.linalg.norm(self.targets[keep] - frame.to_world(cells[keep]), axis=1) / frame.resolution
-        g2 = g.tocoo()
-        rows = np.concatenate([g2.row, np.full(int(keep.sum()), n)])
-        cols = np.concatenate([g2.col, nodes[keep]])
-        vals = np.concatenate([g2.data, offs + 1e-9])
-        big = coo_matrix((vals, (rows, cols)), shape=(n + 1, n + 1)).tocsr()
-        d = dijkstra(big, directed=True, indices=n)
-        self.field[self.mask] = d[:n] * frame.resolution
-
-    def distance(self, xy: np.ndarray) -> float:
-        """Return the geodesic distance (m) from a world XY point to the nearest target; inf if unreachable."""
-        p = np.asarray(xy, dtype=float)[:2]
-        if len(self.targets) == 0:
-            return math.inf
-        best = math.inf
-        eu = np.linalg.norm(self.targets - p[None], axis=1)
-        for k in np.argsort(eu)[:8]:
-            if eu[k] >= best:
-                break
-            if segment_free(self.mask, self.frame, p, self.targets[k]):
-                best = float(eu[k])
-                break
-        rc = self.frame.to_cell(p[None])[0]
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                c = np.array([rc[0] + dr, rc[1] + dc])
-                if not self.frame.inside(c[None])[0] or not self.mask[c[0], c[1]]:
-                    continue
-                centre = self.frame.to_world(c[None])[0]
-                if (dr or dc) and not segment_free(self.mask, self.frame, p, centre):
-                    continue
-                best = min(best, float(self.field[c[0], c[1]] + np.linalg.norm(centre - p)))
-        return best

@@ -1,7 +1,10 @@
-"""The cell graph of a boolean grid: 8-connected, sqrt(2) diagonals, no corner cutting.
+"""The one geodesic: the cell graph of a boolean grid and the distances measured on it.
 
-Shared by the episode generator's geodesics and the navigation agents' planners, so the distances an
-episode is scored with and the paths an agent plans come from one graph.
+The graph is 8-connected with sqrt(2) diagonals and no corner cutting. `GeodesicField` is the one
+definition of the geodesic distance from a world point to a set of world targets: the episode
+generator stores it as an episode's ``geodesic_distance``, the suite uses it for distance to goal and
+the SPL denominator, and the agents' planners measure on the same graph (`graph_of`, `distance_field`).
+So an episode's stored distance equals the suite's shortest-path length for the same start.
 """
 
 from __future__ import annotations
@@ -11,6 +14,8 @@ import math
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
+
+from .grid import GridFrame, segment_free
 
 # (drow, dcol, cost in cells); a diagonal needs both orthogonal neighbours free (no corner cutting).
 STEPS = ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2.0)), (1, -1, math.sqrt(2.0)))
@@ -76,3 +81,89 @@ def distance_field(mask: np.ndarray, sources: np.ndarray, resolution: float) -> 
     d = dijkstra(g, directed=True, indices=nodes, min_only=True)
     out[nav] = d * float(resolution)
     return out
+
+
+class GeodesicField:
+    """Geodesic distance (m) on a grid to the nearest of a set of world XY targets: THE geodesic.
+
+    Definition: the shortest path from a point ``p`` to a target ``t`` made of a straight first leg from
+    ``p`` to the centre of one of its (up to 9) neighbouring cells, then edges of `cell_graph` between
+    cell centres, then a straight last leg from a cell centre to ``t`` in that cell; or the straight
+    segment ``p -> t`` itself when every sample of it lies on the mask (`grid.segment_free`). So distances
+    are exact on open floor and grid-geodesic around obstacles. `field` holds, for every cell, the
+    distance from its centre through the graph (without the straight shortcut); `distance` adds the
+    first leg and the shortcut, so ``distance(p) <= field[cell of p]`` for a point on a cell centre.
+
+    Parameters
+    ----------
+    mask : numpy.ndarray
+        (H, W) bool, the cells one may stand on (a navmap's ``navigable``).
+    frame : GridFrame
+        The grid's placement in the world (origin in metres, resolution in m/cell).
+    targets_xy : numpy.ndarray
+        (N, 2) or (N, 3) world targets, metres (XY used); targets off the mask are ignored.
+    graph : tuple, optional
+        A ready ``cell_graph(mask)``; default ``graph_of(mask)`` (memoised by mask contents).
+    """
+
+    def __init__(self, mask: np.ndarray, frame: GridFrame, targets_xy: np.ndarray,
+                 graph: tuple[csr_matrix, np.ndarray] | None = None) -> None:
+        self.mask = np.asarray(mask, dtype=bool)
+        self.frame = frame
+        self.targets = np.atleast_2d(np.asarray(targets_xy, dtype=float))[:, :2] if len(targets_xy) else np.zeros((0, 2))
+        g, index = graph if graph is not None else graph_of(self.mask)
+        n = g.shape[0]
+        self.field = np.full(self.mask.shape, np.inf)
+        cells = frame.to_cell(self.targets) if len(self.targets) else np.zeros((0, 2), np.int64)
+        ok = frame.inside(cells)
+        nodes = np.full(len(cells), -1, dtype=np.int64)
+        nodes[ok] = index[cells[ok, 0], cells[ok, 1]]
+        keep = nodes >= 0
+        if not keep.any() or n == 0:
+            return
+        # A virtual source node n linked to each target's cell with the exact offset to the cell centre
+        # (cells); the graph holds both directions of every edge, so the directed search from n gives
+        # the undirected distances. The source row is appended to the CSR arrays without a COO round trip.
+        # Several targets in one cell: the nearest to its centre counts (one edge per cell).
+        offs = np.linalg.norm(self.targets[keep] - frame.to_world(cells[keep]), axis=1) / frame.resolution
+        kn = nodes[keep]
+        order = np.lexsort((offs, kn))
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = kn[order][1:] != kn[order][:-1]
+        src_nodes, src_offs = kn[order][first], offs[order][first]
+        indptr = np.concatenate([g.indptr, [g.indptr[-1] + len(src_nodes)]])
+        indices = np.concatenate([g.indices, src_nodes])
+        data = np.concatenate([g.data, src_offs + 1e-9])
+        big = csr_matrix((data, indices, indptr), shape=(n + 1, n + 1))
+        d = dijkstra(big, directed=True, indices=n)
+        self.field[self.mask] = d[:n] * frame.resolution
+
+    def distance(self, xy: np.ndarray) -> float:
+        """Return the geodesic distance (m) from a world XY point to the nearest target; inf if unreachable."""
+        p = np.asarray(xy, dtype=float)[:2]
+        if len(self.targets) == 0:
+            return math.inf
+        best = math.inf
+        eu = np.linalg.norm(self.targets - p[None], axis=1)
+        for k in np.argsort(eu, kind="stable")[:8]:
+            if eu[k] >= best:
+                break
+            if segment_free(self.mask, self.frame, p, self.targets[k]):
+                best = float(eu[k])
+                break
+        rc = self.frame.to_cell(p[None])[0]
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                c = np.array([rc[0] + dr, rc[1] + dc])
+                if not self.frame.inside(c[None])[0] or not self.mask[c[0], c[1]]:
+                    continue
+                centre = self.frame.to_world(c[None])[0]
+                if (dr or dc) and not segment_free(self.mask, self.frame, p, centre):
+                    continue
+                best = min(best, float(self.field[c[0], c[1]] + np.linalg.norm(centre - p)))
+        return best
+
+    def distances(self, xy: np.ndarray) -> np.ndarray:
+        """Return `distance` at each of (N, 2) world XY points, metres (N,)."""
+        pts = np.atleast_2d(np.asarray(xy, dtype=float))
+        return np.array([self.distance(p) for p in pts], dtype=float)

@@ -409,7 +409,16 @@ class RegionMap(Record):
 
 @dataclass
 class Relevance(Record):
-    """P(obj|region) and P(obj|receptacle) tables and the backend that produced them."""
+    """P(obj|region) and P(obj|receptacle) tables, the pair model of both directions, and who produced them.
+
+    ``p_pair[o, r, c]`` (when the backend has one) is the calibrated chance that a person calls
+    receptacle c in region r a right place for object o: the *search* direction ranks the pairs of
+    one object by it (`search`, `pair_score`: Semantic A*), the *placement* direction normalises it
+    over objects per pair (`joint`: placement). Without it, both directions use
+    P(obj|rgn) * P(obj|rec) as before. ``sources[o]`` says what produced row o (``learned``,
+    ``table``, ``embedding`` for a label the table lacks, a server backend's name, or
+    ``fallback:<backend>`` when the server's answer failed and the fallback answered).
+    """
 
     objects: list[str]
     regions: list[str]
@@ -419,14 +428,49 @@ class Relevance(Record):
     backend: str = "offline"
     model: str = ""
     fallbacks: list[str] = field(default_factory=list)
+    p_pair: np.ndarray | None = None  # (O, R, C): P(pair right | object), 0-1, rows not normalised
+    sources: list[str] = field(default_factory=list)  # (O,) what produced each object's row
 
-    def joint(self, region: str, receptacle: str) -> np.ndarray:
-        """Return P(obj|rgn) * P(obj|rec) over `objects` (the paper's eq. 5 without its typo)."""
+    def _pair_index(self, region: str, receptacle: str) -> tuple[int | None, int | None]:
         r = self.regions.index(region) if region in self.regions else None
         c = self.receptacles.index(receptacle) if receptacle in self.receptacles else None
-        pr = self.p_obj_region[:, r] if r is not None else np.full(len(self.objects), 1.0 / max(len(self.objects), 1))
-        pc = self.p_obj_receptacle[:, c] if c is not None else np.full(len(self.objects), 1.0 / max(len(self.objects), 1))
+        return r, c
+
+    def joint(self, region: str, receptacle: str) -> np.ndarray:
+        """Return the placement-direction relevance of every object for one (region, receptacle).
+
+        With a pair model: P(obj | rgn, rec) = p_pair[:, r, c] normalised over objects; else
+        P(obj|rgn) * P(obj|rec) (the paper's eq. 5 without its typo). An unknown region or
+        receptacle counts as uniform.
+        """
+        r, c = self._pair_index(region, receptacle)
+        n = len(self.objects)
+        if self.p_pair is not None and r is not None and c is not None:
+            col = np.asarray(self.p_pair[:, r, c], dtype=float)
+            tot = float(col.sum())
+            return col / tot if tot > 0 else np.full(n, 1.0 / max(n, 1))
+        pr = self.p_obj_region[:, r] if r is not None else np.full(n, 1.0 / max(n, 1))
+        pc = self.p_obj_receptacle[:, c] if c is not None else np.full(n, 1.0 / max(n, 1))
         return np.asarray(pr, dtype=float) * np.asarray(pc, dtype=float)
+
+    def pair_score(self, obj: str, region: str, receptacle: str) -> float:
+        """Return the search-direction score of one (region, receptacle) for an object (higher: look there first).
+
+        With a pair model: p_pair (comparable across pairs of one object); else the object's row
+        of P(obj|rgn) * P(obj|rec). Unknown regions or receptacles score by their known part only.
+        """
+        i = self.objects.index(obj)
+        r, c = self._pair_index(region, receptacle)
+        if self.p_pair is not None and r is not None and c is not None:
+            return float(self.p_pair[i, r, c])
+        pr = float(self.p_obj_region[i, r]) if r is not None else 1.0
+        pc = float(self.p_obj_receptacle[i, c]) if c is not None else 1.0
+        return pr * pc
+
+    def search(self, obj: str) -> list[tuple[str, str, float]]:
+        """Return every (region, receptacle, score) for an object, best place to look first."""
+        out = [(r, c, self.pair_score(obj, r, c)) for r in self.regions for c in self.receptacles]
+        return sorted(out, key=lambda t: (-t[2], t[0], t[1]))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -514,6 +558,9 @@ class Episode(Record):
     euclidean_distance: float = 0.0
     closest_goal_object_id: str = ""
     floor: int = 0
+    # The Habitat-style start filters this start passed (episodes.min/max_start_distance, start_ratio_threshold)
+    # and its geodesic / Euclidean ratio to the nearest view point.
+    start_filters: dict[str, float] = field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -159,7 +159,7 @@ def test_mjcf_bundle_loads_anywhere_and_view_points_see_objects(run_dir, tmp_pat
     b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "obj_000")
     assert data.xpos[b] == pytest.approx([1.5, 1.2, 0.75]) and data.xquat[b] == pytest.approx([math.sqrt(.5), 0, 0, math.sqrt(.5)])
     eps = load_json(bdir / "episodes.json", Episode)
-    nm = load_json(bdir / "navmap_0.json", NavMap)
+    nm = load_json(bdir / "oracle" / "navmap_0.json", NavMap)
     cfg = EpisodeConfig()
     lut = geom_segment_ids(model)
     n_checked = 0

@@ -1,13 +1,15 @@
-"""The A* baselines on a pipeline-made default-world dataset (issue 10's must-show; slow).
+"""The honest baselines on a pipeline-made default-world dataset (slow).
 
-    SDOVON_EVAL_DATASET=/tmp/nav200/export/mjcf [SDOVON_EVAL_EPISODES=N] [SDOVON_EVAL_WIDTH=320] \
+    SDOVON_EVAL_DATASET=/tmp/nav300/export/mjcf [SDOVON_EVAL_EPISODES=N] [SDOVON_EVAL_WIDTH=320] \
         pytest -m slow tests/test_nav_dataset.py -s
 
 Without SDOVON_EVAL_DATASET a small default-world dataset is generated with the pipeline (one
-apartment, two variants) into SDOVON_CACHE (reused by later runs). Margins: on a dataset of at least
-200 episodes Semantic A* beats Random A* by >= 0.08 SR and >= 0.10 SPL, and FN adds >= 0.30 SR to
-both agents; on the small generated dataset (too few episodes for the ranking to be stable) only
-the FN margins are asserted, with a looser 0.2.
+apartment, two variants) into SDOVON_CACHE (reused by later runs). No margin here is taken from an
+observed run: the test asserts orderings only. On any dataset, final navigation must help both A* agents
+(without FN an agent stops where it detected the goal, which is within the success distance of a view point
+only by chance). On a dataset of at least 300 episodes, Semantic A* must beat Random A*, and Random A* the
+no-prior Semantic Frontier agent, in SR and in SPL (the issue's must-show; the table with 95 % bootstrap
+intervals is printed). A small dataset is too small for the ranking to be decided, so it is printed only.
 """
 
 from __future__ import annotations
@@ -19,14 +21,13 @@ from pathlib import Path
 import pytest
 
 from sdovon_mj.config import AgentConfig
-from sdovon_mj.nav.agents import RandomAStar, SemanticAStar
-from sdovon_mj.suite.evaluate import evaluate, summarize
+from sdovon_mj.nav.agents import RandomAStar, SemanticAStar, SemanticFrontierAgent
+from sdovon_mj.suite.evaluate import evaluate, overall_table, summarize
 from sdovon_mj.suite import find_bundles, load_bundle
 
 pytestmark = pytest.mark.slow
 
-LARGE = 200
-SR_MARGIN, SPL_MARGIN, FN_MARGIN, FN_MARGIN_SMALL = 0.08, 0.10, 0.30, 0.2
+LARGE = 300
 PRESET = Path(__file__).resolve().parents[1] / "sdovon_mj" / "presets" / "demo.yaml"
 
 
@@ -51,27 +52,23 @@ def _dataset() -> tuple[Path, int | None]:
     return _small_dataset(), None
 
 
-def test_semantic_beats_random_and_fn_helps_on_default_world():
-    """Semantic A* > Random A* on SR and SPL (>= 200 episodes) and FN raises both agents' SR."""
+def test_honest_baselines_rank_and_fn_helps_on_default_world():
+    """FN helps both A* agents; with >= 300 episodes Semantic A* > Random A* > no-prior in SR and SPL."""
     root, limit = _dataset()
     total = sum(len(load_bundle(p).episodes) for p in find_bundles(root))
     n = total if limit is None else min(limit, total)
     w = int(os.environ.get("SDOVON_EVAL_WIDTH", "320"))
     body = AgentConfig(sensor_width=w, sensor_height=w * 3 // 4)
     out = {}
-    for cls in (SemanticAStar, RandomAStar):
-        for fn in (True, False):
+    for cls in (SemanticAStar, RandomAStar, SemanticFrontierAgent):
+        for fn in ((True, False) if cls is not SemanticFrontierAgent else (True,)):
             res = evaluate(root, cls(seed=0, final_nav=fn, agent=body), episodes=n, progress=False)
             assert len(res) == n
-            out[(cls.name, fn)] = summarize(res)
-    for (name, fn), s in out.items():
-        print(f"{name:15s} FN={fn!s:5s} n={s['episodes']} SR={s['success']:.3f} SPL={s['spl']:.3f} "
-              f"SoftSPL={s['soft_spl']:.3f} DTG={s['distance_to_goal']:.2f}")
-    r, s = out[("random-astar", True)], out[("semantic-astar", True)]
-    fn_margin = FN_MARGIN if n >= LARGE else FN_MARGIN_SMALL
+            out[f"{cls.name}{'' if fn else ' no-FN'}"] = summarize(res)
+    print(overall_table(out, paper=False))
     for name in ("random-astar", "semantic-astar"):
-        assert out[(name, True)]["success"] >= out[(name, False)]["success"] + fn_margin, (name, out)
+        assert out[name]["success"] > out[f"{name} no-FN"]["success"], out
     if n >= LARGE:
-        assert s["success"] >= r["success"] + SR_MARGIN, out
-        assert s["spl"] >= r["spl"] + SPL_MARGIN, out
-    assert s["success"] > 0.3, out  # the baselines find goals on real default-world data
+        sem, rnd, nop = out["semantic-astar"], out["random-astar"], out["semantic-frontier"]
+        for k in ("success", "spl"):
+            assert sem[k] > rnd[k] > nop[k], (k, out)

@@ -11,13 +11,13 @@ import numpy as np
 
 from sdovon_mj.errors import InputError
 from sdovon_mj.records import SceneVariant, dumps
-from sdovon_mj.sim.model import pose_settled
+from sdovon_mj.sim.model import object_segment_id, pose_settled
 from sdovon_mj.store import atomic_copy, atomic_write_text
 from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
 
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
-BUNDLE_VERSION = 1
+BUNDLE_VERSION = 2  # 2: generator artefacts (navmaps, labels, relevance, region maps) under oracle/
 
 
 def _resolve(spec_dir: Path, subdir: str, file: str) -> Path:
@@ -102,29 +102,39 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path) ->
     return spec.to_xml(), copied
 
 
-def write_scene_knowledge(run: RunView, scene: str, bdir: Path) -> list[Path]:
-    """Write what an agent knows of the static scene after its first visit (paper appendix D).
+def write_oracle(run: RunView, variant: SceneVariant, bdir: Path) -> list[Path]:
+    """Write the generator's artefacts of a variant into ``<bundle>/oracle/`` (out of honest agents' reach).
 
-    `instance_labels.json` (scene instance id -> label: what the gt detector reports), and, when the
-    run has them, `relevance.json` (object-region/receptacle commonsense) and `region_map_<floor>.json`
-    (the static scene's region map): the familiar-scene knowledge Semantic A* starts from.
+    ``navmap_<floor>.json`` (the environment's collision map and the metrics' geodesics),
+    ``instance_labels.json`` (scene instance id -> label) and ``object_labels.json`` (segmentation id -> category
+    of every placed object that came to rest): the ground-truth detector's label table; and, when the run has
+    them, ``relevance.json`` (the table that drove placement) and ``region_map_<floor>.json``. The suite reads
+    them for the environment and the gt detector; agents only through a declared oracle
+    (`sdovon_mj.suite.boundary`).
     """
+    odir = bdir / "oracle"
     out: list[Path] = []
-    labels = {str(i.id): i.label for i in sorted(run.scene(scene).instances, key=lambda i: i.id)}
-    atomic_write_text(bdir / "instance_labels.json", json.dumps(labels, indent=1, sort_keys=True) + "\n")
-    out.append(bdir / "instance_labels.json")
-    rel = run.relevance(scene)
+    for nm in run.navmaps(variant.scene):
+        atomic_write_text(odir / f"navmap_{nm.floor}.json", nm.to_json())
+        out.append(odir / f"navmap_{nm.floor}.json")
+    labels = {str(i.id): i.label for i in sorted(run.scene(variant.scene).instances, key=lambda i: i.id)}
+    atomic_write_text(odir / "instance_labels.json", json.dumps(labels, indent=1, sort_keys=True) + "\n")
+    objects = {str(object_segment_id(p.object_id)): p.category for p in variant.placements
+               if p.status in ("resting", "resting_elsewhere")}
+    atomic_write_text(odir / "object_labels.json", json.dumps(objects, indent=1, sort_keys=True) + "\n")
+    out += [odir / "instance_labels.json", odir / "object_labels.json"]
+    rel = run.relevance(variant.scene)
     if rel is not None:
-        atomic_write_text(bdir / "relevance.json", rel.to_json())
-        out.append(bdir / "relevance.json")
-    for rm in run.region_maps(scene):
-        atomic_write_text(bdir / f"region_map_{rm.floor}.json", rm.to_json())
-        out.append(bdir / f"region_map_{rm.floor}.json")
+        atomic_write_text(odir / "relevance.json", rel.to_json())
+        out.append(odir / "relevance.json")
+    for rm in run.region_maps(variant.scene):
+        atomic_write_text(odir / f"region_map_{rm.floor}.json", rm.to_json())
+        out.append(odir / f"region_map_{rm.floor}.json")
     return out
 
 
 class MjcfBundleExporter(Exporter):
-    """Writes <out>/<name>/<variant>/{scene.xml, assets/, episodes.json, navmap_<floor>.json, bundle.json}."""
+    """Writes <out>/<name>/<variant>/{scene.xml, assets/, episodes.json, bundle.json, oracle/}."""
 
     name = "mjcf"
 
@@ -144,15 +154,12 @@ class MjcfBundleExporter(Exporter):
             atomic_write_text(bdir / "scene.xml", xml)
             written += copied + [bdir / "scene.xml"]
             navmaps = run.navmaps(variant.scene)
-            for nm in navmaps:
-                atomic_write_text(bdir / f"navmap_{nm.floor}.json", nm.to_json())
-                written.append(bdir / f"navmap_{nm.floor}.json")
             atomic_write_text(bdir / "episodes.json", dumps([e.to_dict() for e in eps]))
             written.append(bdir / "episodes.json")
-            written += write_scene_knowledge(run, variant.scene, bdir)
+            written += write_oracle(run, variant, bdir)
             meta = {"bundle_version": BUNDLE_VERSION, "dataset": options.name, "split": options.split,
                     "scene": variant.scene, "variant": variant.name, "model": "scene.xml", "episodes": "episodes.json",
-                    "navmaps": {str(nm.floor): f"navmap_{nm.floor}.json" for nm in navmaps},
+                    "navmaps": {str(nm.floor): f"oracle/navmap_{nm.floor}.json" for nm in navmaps}, "oracle": "oracle/",
                     "keyframe": "settled" if variant.qpos is not None else "",
                     "categories": sorted({e.object_category for e in eps}), "n_episodes": len(eps),
                     "frame": "mujoco: metres, Z up, quaternions wxyz; positions are the agent base on the floor"}

@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         from ..suite import evaluate
 
         evaluate.run(argparse.Namespace(dataset=str(out / "export" / "mjcf"), agent=["random-astar", "semantic-astar"],
-                                        episodes=args.episodes, no_fn=False, fn_ablation=False, width=160, height=120,
+                                        episodes=args.episodes, no_fn=False, fn_ablation=False, fn_mode=None, width=160, height=120,
                                         seed=0, pictures=2, out=str(out / "eval")))
     print(f"done: {out.resolve()}")
     return 0

@@ -1,7 +1,8 @@
-"""ObjectNav episodes (paper section 3.5): goal view points, grid geodesics, start poses."""
+"""ObjectNav episodes (paper section 3.5): dense goal view points, start poses with Habitat's filters.
+
+Distances are `sdovon_mj.gridgraph.GeodesicField`, the one geodesic the suite and the agents use too.
+"""
 
 from .generate import build_goals, episode_report, generate_episodes, generate_episodes_with_report, n_episodes_formula
-from .geodesic import GeodesicField, distance_field, geodesic_distance
 
-__all__ = ["build_goals", "episode_report", "generate_episodes", "generate_episodes_with_report",
-           "n_episodes_formula", "GeodesicField", "distance_field", "geodesic_distance"]
+__all__ = ["build_goals", "episode_report", "generate_episodes", "generate_episodes_with_report", "n_episodes_formula"]

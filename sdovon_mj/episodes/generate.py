@@ -2,17 +2,22 @@
 
 Goals: every placed object body present in the composed model with at least one valid view point
 (objects nobody can see are dropped). For each category with goals: ``k_e`` episodes, each with a
-randomly chosen goal instance; the start is a navigable cell on that instance's floor whose grid
-geodesic distance to the category's nearest view point is finite and >= ``min_start_distance``
-(and finite to the chosen instance itself), with a uniformly random yaw. An episode's goals are all
-goal instances of its category (Habitat's ``goals_by_category``); its info gives the geodesic
-distance to the nearest view point, the Euclidean distance to that goal's centre and that goal.
+randomly chosen goal instance; the start is a navigable cell on that instance's floor, reachable from
+the chosen instance's view points, drawn with Habitat's start filters (habitat-lab's
+``is_compatible_episode``): its geodesic distance to the category's nearest view point lies in
+[``min_start_distance``, ``max_start_distance``], and a start whose geodesic / Euclidean ratio (to the
+nearest view point) is below ``start_ratio_threshold`` is kept only with probability
+20 * (ratio - 0.98)^2 (straight-line episodes are mostly rejected); a uniformly random yaw. The
+geodesic is `gridgraph.GeodesicField.distance`, the one the suite's SPL uses. An episode's goals are
+all goal instances of its category (Habitat's ``goals_by_category``); it records the geodesic distance
+to the nearest view point, the Euclidean distance to that goal's centre, that goal and the filters.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -21,7 +26,7 @@ import numpy as np
 from ..config import AgentConfig, EpisodeConfig
 from ..geometry import yaw_quat
 from ..records import Episode, Goal, NavMap, SceneVariant
-from .geodesic import GeodesicField
+from ..gridgraph import GeodesicField
 from .viewpoints import VisibilityChecker, floor_navmap, load_variant_model, object_box, object_view_points
 
 
@@ -31,6 +36,7 @@ class GoalReport:
 
     kept: list[str]
     dropped: dict[str, str]  # object_id -> reason
+    timing: dict[str, float] = field(default_factory=dict)  # where the time went: seconds and counts
 
 
 def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path,
@@ -50,7 +56,9 @@ def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | 
     agent : AgentConfig
         The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
     """
+    t0 = time.perf_counter()
     model, data = load_variant_model(variant, store_root)
+    t_load = time.perf_counter() - t0
     goals: list[Goal] = []
     floors: dict[str, int] = {}
     dropped: dict[str, str] = {}
@@ -74,7 +82,9 @@ def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | 
             floors[p.object_id] = nm.floor
     finally:
         checker.close()
-    return goals, floors, GoalReport([g.object_id for g in goals], dropped)
+    timing = {"load_s": t_load, **checker.timing, "goals_s": time.perf_counter() - t0,
+              "view_points": float(sum(len(g.view_points) for g in goals))}
+    return goals, floors, GoalReport([g.object_id for g in goals], dropped, timing)
 
 
 def generate_episodes(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path,
@@ -121,6 +131,7 @@ def generate_episodes_with_report(variant: SceneVariant, navmaps: list[NavMap], 
     """
     rng = np.random.default_rng(seed)
     goals, floors, report = build_goals(variant, navmaps, store_root, cfg, agent)
+    t0 = time.perf_counter()
     by_floor = {m.floor: m for m in navmaps}
     by_cat: dict[str, list[Goal]] = {}
     for g in goals:
@@ -131,7 +142,8 @@ def generate_episodes_with_report(variant: SceneVariant, navmaps: list[NavMap], 
     def goal_field(g: Goal) -> GeodesicField:
         """Return (and memoise) the geodesic field of one goal's view points."""
         if g.object_id not in goal_fields:
-            goal_fields[g.object_id] = GeodesicField(by_floor[floors[g.object_id]], _vp_xy(g))
+            nm = by_floor[floors[g.object_id]]
+            goal_fields[g.object_id] = GeodesicField(nm.navigable, nm.frame, _vp_xy(g))
         return goal_fields[g.object_id]
 
     for cat in sorted(by_cat):
@@ -141,21 +153,26 @@ def generate_episodes_with_report(variant: SceneVariant, navmaps: list[NavMap], 
             chosen = cat_goals[int(rng.integers(len(cat_goals)))]
             floor = floors[chosen.object_id]
             nm = by_floor[floor]
+            same_floor = [g for g in cat_goals if floors[g.object_id] == floor]
             if floor not in fields:
-                same_floor = [g for g in cat_goals if floors[g.object_id] == floor]
-                fields[floor] = GeodesicField(nm, np.concatenate([_vp_xy(g) for g in same_floor]))
+                fields[floor] = GeodesicField(nm.navigable, nm.frame, np.concatenate([_vp_xy(g) for g in same_floor]))
             start = _sample_start(rng, nm, fields[floor], goal_field(chosen), cfg)
             if start is None:
                 continue
-            xy, geo = start
+            xy, geo, ratio = start
             start_pos = np.array([xy[0], xy[1], nm.height])
-            closest = _closest_goal(nm, xy, [g for g in cat_goals if floors[g.object_id] == floor], goal_field)
+            closest = _closest_goal(xy, same_floor, goal_field)
             yaw = float(rng.uniform(0.0, 360.0))
             episodes.append(Episode(
                 episode_id=f"{variant.name}_{len(episodes):04d}", scene=variant.scene, variant=variant.name,
                 object_category=cat, start_position=start_pos, start_rotation=yaw_quat(yaw), goals=cat_goals,
                 geodesic_distance=float(geo), euclidean_distance=float(np.linalg.norm(closest.position - start_pos)),
-                closest_goal_object_id=closest.object_id, floor=floor))
+                closest_goal_object_id=closest.object_id, floor=floor,
+                start_filters={"min_geodesic_m": float(cfg.min_start_distance),
+                               "max_geodesic_m": float(cfg.max_start_distance),
+                               "geodesic_to_euclid_min_ratio": float(cfg.start_ratio_threshold),
+                               "geodesic_to_euclid_ratio": float(ratio)}))
+    report.timing["starts_s"] = time.perf_counter() - t0
     return episodes, report
 
 
@@ -164,28 +181,50 @@ def _vp_xy(goal: Goal) -> np.ndarray:
     return np.array([vp.position[:2] for vp in goal.view_points], dtype=float)
 
 
+def ratio_keep_probability(ratio: float, threshold: float) -> float:
+    """Return the probability of keeping a start of this geodesic / Euclidean ratio (habitat-lab's rule).
+
+    At or above ``threshold`` a start is always kept; below, with probability 20 * (ratio - 0.98)^2
+    (habitat-lab's ``_ratio_sample_rate``: 0.008 at ratio 1, 0.098 at 1.05), capped at 1.
+    """
+    if ratio >= threshold:
+        return 1.0
+    return float(min(1.0, 20.0 * (ratio - 0.98) ** 2))
+
+
 def _sample_start(rng: np.random.Generator, nm: NavMap, cat_field: GeodesicField, goal_field: GeodesicField,
-                  cfg: EpisodeConfig) -> tuple[np.ndarray, float] | None:
-    """Draw a navigable start cell with finite geodesic distance >= min_start_distance, or None."""
-    ok = np.isfinite(cat_field.field) & (cat_field.field >= cfg.min_start_distance) & np.isfinite(goal_field.field) & nm.navigable
+                  cfg: EpisodeConfig) -> tuple[np.ndarray, float, float] | None:
+    """Draw a start passing the Habitat filters; return (world XY, geodesic m, geodesic/Euclidean ratio) or None.
+
+    The cell field (distance through the graph from the cell centre) bounds the point geodesic from
+    above, so cells below ``min_start_distance`` there are excluded before drawing; each draw is then
+    checked with the exact geodesic (`GeodesicField.distance`, the suite's SPL denominator).
+    """
+    ok = (np.isfinite(cat_field.field) & (cat_field.field >= cfg.min_start_distance) & np.isfinite(goal_field.field)
+          & nm.navigable)
     cells = np.argwhere(ok)
     if len(cells) == 0:
         return None
+    targets = cat_field.targets
     for _ in range(max(1, cfg.max_start_tries)):
         rc = cells[int(rng.integers(len(cells)))]
-        geo = float(cat_field.field[rc[0], rc[1]])
-        if math.isfinite(geo):
-            return nm.frame.to_world(rc[None])[0], geo
+        xy = nm.frame.to_world(rc[None])[0]
+        geo = cat_field.distance(xy)
+        if not (math.isfinite(geo) and cfg.min_start_distance <= geo <= cfg.max_start_distance):
+            continue
+        euclid = float(np.min(np.linalg.norm(targets - xy[None], axis=1)))
+        ratio = geo / max(euclid, 1e-9)
+        if ratio < cfg.start_ratio_threshold and rng.random() > ratio_keep_probability(ratio, cfg.start_ratio_threshold):
+            continue
+        return xy, geo, ratio
     return None
 
 
-def _closest_goal(nm: NavMap, xy: np.ndarray, goals: list[Goal],
-                  field: Callable[[Goal], GeodesicField] | None = None) -> Goal:
+def _closest_goal(xy: np.ndarray, goals: list[Goal], field: Callable[[Goal], GeodesicField]) -> Goal:
     """Return the goal whose nearest view point is geodesically closest to a start point."""
     best, best_d = goals[0], math.inf
     for g in goals:
-        f = field(g) if field is not None else GeodesicField(nm, _vp_xy(g))
-        d = float(f.at(xy[None])[0])
+        d = field(g).distance(xy)
         if d < best_d:
             best, best_d = g, d
     return best

@@ -1,13 +1,21 @@
-"""Agents for the ObjectNav suite: Random A* and Semantic A* (paper appendix D), Oracle and Random.
+"""Agents for the ObjectNav suite: Random A*, Semantic A* (paper appendix D), the no-prior Semantic Frontier
+agent, and the labelled oracle and random references.
 
 Agents are plugins (`plugins.load("agent", name)`, entry point group ``sdovon_mj.agents``); the
 suite builds them as ``factory(nav=NavConfig, agent=AgentConfig, seed=int)`` (``nav.final_nav``
-switches final point-goal navigation). This package never imports the suite: environments come in
-through ``make_env`` and ``env``.
+switches final point-goal navigation, ``nav.fn_mode`` picks the paper's FN or our lattice variant).
+This package never imports the suite: environments come in through ``make_env`` and ``env``.
+
+Every agent declares its `Knowledge` (detector, pose sensor, prior exploration, oracle parts, FN); the suite
+grants exactly that (`sdovon_mj.suite.boundary`): the A* agents build receptacles, planes, regions and
+relevance from the frames of their own exploration with the pipeline's stages (`memory.extract_planes`);
+only agents that declare oracle parts read generator artefacts, and the tables label them.
 
 Protocol (what `suite.evaluate` and any plugin agent follow):
-    agent.prepare(bundle, make_env)   once per bundle; A* agents explore a scene they do not know yet
-    agent.reset(env, timestep)        at each episode start
+    agent.knowledge                   what it uses (`sdovon_mj.knowledge.Knowledge`)
+    agent.prepare(bundle, make_env)   once per bundle (an `AgentBundle`); A* agents explore a scene they do not
+                                      know yet; ``make_env(bundle, **kwargs)`` returns an `AgentEnv`
+    agent.reset(env, timestep)        at each episode start (``env``: an `AgentEnv`)
     action = agent.act(timestep)      one discrete action per step
     agent.wants_frame                 whether the next observation needs rendered images (runners
                                       may skip rendering otherwise; dm_env specs still hold)
@@ -24,17 +32,17 @@ from typing import Callable, Generator
 import numpy as np
 
 from ..actions import LOOK_DOWN, LOOK_UP, STOP, TURN_LEFT
-from ..config import AgentConfig, NavConfig, ReceptacleConfig
+from ..config import AgentConfig, NavConfig, PerceiveConfig, ReceptacleConfig, SemanticsConfig
 from ..errors import InputError
-from ..grid import GeodesicField
-from ..perceive.gt_detector import GroundTruthDetector
-from ..records import Relevance, ReceptaclePlane
+from ..grid import segment_free
+from ..gridgraph import GeodesicField
+from ..knowledge import Knowledge
+from ..records import Observation, Relevance
 from ..sim.camera import pose_cv
-from ..sim.model import object_segment_id
 from .control import Navigator, blocked_cells, lattice_approach, segment_checker
-from .frontier import explore
-from .goal import goal_points, infer_view_points, object_centre
-from .memory import SceneMemory, build_memory
+from .frontier import OccupancyMap, agent_frame, explore, scan_actions
+from .goal import approach_point, goal_points, infer_view_points, object_centre
+from .memory import SceneMemory, build_memory, extract_planes
 
 # Scene memories built by exploration, shared by every A* agent of a process (eval runs four agents
 # over the same scenes); keyed by scene, navmap, labels and exploration settings.
@@ -46,7 +54,7 @@ class Agent:
     """Base agent: generator-driven policies; `_run` yields actions and reads `self.ts`."""
 
     name = "agent"
-    needs_semantic = False
+    knowledge = Knowledge()
 
     def __init__(self, nav: NavConfig | None = None, seed: int = 0, agent: AgentConfig | None = None) -> None:
         self.nav = nav or NavConfig()
@@ -66,7 +74,7 @@ class Agent:
         self.info = {}
         self._gen = self._run(env)
         self._started = False
-        self.frame_fresh = False  # whether the current observation's images were rendered
+        self.frame_fresh = True  # whether the current observation's images were rendered (the suite renders resets)
         self._render_next = False
 
     def act(self, ts) -> int:
@@ -97,15 +105,20 @@ class RandomAgent(Agent):
         self.wants_frame = False
 
     def _run(self, env) -> Generator[int, object, None]:
-        rng = np.random.default_rng([self.seed, abs(hash(env.task.episode.episode_id)) % (2 ** 31)])
+        digest = hashlib.sha256(env.episode_id.encode("utf-8")).hexdigest()
+        rng = np.random.default_rng([self.seed, int(digest[:8], 16)])
         while True:
             yield STOP if rng.random() < self.p_stop else int(rng.integers(1, 6))
 
 
 class OracleAgent(Agent):
-    """Walks the shortest grid path to the nearest view point, lines up exactly, and stops (privileged)."""
+    """ORACLE (labelled upper bound): walks the shortest path to the nearest view point, lines up, stops.
+
+    It reads the generator's navigable map and view points (`Knowledge.oracle`).
+    """
 
     name = "oracle"
+    knowledge = Knowledge(pose="absolute", oracle=("navmap", "view_points"), fn="lattice")
 
     def __init__(self, nav: NavConfig | None = None, seed: int = 0, stop: bool = True,
                  agent: AgentConfig | None = None) -> None:
@@ -113,12 +126,18 @@ class OracleAgent(Agent):
         self.stop = stop
         self.wants_frame = False
 
+    def prepare(self, bundle, make_env: Callable[..., object]) -> None:
+        """Keep the bundle (its oracle part is read per episode)."""
+        self.bundle = bundle
+
     def _run(self, env) -> Generator[int, object, None]:
-        task = env.task
-        mask, frame = task.navmap.navigable, task.frame
+        oracle = self.bundle.oracle
+        vps3 = oracle.view_points(env.episode_id)
+        nm = oracle.navmap(oracle.episode_floor(env.episode_id))
+        mask, frame = nm.navigable, nm.frame
         pos = np.asarray(self.ts.observation["position"], float)[:2]
         from_agent = GeodesicField(mask, frame, pos[None])
-        vps = task.view_points[:, :2]
+        vps = vps3[:, :2]
         d = np.array([from_agent.distance(v) for v in vps])
         target = vps[int(np.argmin(d))]
         nv = Navigator(self.nav, lambda: mask, frame)
@@ -134,22 +153,21 @@ class OracleAgent(Agent):
             yield TURN_LEFT
 
 
-def goal_labels(bundle) -> dict[int, str]:
-    """Return segmentation id -> category of every goal object in a bundle (what the gt detector may see)."""
-    return {object_segment_id(g.object_id): g.category for e in bundle.episodes for g in e.goals}
-
-
 class ReceptacleAStar(Agent):
-    """Receptacle search with A* (paper algorithms 3/4); subclasses choose the receptacle order."""
+    """Receptacle search with A* (paper algorithms 3/4); subclasses choose the receptacle order.
+
+    Knowledge: the ground-truth detector, its pose in the scene frame (localized, as the paper's agents), and
+    what it built itself when it first explored the scene (appendix D): receptacles, planes and regions from
+    its own frames with the pipeline's stages, relevance from the semantics backend. Optional privileges
+    (``oracle_parts``) make it a labelled oracle variant, for the ablation of what each was worth.
+    """
 
     name = "receptacle-astar"
-    needs_semantic = True
 
     def __init__(self, nav: NavConfig | None = None, seed: int = 0, final_nav: bool | None = None,
-                 detector: Callable[[dict, str], np.ndarray | None] | None = None,
-                 receptacle_labels: tuple[str, ...] | None = None, relevance: Relevance | None = None,
-                 planes: list[ReceptaclePlane] | None = None, region_of: Callable[[np.ndarray], str] | None = None,
-                 explore_steps: int = 3000, explore_size: tuple[int, int] = (160, 120), planning: str = "explored",
+                 receptacle_labels: tuple[str, ...] | None = None, explore_steps: int = 3000,
+                 explore_size: tuple[int, int] = (160, 120), semantics: SemanticsConfig | None = None,
+                 perceive: PerceiveConfig | None = None, oracle_parts: tuple[str, ...] = (),
                  agent: AgentConfig | None = None) -> None:
         """Build the agent.
 
@@ -160,87 +178,112 @@ class ReceptacleAStar(Agent):
         seed
             Seed of the receptacle order's random choices.
         final_nav
-            Final point-goal navigation after a detection; default ``nav.final_nav``.
-        detector
-            ``detector(observation, category) -> (H, W) bool mask | None``; default: the gt detector
-            (`perceive.gt_detector.GroundTruthDetector` on the bundle's goal objects).
+            Final navigation after a detection; default ``nav.final_nav`` (``nav.fn_mode``: paper or lattice).
         receptacle_labels
-            Labels of receptacles to visit (default `ReceptacleConfig().labels`).
-        relevance
-            Relevance tables (default: the bundle's).
-        planes
-            Receptacle planes to use instead of the built-in top planes of explored instances.
-        region_of
-            World XY -> region label (default: the bundle's region map).
+            Labels of receptacles to visit (default `ReceptacleConfig().labels`; empty: the semantics backend
+            names them among the labels it detected, prompt C.1).
         explore_steps
             Step budget of the frontier exploration per scene.
         explore_size
             (width, height) in pixels of the exploration camera.
-        planning
-            ``explored`` (plan on what exploration saw) or ``navmap`` (the bundle's navigable map).
+        semantics
+            The semantics backend and region-map settings of its own ExtractPlanes (default `SemanticsConfig()`).
+        perceive
+            Fusion settings of its own ExtractPlanes (default `PerceiveConfig()`).
+        oracle_parts
+            Privileges, each making it a labelled oracle variant: ``navmap`` (plan on the generator's navigable
+            map), ``region_map``, ``relevance`` (the table that drove placement), ``instance_labels``.
         agent
             The agent's body, camera and ``eta_gt`` (default `AgentConfig()`).
         """
         super().__init__(nav, seed, agent)
         self.final_nav = self.nav.final_nav if final_nav is None else bool(final_nav)
-        self.detector = detector
-        self._gt: GroundTruthDetector | None = None
-        self.receptacle_labels = receptacle_labels or ReceptacleConfig().labels
-        self.relevance = relevance
-        self.planes = planes
-        self.region_of = region_of
+        self.receptacle_labels = ReceptacleConfig().labels if receptacle_labels is None else tuple(receptacle_labels)
         self.explore_steps = explore_steps
         self.explore_size = explore_size
-        self.planning = planning
+        self.semantics = semantics or SemanticsConfig()
+        self.perceive = perceive or PerceiveConfig()
+        self.oracle_parts = tuple(oracle_parts)
+        self.knowledge = Knowledge(detector="gt", pose="absolute", prior="scene", oracle=self.oracle_parts,
+                                   fn=self.nav.fn_mode if self.final_nav else "-")
         self.memories: dict[str, SceneMemory] = {}
+        self._relevance: dict[tuple[str, str], Relevance] = {}
+        self._backend = None
         self.wants_frame = False
 
     # -- memory (once per scene) -----------------------------------------------------------------
 
+    def backend(self):
+        """Return the semantics backend of the agent's own ExtractPlanes and relevance (built once)."""
+        if self._backend is None:
+            from ..semantics import get_backend
+
+            self._backend = get_backend(self.semantics)
+        return self._backend
+
     def prepare(self, bundle, make_env: Callable[..., object]) -> None:
-        """Explore the bundle's scene the first time it is seen and build the memory."""
+        """Explore the bundle's scene the first time it is seen and build the memory (ExtractPlanes)."""
         self.bundle = bundle
-        if self.detector is None:
-            self._gt = GroundTruthDetector(labels=goal_labels(bundle), agent=self.agent_config)
-        if self.relevance is None and bundle.relevance is not None:
-            self._relevance = bundle.relevance
-        else:
-            self._relevance = self.relevance
-        scene = bundle.episodes[0].scene if bundle.episodes else bundle.name
+        self.detector = bundle.detector
+        scene = bundle.scene
         if scene in self.memories:
             return
-        labels = bundle.instance_labels()
-        if not labels and self.planes is None:
-            raise InputError(bundle.root, "no instance labels (scene*.json SceneAsset) and no receptacle planes given")
-        key = None
-        if self.planes is None and self.region_of is None:  # memories of the built-in stages are shared by agents
-            nm = bundle.navmap(bundle.episodes[0].floor if bundle.episodes else 0)
-            key = (scene, hashlib.sha1(np.ascontiguousarray(nm.navigable).tobytes()).hexdigest(),
-                   tuple(sorted(labels.items())), tuple(self.receptacle_labels), self.explore_steps,
-                   tuple(self.explore_size), self.planning, dataclasses.replace(self.nav, final_nav=True),
-                   self.agent_config)
-            if key in _MEMORY_CACHE:
-                mem, self.explored = _MEMORY_CACHE[key]
-                self.memories[scene] = copy.copy(mem)  # own planning map: cells learned blocked stay with this agent
-                return
+        key = (scene, tuple(self.receptacle_labels), self.explore_steps, tuple(self.explore_size), self.oracle_parts,
+               dataclasses.replace(self.nav, final_nav=True, fn_mode="paper"), self.agent_config, self.semantics,
+               self.perceive, tuple(sorted(getattr(self.detector, "labels", {}).items())))
+        if key in _MEMORY_CACHE:
+            mem, self.explored = _MEMORY_CACHE[key]
+            self.memories[scene] = copy.copy(mem)  # own planning map: cells learned blocked stay with this agent
+            return
         w, h = self.explore_size
-        env = make_env(bundle, nav=self.nav, agent=self.agent_config, semantic=True, width=w, height=h,
+        env = make_env(bundle, nav=self.nav, agent=self.agent_config, width=w, height=h,
                        max_steps=self.explore_steps + 100)
-        frames, occ = explore(env, env.task.nav, max_steps=self.explore_steps)
-        frame = env.task.navmap.frame
-        trav = occ.traversable() if self.planning == "explored" else env.task.navmap.navigable
-        region_of = self.region_of
-        if region_of is None and bundle.region_map() is not None:
-            region_of = bundle.region_map().region_at
-        self.memories[scene] = build_memory(scene, frames, labels, trav, frame, self.receptacle_labels, self.planes,
-                                            region_of, env.task.nav.depth_max)
-        self.explored = {"frames": len(frames), "free_cells": int((occ.state == 1).sum()),
-                         "steps": int(env.task.steps)}
-        env.task.close()
-        if key is not None:
-            while len(_MEMORY_CACHE) >= _MEMORY_CACHE_SIZE:
-                _MEMORY_CACHE.pop(next(iter(_MEMORY_CACHE)))
-            _MEMORY_CACHE[key] = (copy.copy(self.memories[scene]), self.explored)
+        frames, occ = explore(env, self.nav, max_steps=self.explore_steps)
+        labels = self.receptacle_labels
+        if not labels:  # the backend names the receptacles among what the agent detected (prompt C.1)
+            from ..semantics import identify_receptacles
+
+            seen = sorted({d.label for f in frames for d in self.detector.detect(f)})
+            labels = tuple(identify_receptacles(seen, self.backend()))
+        instances, planes, rm, navmap = extract_planes(frames, self.detector, labels, occ, self.backend(),
+                                                       self.perceive, ReceptacleConfig(), self.semantics)
+        trav, frame = occ.traversable(), occ.frame
+        if "navmap" in self.oracle_parts:  # ORACLE: plan on the generator's map
+            nm = bundle.oracle.navmap(0)
+            trav, frame = nm.navigable, nm.frame
+        if "region_map" in self.oracle_parts:  # ORACLE: the generator's regions
+            true_rm = bundle.oracle.region_map(0)
+            if true_rm is not None:
+                planes = [dataclasses.replace(pl, region=true_rm.region_at(np.asarray(pl.polygon, float).mean(axis=0))
+                                              or pl.region) for pl in planes]
+        self.memories[scene] = build_memory(scene, [], {}, trav, frame, labels, planes)
+        self.memories[scene].instances = instances
+        self.explored = {"frames": len(frames), "free_cells": int((occ.state == 1).sum()), "steps": int(env.steps),
+                         "instances": len(instances), "planes": len(planes),
+                         "regions": sorted({pl.region for pl in planes if pl.region})}
+        env.close()
+        while len(_MEMORY_CACHE) >= _MEMORY_CACHE_SIZE:
+            _MEMORY_CACHE.pop(next(iter(_MEMORY_CACHE)))
+        _MEMORY_CACHE[key] = (copy.copy(self.memories[scene]), self.explored)
+
+    def relevance_for(self, memory: SceneMemory, category: str) -> Relevance | None:
+        """Return the relevance of a goal category to the memory's (region, receptacle) pairs.
+
+        From the semantics backend (cached per scene and category); the generator's table only for the
+        ``relevance`` oracle variant.
+        """
+        if "relevance" in self.oracle_parts:
+            return self.bundle.oracle.relevance
+        key = (memory.scene, category, tuple(self.bundle.categories))
+        if key not in self._relevance:
+            from ..semantics import relevance
+
+            regions = sorted({e.region for e in memory.entries if e.region} | set(self.semantics.region_labels))
+            recs = sorted({e.plane.label for e in memory.entries})
+            # over every goal category of the dataset: P(o|rec) and P(o|rgn) are normalised over the object list
+            objects = sorted(set(self.bundle.categories) | {category})
+            self._relevance[key] = relevance(objects, regions, recs, self.backend()) if recs else None
+        return self._relevance[key]
 
     def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
         """Return the memory entries in visiting order."""
@@ -253,9 +296,7 @@ class ReceptacleAStar(Agent):
         if not self.frame_fresh:
             return None
         category = str(self.ts.observation["objectgoal_text"])
-        if self.detector is not None:
-            return self.detector(self.ts.observation, category)
-        return self._gt.category_mask(self.ts.observation.get("semantic"), category)
+        return self.detector.category_mask(self.ts.observation.get("semantic"), category)
 
     def _rendered(self, action: int) -> Generator[int, object, None]:
         """Yield one action whose observation is rendered."""
@@ -290,7 +331,7 @@ class ReceptacleAStar(Agent):
     def _reconstruct(self, mask: np.ndarray) -> np.ndarray:
         """Return the goal object's world points (N, 3) from the masked depth (paper eq. 1-2)."""
         o = self.ts.observation
-        return goal_points(o["depth"], mask, self.env.task.K, self._camera(), self.nav.depth_min, self.nav.depth_max)
+        return goal_points(o["depth"], mask, self.env.K, self._camera(), self.nav.depth_min, self.nav.depth_max)
 
     def _face(self, nv: Navigator, point: np.ndarray) -> Generator[int, object, None]:
         """Turn towards a point, rendering every turn's observation."""
@@ -339,7 +380,37 @@ class ReceptacleAStar(Agent):
         return False
 
     def _final_nav(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
-        """FN: walk to the nearest inferred view point of the detected goal that the detector confirms."""
+        """FN after a detection: the paper's (default) or our lattice variant (``nav.fn_mode``)."""
+        if self.nav.fn_mode == "lattice":
+            return (yield from self._final_nav_lattice(memory, nv, pts))
+        return (yield from self._final_nav_paper(memory, nv, pts))
+
+    def _final_nav_paper(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
+        """The paper's FN: Navigate(p_g | eps_nav) to the detected object's centre, then face it with it in view.
+
+        p_g usually stands on furniture: the agent drives towards the reachable cell of its map nearest to p_g
+        and stops as soon as it is within eps_nav of p_g.
+        """
+        centre = object_centre(pts)
+        pos = np.asarray(self.ts.observation["position"], float)[:2]
+        reached = bool(np.linalg.norm(pos - centre[:2]) <= self.nav.eps_nav)
+        if not reached:
+            # straight towards p_g when the agent's map shows that way free, else to the nearest reachable cell
+            away = (pos - centre[:2]) / max(float(np.linalg.norm(pos - centre[:2])), 1e-9)
+            direct = centre[:2] + away * (self.nav.eps_nav - self.nav.forward_step / 2.0)
+            if segment_free(memory.traversable, memory.frame, pos, direct):
+                target, tol = direct, self.nav.forward_step / 2.0
+            else:
+                target = approach_point(centre, memory.traversable, memory.frame, pos)
+                tol = self.nav.forward_step / 2.0 if target is None else max(
+                    self.nav.forward_step / 2.0, self.nav.eps_nav - float(np.linalg.norm(target - centre[:2])))
+            if target is not None:
+                reached = yield from nv.goto(target, tol, self.ts)
+        seen = yield from self._verify(centre, nv)
+        return {"fn": "paper", "fn_reached": bool(reached), "fn_verified": bool(seen)}
+
+    def _final_nav_lattice(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
+        """Our FN variant: walk to the nearest inferred lattice view point of the goal that the detector confirms."""
         centre = object_centre(pts)
         pos = np.asarray(self.ts.observation["position"], float)[:2]
         cands, _d = infer_view_points(pts, memory.traversable, memory.frame, pos, self.nav.fn_viewpoint_radius,
@@ -352,17 +423,31 @@ class ReceptacleAStar(Agent):
                 continue
             tried += 1
             if (yield from self._verify(centre, nv)):
-                return {"fn_candidates": int(len(cands)), "fn_checks": tried, "fn_verified": True}
-        return {"fn_candidates": int(len(cands)), "fn_checks": tried, "fn_verified": False}
+                return {"fn": "lattice", "fn_candidates": int(len(cands)), "fn_checks": tried, "fn_verified": True}
+        return {"fn": "lattice", "fn_candidates": int(len(cands)), "fn_checks": tried, "fn_verified": False}
+
+    def _found(self, memory: SceneMemory, nv: Navigator, mask: np.ndarray, entry, visited: int) -> Generator[int, object, None]:
+        """The goal is detected: reconstruct it, run FN (when on) and STOP."""
+        goal = self._reconstruct(mask)
+        self.info = {"detected": True, "goal": object_centre(goal).tolist() if len(goal) else None,
+                     "nav_points": visited, "receptacle": entry.plane.label if entry else "",
+                     "region": entry.region if entry else ""}
+        if self.final_nav and len(goal):
+            self.info.update((yield from self._final_nav(memory, nv, goal)))
+        yield STOP
 
     def _run(self, env) -> Generator[int, object, None]:
-        scene = env.task.episode.scene
+        scene = env.scene
         memory = self.memories.get(scene)
         if memory is None:
             raise InputError(scene, "agent.prepare(bundle, make_env) was not called for this scene")
-        rng = np.random.default_rng([self.seed, int(env.task.episode_index)])
+        rng = np.random.default_rng([self.seed, int(env.episode_index)])
         nv = self._navigator(memory)
         visited = 0
+        mask = self._detect()  # the goal may be in view where the episode starts
+        if mask is not None:
+            yield from self._found(memory, nv, mask, None, visited)
+            return
         for entry in self.order(memory, str(self.ts.observation["objectgoal_text"]), rng):
             pts = [p for p in entry.nav_points]
             while pts:
@@ -375,12 +460,7 @@ class ReceptacleAStar(Agent):
                 visited += 1
                 mask = yield from self._observe()
                 if mask is not None:
-                    goal = self._reconstruct(mask)
-                    self.info = {"detected": True, "goal": object_centre(goal).tolist() if len(goal) else None,
-                                 "nav_points": visited, "receptacle": entry.plane.label, "region": entry.region}
-                    if self.final_nav and len(goal):
-                        self.info.update((yield from self._final_nav(memory, nv, goal)))
-                    yield STOP
+                    yield from self._found(memory, nv, mask, entry, visited)
                     return
                 pos = np.asarray(self.ts.observation["position"], float)[:2]
                 pts = [p for p in pts if np.linalg.norm(p - pos) >= self.nav.d_next]
@@ -405,5 +485,121 @@ class SemanticAStar(ReceptacleAStar):
 
     def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
         """Return the entries ranked by joint relevance (random among ties)."""
-        return memory.ranked(category, self._relevance, rng)
+        return memory.ranked(category, self.relevance_for(memory, category), rng)
 
+
+
+class SemanticFrontierAgent(ReceptacleAStar):
+    """No prior knowledge (the paper's VLFM / L3MVN rows): frontier exploration scored by semantics, per episode.
+
+    Each episode starts from nothing (no memory of earlier episodes, GPS+compass only: it works in its
+    start frame). It scans, builds an occupancy map from depth, and drives to the frontier with the best
+    utility ``(0.1 + s) / (1 + d / 5 m)``, where ``d`` is the path length to it and ``s`` the highest relevance
+    P(goal | label), from the semantics backend, of the labels its detector reported within
+    ``nav.frontier_radius`` of the frontier (L3MVN-style; `Relevance.pair_score` in the label's best region,
+    as the agent does not know the regions). When the detector sees the goal it runs FN and stops.
+    """
+
+    name = "semantic-frontier"
+
+    def __init__(self, nav: NavConfig | None = None, seed: int = 0, final_nav: bool | None = None,
+                 semantics: SemanticsConfig | None = None, agent: AgentConfig | None = None) -> None:
+        """Build the agent (parameters as `ReceptacleAStar`'s of the same names)."""
+        super().__init__(nav, seed, final_nav, semantics=semantics, agent=agent)
+        self.knowledge = Knowledge(detector="gt", pose="gps+compass", prior="none",
+                                   fn=self.nav.fn_mode if self.final_nav else "-")
+
+    def prepare(self, bundle, make_env: Callable[..., object]) -> None:
+        """Nothing to learn in advance: keep the detector and the goal categories."""
+        self.bundle = bundle
+        self.detector = bundle.detector
+
+    def _scores(self, category: str, labels: list[str]) -> dict[str, float]:
+        """Return label -> relevance of the goal category to it (the backend's P(goal | label))."""
+        from ..semantics import relevance
+
+        labels = sorted(set(labels) - {category})
+        if not labels:
+            return {}
+        key = (category, tuple(labels), tuple(self.bundle.categories))
+        if key not in self._relevance:
+            objects = sorted(set(self.bundle.categories) | {category})
+            self._relevance[key] = relevance(objects, sorted(self.semantics.region_labels), labels, self.backend())
+        rel = self._relevance[key]
+        return {lab: max(rel.pair_score(category, r, lab) for r in rel.regions) for lab in labels}
+
+    def _run(self, env) -> Generator[int, object, None]:
+        from scipy.sparse.csgraph import dijkstra
+
+        from ..gridgraph import cell_graph
+        from ..grid import nearest_true
+
+        category = str(self.ts.observation["objectgoal_text"])
+        frame = agent_frame(np.zeros(2), self.nav.map_size, self.nav.map_resolution)
+        occ = OccupancyMap(frame, floor_z=0.0, agent=self.agent_config)
+        occ.mark_free_disc(np.zeros(2), self.agent_config.radius + 0.05)
+        seen: list[tuple[np.ndarray, str]] = []  # (world XY in the start frame, label) of detections
+        nv = Navigator(self.nav, occ.traversable, frame,
+                       on_blocked=lambda p, yaw: occ.mark_blocked(blocked_cells(frame, p, yaw, self.nav.forward_step)))
+        visits = 0
+        budget = self.nav.max_steps - 40  # leave room for FN
+
+        def look() -> np.ndarray | None:
+            o = self.ts.observation
+            T = self._camera()
+            occ.integrate(o["depth"], self.env.K, T, self.nav.depth_max)
+            obs = Observation(rgb=o["rgb"], depth=o["depth"][..., 0], K=self.env.K, T_cam=T,
+                              segmentation=o.get("semantic"), view_id=self.env.steps)
+            for det in self.detector.detect(obs):
+                pts = goal_points(o["depth"], det.mask, self.env.K, T, self.nav.depth_min, self.nav.depth_max)
+                if len(pts):
+                    seen.append((np.median(pts[:, :2], axis=0), det.label))
+            return self._detect()
+
+        while self.env.steps < budget:
+            mask = look() if self.frame_fresh else None
+            for _ in range(scan_actions(self.nav.turn_angle)):
+                if mask is not None or self.env.steps >= budget:
+                    break
+                yield from self._rendered(TURN_LEFT)
+                mask = look()
+            if mask is not None:
+                goal = self._reconstruct(mask)
+                self.info = {"detected": True, "goal": object_centre(goal).tolist() if len(goal) else None,
+                             "frontiers": visits}
+                if self.final_nav and len(goal):
+                    mem = SceneMemory(env.scene, frame, occ.traversable())
+                    self.info.update((yield from self._final_nav(mem, nv, goal)))
+                yield STOP
+                return
+            pos = np.asarray(self.ts.observation["position"], float)[:2]
+            occ.mark_free_disc(pos, self.agent_config.radius + 0.05)
+            trav = occ.traversable()
+            clusters = occ.frontiers()
+            rc = frame.to_cell(pos[None])[0]
+            if not trav[rc[0], rc[1]]:
+                near = nearest_true(trav, rc)
+                rc = near if near is not None else rc
+            if not clusters or not trav[rc[0], rc[1]]:
+                break
+            g, index = cell_graph(trav)
+            dist = dijkstra(g, indices=int(index[rc[0], rc[1]]))
+            scores = self._scores(category, [lab for _xy, lab in seen])
+            best, best_u = None, -1.0
+            for cells in clusters:
+                d = dist[index[cells[:, 0], cells[:, 1]]] * frame.resolution
+                k = int(np.argmin(d))
+                if not np.isfinite(d[k]) or d[k] < 0.5:
+                    continue
+                xy = frame.to_world(cells[k][None])[0]
+                near_labels = [lab for q, lab in seen if np.linalg.norm(q - xy) <= self.nav.frontier_radius]
+                s = max((scores.get(lab, 0.0) for lab in near_labels), default=0.0)
+                u = (0.1 + s) / (1.0 + float(d[k]) / 5.0)
+                if u > best_u:
+                    best, best_u = xy, u
+            if best is None:
+                break
+            visits += 1
+            yield from nv.goto(best, 0.25, self.ts)
+        self.info = {"detected": False, "frontiers": visits}
+        yield STOP

@@ -1,7 +1,7 @@
 """Frontier-based exploration: an occupancy map built from depth, frontiers, a scan at each frontier.
 
-The map is aligned with the bundle's NavMap frame (origin, resolution) but holds only what the
-agent saw: depth pixels back-projected to the world; hits between `obstacle_min` above the floor and
+The map is the agent's own (`agent_frame`: a square around where it starts) and holds only what it
+saw: depth pixels back-projected to the world; hits between `obstacle_min` above the floor and
 the agent height (+ margin) mark occupied cells; rays carve free cells from the camera to each hit
 in 2D. Planning uses free cells away from occupied ones by the agent radius; unknown is not
 traversable. Exploration drives any dm_env-style environment whose observations include `position`,
@@ -131,22 +131,31 @@ def scan_actions(turn_angle: float) -> int:
     return max(1, int(round(360.0 / turn_angle)))
 
 
+def agent_frame(position: np.ndarray, size: float, resolution: float) -> GridFrame:
+    """Return the agent's own map frame: a square of `size` metres centred on a position, `resolution` m/cell."""
+    n = int(math.ceil(size / resolution))
+    origin = np.asarray(position, float)[:2] - 0.5 * n * resolution
+    return GridFrame(origin, float(resolution), (n, n))
+
+
 def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random.Generator | None = None) -> tuple[list[Observation], OccupancyMap]:
     """Explore from the environment's current episode start; return the frames seen and the occupancy map.
 
-    The agent's body and camera are the environment's (``env.task.agent``, an `AgentConfig`); moves
-    and the depth range come from ``nav``.
+    ``env`` is what the suite gives agents (`sdovon_mj.suite.boundary.AgentEnv`: reset, step, ``K``, ``agent``,
+    ``set_render``); its observations hold the pose the agent is granted (``position``, ``heading``, ``pitch``).
+    The map is the agent's own: ``nav.map_size`` metres square around the start at ``nav.map_resolution``,
+    the floor at the start's height. Moves and the depth range come from ``nav``.
     """
     from .control import Navigator, blocked_cells
 
     ts = env.reset()
-    task = env.task
-    frame = task.navmap.frame
-    agent = task.agent
-    occ = OccupancyMap(frame, floor_z=float(task.navmap.height), agent=agent)
+    start = np.asarray(ts.observation["position"], float)
+    frame = agent_frame(start, nav.map_size, nav.map_resolution)
+    agent = env.agent
+    occ = OccupancyMap(frame, floor_z=float(start[2]), agent=agent)
     frames: list[Observation] = []
     state = {"ts": ts, "steps": 0, "views": 0}
-    K = task.K
+    K = env.K
 
     def record(ts) -> None:
         o = ts.observation
@@ -159,7 +168,7 @@ def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random
                                       segmentation=o.get("semantic"), view_id=len(frames)))
 
     def step(action: int, render: bool):
-        task.render_frames = render
+        env.set_render(render)
         state["ts"] = env.step(action)
         state["steps"] += 1
         return state["ts"]

@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..sim.camera import backproject
-from ..grid import GeodesicField, GridFrame, nearest_true
+from ..grid import GridFrame, nearest_true
+from ..gridgraph import GeodesicField
 
 
 def goal_points(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, T_cam: np.ndarray, depth_min: float,
@@ -88,3 +89,31 @@ def infer_view_points(points: np.ndarray, traversable: np.ndarray, frame: GridFr
     xy, d = xy[ok], d[ok]
     order = np.lexsort((xy[:, 1], xy[:, 0], d))
     return xy[order], d[order]
+
+
+def approach_point(target: np.ndarray, traversable: np.ndarray, frame: GridFrame, position: np.ndarray) -> np.ndarray | None:
+    """Return the reachable traversable cell (world XY) nearest to a target, from an agent position (None: none).
+
+    What Navigate(p_g | eps_nav) drives to when p_g itself stands on furniture: the closest point the agent
+    can reach on its own map by a path no longer than its straight distance to the target now.
+    """
+    pos = np.asarray(position, float)[:2]
+    rc = frame.to_cell(pos[None])[0]
+    if not (frame.inside(rc[None])[0] and traversable[rc[0], rc[1]]):
+        near = nearest_true(traversable, rc)
+        if near is None:
+            return None
+        pos = frame.to_world(near[None])[0]
+    field = GeodesicField(traversable, frame, pos[None])
+    cells = np.argwhere(np.isfinite(field.field))
+    if len(cells) == 0:
+        return None
+    xy = frame.to_world(cells)
+    d = np.linalg.norm(xy - np.asarray(target, float)[None, :2], axis=1)
+    # no detour longer than the way the agent is from the target: it closes in, it does not wander off
+    here = float(np.linalg.norm(pos - np.asarray(target, float)[:2]))
+    near = field.field[cells[:, 0], cells[:, 1]] <= here
+    if not near.any():
+        return None
+    k = int(np.argmin(np.where(near, d, np.inf)))
+    return xy[k]

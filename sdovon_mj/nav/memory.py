@@ -9,7 +9,7 @@ back-projected and grouped by segmentation id; a receptacle's plane is the top s
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 from scipy import ndimage
@@ -46,12 +46,15 @@ class SceneMemory:
     instances: list[Instance] = field(default_factory=list)
 
     def ranked(self, category: str, relevance: Relevance | None, rng: np.random.Generator) -> list[MemoryEntry]:
-        """Return entries by decreasing joint relevance P(g|rgn) * P(g|rec) (ties in random order)."""
+        """Return entries by decreasing search-direction relevance of (region, receptacle) for the goal (ties random).
+
+        `Relevance.pair_score`: with a pair model, how likely people would put the goal there, comparable
+        across pairs of one object; else the paper's P(g|rgn) * P(g|rec).
+        """
         tiebreak = rng.permutation(len(self.entries))
         if relevance is None or category not in relevance.objects:
             return [self.entries[i] for i in tiebreak]
-        oi = relevance.objects.index(category)
-        scores = np.array([relevance.joint(e.region, e.plane.label)[oi] for e in self.entries])
+        scores = np.array([relevance.pair_score(category, e.region, e.plane.label) for e in self.entries])
         order = sorted(range(len(self.entries)), key=lambda i: (-scores[i], tiebreak[i]))
         return [self.entries[i] for i in order]
 
@@ -155,3 +158,48 @@ def build_memory(scene: str, frames: Sequence[Observation], labels: dict[int, st
         region = p.region or (region_of(centre) if region_of else "")
         entries.append(MemoryEntry(p, region, pts))
     return SceneMemory(scene, frame, traversable, entries, instances)
+
+
+def extract_planes(frames: Sequence[Observation], detector: Any, receptacle_labels: Sequence[str], occupancy: Any,
+                   backend: Any, perceive_cfg: Any = None, receptacle_cfg: Any = None,
+                   semantics_cfg: Any = None) -> tuple[list[Instance], list[ReceptaclePlane], Any, Any]:
+    """The paper's ExtractPlanes (appendix D) on an agent's own exploration frames, with the pipeline's stages.
+
+    Perceive (detect, back-project, fuse, correct: `perceive.perceive_scene`) -> receptacle planes (EM:
+    `receptacles.find_receptacle_planes`) -> region map over the explored free space (sliding window and the
+    semantics backend: `semantics.region_map`) -> planes annotated with their region (`semantics.annotate_planes`).
+
+    Parameters
+    ----------
+    frames : sequence of Observation
+        The exploration frames (RGB-D, segmentation for the gt detector, K, T_cam in the agent's frame).
+    detector : Detector
+        The agent's detector (the suite's ground-truth detector, or a model).
+    receptacle_labels : sequence of str
+        Labels that count as receptacles.
+    occupancy : OccupancyMap
+        The agent's occupancy map after exploring (its free space becomes the region map's floor).
+    backend : Backend
+        The semantics backend naming regions (`semantics.get_backend`).
+    perceive_cfg, receptacle_cfg, semantics_cfg : optional
+        Stage configs (defaults: `PerceiveConfig()`, `ReceptacleConfig()`, `SemanticsConfig()`).
+
+    Returns
+    -------
+    instances, planes, region_map, navmap
+        The fused instances, the annotated receptacle planes, the RegionMap and the NavMap of the explored floor.
+    """
+    from ..config import PerceiveConfig, ReceptacleConfig, SemanticsConfig
+    from ..perceive import perceive_scene
+    from ..receptacles import find_receptacle_planes
+    from ..records import NavMap
+    from ..semantics import annotate_planes, region_map
+    from .frontier import FREE
+
+    instances = perceive_scene(frames, None, perceive_cfg or PerceiveConfig(), detector=detector)
+    planes = find_receptacle_planes(instances, receptacle_cfg or ReceptacleConfig(), tuple(receptacle_labels))
+    fr = occupancy.frame
+    navmap = NavMap(floor=0, height=float(occupancy.floor_z), origin=np.asarray(fr.origin, float),
+                    resolution=float(fr.resolution), navigable=occupancy.traversable(), free=occupancy.state == FREE)
+    rm = region_map(instances, navmap, backend, semantics_cfg or SemanticsConfig())
+    return instances, annotate_planes(planes, {0: (navmap, rm)}), rm, navmap

@@ -5,11 +5,15 @@ Layout read (exporters/mjcf_bundle writes it; the fixture builder in `sdovon_mj.
     <variant>/
       <name>.xml              scene + objects MJCF, loads from any cwd (asset paths relative to it)
       episodes.json           list of records.Episode (MuJoCo frame)
-      navmap*.json            records.NavMap (one per floor; floor 0 first)
-      scene*.json             optional records.SceneAsset (instance labels, rooms)
-      instance_labels.json    optional {"<instance id>": "<label>"} (used when no SceneAsset loads)
-      relevance.json          optional records.Relevance (for Semantic A*)
-      region_map*.json        optional records.RegionMap (for Semantic A*)
+      oracle/                 the generator's artefacts: the environment and the gt detector read them,
+                              agents only as declared oracles (`suite.boundary`)
+        navmap*.json          records.NavMap (one per floor; floor 0 first)
+        scene*.json           optional records.SceneAsset (instance labels, rooms)
+        instance_labels.json  optional {"<instance id>": "<label>"} (used when no SceneAsset loads)
+        object_labels.json    optional {"<segmentation id>": "<category>"} of every placed object
+        relevance.json        optional records.Relevance (the table that drove placement)
+        region_map*.json      optional records.RegionMap
+(Bundles written before the oracle/ folder hold the same files beside episodes.json; they load too.)
 
 A dataset is a folder of such variant folders (or one variant folder itself).
 """
@@ -38,6 +42,7 @@ class Bundle:
     relevance: Relevance | None = None
     region_maps: list[RegionMap] = field(default_factory=list)
     labels: dict[int, str] = field(default_factory=dict)
+    object_labels: dict[int, str] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -64,6 +69,17 @@ class Bundle:
             return {int(i.id): i.label for i in self.scene.instances}
         return dict(self.labels)
 
+    def detector_labels(self) -> dict[int, str]:
+        """Return segmentation id -> label of everything the gt detector reports: scene instances and placed objects.
+
+        Bundles without ``object_labels.json`` name only their goal objects.
+        """
+        from ..sim.model import object_segment_id
+
+        objects = dict(self.object_labels) or {object_segment_id(g.object_id): g.category
+                                               for e in self.episodes for g in e.goals}
+        return {**self.instance_labels(), **objects}
+
     def categories(self) -> list[str]:
         """Return the sorted goal categories of the episodes."""
         return sorted({e.object_category for e in self.episodes})
@@ -74,6 +90,11 @@ def find_bundles(root: str | Path) -> list[Path]:
     root = Path(root)
     if not root.is_dir():
         raise InputError(root, "dataset folder not found")
+    if (root / "config.yaml").is_file() and (root / "scenes").is_dir():  # a run folder: its MJCF export
+        if not (root / "export" / "mjcf").is_dir():
+            raise InputError(root, "is a run folder without an MJCF export (export/mjcf): run "
+                                   f"`sdovon-mj export {root} --format mjcf --out DIR` and evaluate DIR")
+        root = root / "export" / "mjcf"
     if (root / EPISODES).exists():
         return [root]
     found = sorted(p.parent for p in root.rglob(EPISODES))
@@ -113,35 +134,40 @@ def load_bundle(path: str | Path) -> Bundle:
     episodes = _load(ep_path, Episode)
     if not isinstance(episodes, list):
         raise InputError(ep_path, "expected a list of Episode records")
-    nav_paths = sorted(root.glob("navmap*.json")) or sorted(root.glob("*navmap*.json"))
+    odir = root / "oracle" if (root / "oracle").is_dir() else root
+    nav_paths = sorted(odir.glob("navmap*.json")) or sorted(odir.glob("*navmap*.json"))
     if not nav_paths:
-        raise InputError(root, "bundle folder lacks a navmap*.json (records.NavMap)")
+        raise InputError(root, "bundle folder lacks an oracle/navmap*.json (records.NavMap)")
     navmaps = []
     for p in nav_paths:
         nm = _load(p, NavMap)
         navmaps.extend(nm if isinstance(nm, list) else [nm])
     navmaps.sort(key=lambda n: n.floor)
     scene = None
-    for p in sorted(root.glob("scene*.json")):
+    for p in sorted(odir.glob("scene*.json")):
         try:
             scene = load_json(p, SceneAsset)
             break
         except (RecordError, json.JSONDecodeError, TypeError, ValueError):
             continue
     relevance = None
-    for p in (root / "relevance.json", root.parent / "relevance.json"):
+    for p in (odir / "relevance.json", root.parent / "relevance.json"):
         if p.exists():
             relevance = _load(p, Relevance)
             break
     region_maps: list[RegionMap] = []
-    for p in sorted(root.glob("region_map*.json")):
+    for p in sorted(odir.glob("region_map*.json")):
         rm = _load(p, RegionMap)
         region_maps.extend(rm if isinstance(rm, list) else [rm])
-    labels: dict[int, str] = {}
-    lp = root / "instance_labels.json"
-    if lp.exists():
-        try:
-            labels = {int(k): str(v) for k, v in json.loads(lp.read_text(encoding="utf-8")).items()}
-        except (json.JSONDecodeError, ValueError, AttributeError) as e:
-            raise InputError(lp, f"expected a JSON object of instance id -> label ({e})") from None
-    return Bundle(root, _find_mjcf(root), episodes, navmaps, scene, relevance, region_maps, labels)
+    labels, objects = _labels(odir / "instance_labels.json"), _labels(odir / "object_labels.json")
+    return Bundle(root, _find_mjcf(root), episodes, navmaps, scene, relevance, region_maps, labels, objects)
+
+
+def _labels(path: Path) -> dict[int, str]:
+    """Read a {"<id>": "<label>"} file ({} when absent; InputError naming a malformed one)."""
+    if not path.exists():
+        return {}
+    try:
+        return {int(k): str(v) for k, v in json.loads(path.read_text(encoding="utf-8")).items()}
+    except (json.JSONDecodeError, ValueError, AttributeError) as e:
+        raise InputError(path, f"expected a JSON object of id -> label ({e})") from None

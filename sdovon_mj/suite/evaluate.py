@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import time
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,9 @@ from ..config import AgentConfig, NavConfig
 from ..errors import InputError
 from ..progress import Progress
 from ..store import atomic_write_bytes, atomic_write_text
+from ..knowledge import knowledge_of
+from ..perceive.gt_detector import GroundTruthDetector
+from .boundary import AgentBundle, AgentEnv
 from .bundle import find_bundles, load_bundle
 from .objectnav import make_environment
 
@@ -64,6 +68,8 @@ def evaluate(dataset: str | Path, agent: Any, nav: NavConfig | None = None, epis
     """
     nav = nav or agent.nav
     body = getattr(agent, "agent_config", None) or AgentConfig()
+    know = knowledge_of(agent)
+    gt = know.detector == "gt"
     bundles = [load_bundle(p) for p in find_bundles(dataset)]
     total = sum(len(b.episodes) for b in bundles)
     limit = total if episodes is None else min(int(episodes), total)
@@ -73,22 +79,31 @@ def evaluate(dataset: str | Path, agent: Any, nav: NavConfig | None = None, epis
         for b in bundles:
             if len(results) >= limit:
                 break
-            agent.prepare(b, make_environment)
-            env = make_environment(b, nav=nav, agent=body, semantic=agent.needs_semantic)
+            # the ground-truth detector is the suite's: it knows every label (scene instances and placed objects)
+            detector = GroundTruthDetector(labels=b.detector_labels(), agent=body) if gt else None
+
+            def make_env(_view: Any, b=b, **kw: Any) -> AgentEnv:
+                return AgentEnv(make_environment(b, semantic=gt, **kw), know)
+
+            agent.prepare(AgentBundle(b, know, detector), make_env)
+            env = make_environment(b, nav=nav, agent=body, semantic=gt)
+            aenv = AgentEnv(env, know)
             try:
                 for i in range(len(b.episodes)):
                     if len(results) >= limit:
                         break
                     env.task.set_next_episode(i)
-                    ts = env.reset()
-                    agent.reset(env, ts)
+                    env.task.render_frames = True  # every episode's first observation is rendered
+                    ts = aenv.reset()
+                    agent.reset(aenv, ts)
                     while not ts.last():
                         a = agent.act(ts)
                         env.task.render_frames = bool(getattr(agent, "wants_frame", True))
-                        ts = env.step(a)
+                        ts = aenv.step(a)
                     m = env.task.metrics()
                     ep = env.task.episode
-                    r = {"agent": label, "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene,
+                    r = {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle,
+                         "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene,
                          "category": ep.object_category, **m.to_dict(), "collisions": env.task.collisions,
                          "info": agent.info, "trajectory": np.round(np.array(env.task.trajectory)[:, :2], 4).tolist()}
                     results.append(r)
@@ -112,21 +127,60 @@ def _finite(x: Any) -> Any:
     return x
 
 
-def summarize(results: list[dict]) -> dict[str, float]:
-    """Return SR, SPL, Soft SPL and mean DTG over result dicts."""
+def summarize(results: list[dict], bootstrap: int = 1000, seed: int = 0) -> dict[str, Any]:
+    """Return SR, SPL, Soft SPL and mean DTG over result dicts, with 95 % bootstrap intervals.
+
+    The intervals resample episodes with replacement (``bootstrap`` resamples, percentile method); ``<m>_ci``
+    holds (low, high) for each metric. Non-finite distances to goal are left out of the DTG mean.
+    """
     ms = [M.EpisodeMetrics(r["success"], r["spl"], r["soft_spl"], r["distance_to_goal"], r["shortest"], r["path_length"])
           for r in results]
-    return M.aggregate(ms)
+    out: dict[str, Any] = dict(M.aggregate(ms))
+    if results and bootstrap > 0:
+        rng = np.random.default_rng(seed)
+        cols = {k: np.array([float(r[k]) if r[k] is not None else np.nan for r in results])
+                for k in ("success", "spl", "soft_spl", "distance_to_goal")}
+        idx = rng.integers(0, len(results), size=(int(bootstrap), len(results)))
+        for k, v in cols.items():
+            vv = np.where(np.isfinite(v), v, np.nan)
+            means = np.nanmean(vv[idx], axis=1)
+            lo, hi = np.nanpercentile(means, [2.5, 97.5])
+            out[f"{k}_ci"] = (round(float(lo), 4), round(float(hi), 4))
+    if results:
+        out["knowledge"] = results[0].get("knowledge", "")
+    return out
 
 
-def overall_table(rows: dict[str, dict[str, float]], paper: bool = True) -> str:
-    """Return the overall markdown table (ours, and the paper's GT-detector numbers next to them)."""
-    lines = ["| Baseline | Episodes | Success Rate | SPL | Soft SPL | Dist2Goal |", "|---|---|---|---|---|---|"]
+def episodes_per_minute(results: list[dict], seconds: float) -> float:
+    """Return evaluation speed: episodes per wall minute."""
+    return 60.0 * len(results) / seconds if seconds > 0 else float("nan")
+
+
+def _cell(s: dict, k: str) -> str:
+    ci = s.get(f"{k}_ci")
+    return f"{s[k]:.3f} [{ci[0]:.3f}, {ci[1]:.3f}]" if ci else f"{s[k]:.3f}"
+
+
+def overall_table(rows: dict[str, dict[str, Any]], paper: bool = True) -> str:
+    """Return the overall markdown table: each agent's knowledge, metrics with 95 % bootstrap intervals.
+
+    With ``paper``, the paper's GT-detector rows follow under their own heading: its scenes (HM3D/MP3D scans),
+    objects and detector differ from ours, so its numbers are context, not a comparison.
+    """
+    lines = ["| Agent | Knowledge | Episodes | Success Rate [95% CI] | SPL [95% CI] | Soft SPL [95% CI] | Dist2Goal (m) |",
+             "|---|---|---|---|---|---|---|"]
     for name, s in rows.items():
-        lines.append(f"| {name} | {s['episodes']} | {s['success']:.4f} | {s['spl']:.4f} | {s['soft_spl']:.4f} | {s['distance_to_goal']:.4f} |")
-        if paper and name in PAPER:
-            p = PAPER[name]
-            lines.append(f"| paper: {name} GT | 3k | {p['success']:.4f} | {p['spl']:.4f} | {p['soft_spl']:.4f} | {p['distance_to_goal']:.4f} |")
+        lines.append(f"| {name} | {s.get('knowledge', '')} | {s['episodes']} | {_cell(s, 'success')} | {_cell(s, 'spl')} | "
+                     f"{_cell(s, 'soft_spl')} | {s['distance_to_goal']:.3f} |")
+    shown = [n for n in rows if paper and n in PAPER]
+    if shown:
+        lines += ["", "Paper (SD-OVON-3k, tables 4-5, GT detector): other scenes (HM3D/MP3D scans), other objects, the",
+                  "paper's own agents and FN; context only, not comparable with the rows above.", "",
+                  "| Baseline | Episodes | Success Rate | SPL | Soft SPL | Dist2Goal |", "|---|---|---|---|---|---|"]
+        for name in shown:
+            pp = PAPER[name]
+            lines.append(f"| paper: {name} GT | 3k | {pp['success']:.4f} | {pp['spl']:.4f} | {pp['soft_spl']:.4f} | "
+                         f"{pp['distance_to_goal']:.4f} |")
     return "\n".join(lines)
 
 
@@ -188,6 +242,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=int, default=None, help="evaluate at most N episodes")
     parser.add_argument("--no-fn", action="store_true", help="A* agents without final point-goal navigation")
     parser.add_argument("--fn-ablation", action="store_true", help="run A* agents with and without FN (paper table 5)")
+    parser.add_argument("--fn-mode", choices=("paper", "lattice"), default=None,
+                        help="FN variant: paper (Navigate(p_g|eps_nav), default) or lattice (our inferred-view-point variant)")
     parser.add_argument("--width", type=int, default=None, help="camera width (default AgentConfig.sensor_width: 640)")
     parser.add_argument("--height", type=int, default=None, help="camera height (default AgentConfig.sensor_height: 480)")
     parser.add_argument("--seed", type=int, default=0)
@@ -200,25 +256,29 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if not Path(args.dataset).is_dir():
         raise InputError(args.dataset, "dataset folder not found")
-    nav = NavConfig()
+    nav = NavConfig() if args.fn_mode is None else replace(NavConfig(), fn_mode=args.fn_mode)
     upd = {k: v for k, v in (("sensor_width", args.width), ("sensor_height", args.height)) if v}
     body = replace(AgentConfig(), **upd)
     names = args.agent or ["random-astar", "semantic-astar"]
     runs: list[tuple[str, str, bool]] = []
     for n in names:
-        astar = n in ("random-astar", "semantic-astar")
+        astar = n in ("random-astar", "semantic-astar", "semantic-frontier")
         if astar and args.fn_ablation:
             runs += [(n, n, True), (n, f"{n} no-FN", False)]
         else:
             runs.append((n, f"{n} no-FN" if (astar and args.no_fn) else n, not args.no_fn))
     per_agent: dict[str, list[dict]] = {}
+    speed: dict[str, float] = {}
     for name, label, fn in runs:
         agent = make_agent(name, nav, args.seed, final_nav=fn, agent=body)
+        t0 = time.perf_counter()
         res = evaluate(args.dataset, agent, nav, args.episodes, out, label)
+        speed[label] = episodes_per_minute(res, time.perf_counter() - t0)
+        print(f"{label}: {len(res)} episodes, {speed[label]:.1f} episodes/min (incl. its scene exploration)")
         per_agent[label] = res
         for r in res[: max(0, args.pictures)]:
             trajectory_picture(args.dataset, r, out / "pictures" / label.replace(" ", "_") / f"{r['episode_id']}.png")
-    rows = {label: summarize(res) for label, res in per_agent.items()}
+    rows = {label: {**summarize(res), "episodes_per_minute": round(speed[label], 2)} for label, res in per_agent.items()}
     md = "## Overall\n\n" + overall_table(rows) + "\n\n## Per category (top-5, >= 2 successes)\n\n" + category_table(per_agent) + "\n"
     atomic_write_text(out / "tables.md", md)
     atomic_write_text(out / "summary.json", json.dumps(_finite(rows), indent=1, sort_keys=True) + "\n")

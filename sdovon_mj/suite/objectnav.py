@@ -41,8 +41,8 @@ from ..sim import GROUP_AGENT
 from ..sim.camera import intrinsics, pose_cv, vfov_from_hfov
 from ..sim.model import geom_segment_ids, object_segment_id, segment_image
 from ..sim.render import SceneRenderer
-from ..grid import GeodesicField, lookup, segment_free
-from ..gridgraph import cell_graph
+from ..grid import lookup, segment_free
+from ..gridgraph import GeodesicField, cell_graph
 from .bundle import Bundle, load_bundle
 
 _CAM_BASE = np.array([0.5, 0.5, -0.5, -0.5])  # body +X forward -> MuJoCo camera looking along +X

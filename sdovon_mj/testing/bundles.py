@@ -20,13 +20,15 @@ import numpy as np
 import mujoco
 
 from ..geometry import yaw_quat
-from ..grid import GeodesicField, GridFrame, erode
+from ..grid import GridFrame, erode
+from ..gridgraph import GeodesicField
 from ..records import (Episode, Goal, NavMap, RegionMap, Relevance, Room, SceneAsset, SemanticInstance,
                        ViewPoint, save_json)
+from ..sim.model import object_segment_id
 from ..store import atomic_write_text, user_cache_dir
 from .mjcf import corner_box_geom, outer_walls
 
-CACHE_VERSION = "vp4"  # bump when the written bundles change (vp4: shared box writer, source sdovon_mj.testing.bundles)
+CACHE_VERSION = "vp6"  # bump when the written bundles change (vp6: oracle/ folder, dense 0.1 m view points)
 
 RES = 0.05
 ORIGIN = np.array([-0.2, -0.2])
@@ -165,10 +167,11 @@ def _mjcf(objects: list[tuple[str, str, np.ndarray, tuple]]) -> str:
 
 def _view_points(model: mujoco.MjModel, data: mujoco.MjData, nm: NavMap, oid: str, centre: np.ndarray,
                  rng: np.random.Generator, cap: int, half: np.ndarray | None = None) -> list[ViewPoint]:
-    """View points as the episode generator makes them: navigable cells of a 0.25 m grid-anchored lattice
-    within 1 m of the object's footprint, from which a ray at camera height reaches the object."""
+    """Dense view points: navigable cells of a grid-anchored lattice at the success distance (0.1 m) within 1 m
+    of the object's footprint, from which a ray at camera height reaches the object's centre or a corner
+    (so stopping anywhere that sees the object, close by, lies within the success distance of one)."""
     frame = nm.frame
-    stride = max(1, int(round(0.25 / nm.resolution)))
+    stride = max(1, int(round(0.1 / nm.resolution)))
     rc = np.argwhere(nm.navigable)
     rc = rc[(rc[:, 0] % stride == 0) & (rc[:, 1] % stride == 0)]
     xy = frame.to_world(rc)
@@ -191,14 +194,14 @@ def _view_points(model: mujoco.MjModel, data: mujoco.MjData, nm: NavMap, oid: st
                 yaw = math.degrees(math.atan2(centre[1] - cam[1], centre[0] - cam[0]))
                 out.append(ViewPoint(np.array([p[0], p[1], 0.0]), yaw_quat(yaw), 0.0))
                 break
-    if len(out) > cap:
+    if cap > 0 and len(out) > cap:
         keep = np.sort(rng.choice(len(out), cap, replace=False))
         out = [out[i] for i in keep]
     return out
 
 
 def build_fixture(out_dir: str | Path, variants: int = 2, seed: int = 0, episodes_per_category: int = 3,
-                  misplace: float = 0.1, max_viewpoints: int = 200) -> Path:
+                  misplace: float = 0.1, max_viewpoints: int = 0) -> Path:
     """Write `variants` bundle folders of the fixture apartment under out_dir; return out_dir.
 
     Parameters
@@ -214,7 +217,7 @@ def build_fixture(out_dir: str | Path, variants: int = 2, seed: int = 0, episode
     misplace : float
         Probability in [0, 1] that an object lands on a receptacle it does not prefer.
     max_viewpoints : int
-        Most view points kept per goal object.
+        Most view points kept per goal object (0: all, the default: dense, as the episode generator's).
     """
     out = Path(out_dir)
     nm = navmap()
@@ -254,13 +257,17 @@ def build_fixture(out_dir: str | Path, variants: int = 2, seed: int = 0, episode
                 episodes.append(Episode(f"{name}_{cat}_{k}", "fixture_apartment", name, cat, np.array([s[0], s[1], 0.0]),
                                         yaw_quat(float(rng.uniform(-180, 180))), goals, float(dg), eu, closest, 0))
         save_json(episodes, root / "episodes.json")
-        save_json(nm, root / "navmap.json")
+        # generator artefacts go under oracle/, as the MJCF bundle exporter writes them
+        save_json(nm, root / "oracle" / "navmap.json")
         scene = scene_asset(f"{name}.xml")
-        save_json(scene, root / "scene.json")
-        atomic_write_text(root / "instance_labels.json",
+        save_json(scene, root / "oracle" / "scene.json")
+        atomic_write_text(root / "oracle" / "instance_labels.json",
                           json.dumps({str(i.id): i.label for i in scene.instances}, indent=1, sort_keys=True) + "\n")
-        save_json(region_map(), root / "region_map.json")
-        save_json(relevance_table(), root / "relevance.json")
+        atomic_write_text(root / "oracle" / "object_labels.json",
+                          json.dumps({str(object_segment_id(oid)): cat for oid, cat, _c, _s in objects}, indent=1,
+                                     sort_keys=True) + "\n")
+        save_json(region_map(), root / "oracle" / "region_map.json")
+        save_json(relevance_table(), root / "oracle" / "relevance.json")
     return out
 
 

@@ -1,0 +1,75 @@
+"""The honest baselines and what each former privilege was worth (issue 14): prints markdown tables.
+
+    python bench/bench_baselines.py --dataset RUN/export/mjcf [--episodes N] [--width 320] [--quick]
+    python bench/bench_baselines.py --generate /tmp/nav300 [--scenes 0 1 2 3] [--variants 3] [--k-e 3]
+
+Rows: Semantic A*, Random A* (own exploration + ExtractPlanes, GT detector, localized), the no-prior Semantic
+Frontier agent (GPS+compass only), each with the paper's FN, without FN and with our lattice FN; then Semantic
+A* with one former privilege switched on at a time (ORACLE rows: the generator's relevance table, region map,
+navigable map) and all of them. Each row: SR, SPL, Soft SPL with 95 % bootstrap intervals, DTG, episodes/min.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from dataclasses import replace
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from sdovon_mj.config import AgentConfig, NavConfig, load_config  # noqa: E402
+from sdovon_mj.nav.agents import RandomAStar, SemanticAStar, SemanticFrontierAgent  # noqa: E402
+from sdovon_mj.suite.evaluate import episodes_per_minute, evaluate, overall_table, summarize  # noqa: E402
+
+
+def generate_dataset(root: Path, scenes: list[int], variants: int, k_e: int) -> Path:
+    """Generate a default-world dataset with the pipeline (resumable); return its MJCF export."""
+    from sdovon_mj.pipeline import generate
+
+    cfg = load_config(None, [f"world.scene_seeds={scenes}", f"place.k_v={variants}", f"episodes.k_e={k_e}",
+                             "world.object_variants=2", "exporters=[mjcf]"])
+    t0 = time.perf_counter()
+    summary = generate(root, cfg, jobs=2, progress=False)
+    print(f"generated {root} in {time.perf_counter() - t0:.0f} s; failures: {[f.error for f in summary.failures]}")
+    return root / "export" / "mjcf"
+
+
+def main() -> None:
+    """Run the agents and print the tables."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dataset", default=None, help="MJCF bundle dataset folder")
+    ap.add_argument("--generate", default=None, help="generate a default-world dataset into this run folder first")
+    ap.add_argument("--scenes", type=int, nargs="*", default=[0, 1, 2, 3])
+    ap.add_argument("--variants", type=int, default=3)
+    ap.add_argument("--k-e", type=int, default=3)
+    ap.add_argument("--episodes", type=int, default=None)
+    ap.add_argument("--width", type=int, default=320)
+    ap.add_argument("--quick", action="store_true", help="the three agents with the paper's FN only")
+    a = ap.parse_args()
+    root = Path(a.dataset) if a.dataset else generate_dataset(Path(a.generate), a.scenes, a.variants, a.k_e)
+    body = AgentConfig(sensor_width=a.width, sensor_height=a.width * 3 // 4)
+    nav, lattice = NavConfig(), replace(NavConfig(), fn_mode="lattice")
+    runs = [("semantic-astar", SemanticAStar(agent=body)), ("random-astar", RandomAStar(agent=body)),
+            ("semantic-frontier (no prior)", SemanticFrontierAgent(agent=body))]
+    if not a.quick:
+        runs += [("semantic-astar no-FN", SemanticAStar(agent=body, final_nav=False)),
+                 ("random-astar no-FN", RandomAStar(agent=body, final_nav=False)),
+                 ("semantic-astar lattice-FN", SemanticAStar(nav=lattice, agent=body)),
+                 ("random-astar lattice-FN", RandomAStar(nav=lattice, agent=body))]
+        for parts in (("relevance",), ("region_map",), ("navmap",), ("relevance", "region_map", "navmap")):
+            runs.append((f"ORACLE semantic-astar + {'+'.join(parts)}", SemanticAStar(agent=body, oracle_parts=parts)))
+    rows = {}
+    for label, agent in runs:
+        t0 = time.perf_counter()
+        res = evaluate(root, agent, nav if "lattice" not in label else lattice, a.episodes, progress=False)
+        rows[label] = {**summarize(res), "episodes_per_minute": episodes_per_minute(res, time.perf_counter() - t0)}
+        print(f"{label}: {len(res)} episodes, SR {rows[label]['success']:.3f}, SPL {rows[label]['spl']:.3f}, "
+              f"{rows[label]['episodes_per_minute']:.1f} episodes/min", flush=True)
+    print()
+    print(overall_table(rows, paper=False))
+
+
+if __name__ == "__main__":
+    main()

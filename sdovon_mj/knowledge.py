@@ -1,0 +1,62 @@
+"""What an agent knows: its declared `Knowledge` (detector, pose sensor, prior exploration, oracle parts, FN).
+
+Agents (`sdovon_mj.nav`) declare it as a class attribute ``knowledge``; the suite grants exactly that and no
+more (`sdovon_mj.suite.boundary`), and every result table prints it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import SdovonError
+
+ORACLE_PARTS = ("navmap", "region_map", "relevance", "instance_labels", "view_points")
+POSES = ("gps+compass", "absolute")
+PRIORS = ("none", "scene")
+
+
+class KnowledgeError(SdovonError, PermissionError):
+    """An agent read something its declared knowledge does not grant."""
+
+
+@dataclass(frozen=True)
+class Knowledge:
+    """What an agent uses: its detector, its pose sensor, prior exploration, oracle parts, FN variant."""
+
+    detector: str = "gt"  # gt: the ground-truth detector (segmentation + true labels of every visible object)
+    pose: str = "gps+compass"  # or "absolute": localized in the scene frame
+    prior: str = "none"  # "scene": explores each scene once before its episodes and keeps what it built
+    oracle: tuple[str, ...] = ()  # generator artefacts it reads (ORACLE_PARTS): an oracle, an upper bound
+    fn: str = "-"  # final navigation after a detection: "paper" (Navigate(p_g|eps_nav)), "lattice", "-" none
+
+    def __post_init__(self) -> None:
+        if self.pose not in POSES:
+            raise ValueError(f"unknown pose sensor {self.pose!r} ({', '.join(POSES)})")
+        if self.prior not in PRIORS:
+            raise ValueError(f"unknown prior {self.prior!r} ({', '.join(PRIORS)})")
+        bad = sorted(set(self.oracle) - set(ORACLE_PARTS))
+        if bad:
+            raise ValueError(f"unknown oracle parts {bad} ({', '.join(ORACLE_PARTS)})")
+
+    @property
+    def is_oracle(self) -> bool:
+        """Return whether the agent reads any generator artefact (then it is a labelled upper bound)."""
+        return bool(self.oracle)
+
+    def describe(self) -> str:
+        """Return a one-line description for result tables."""
+        parts = [f"detector {self.detector}", "pose absolute (localized)" if self.pose == "absolute" else "GPS+compass",
+                 "own exploration of the scene" if self.prior == "scene" else "no prior", f"FN {self.fn}"]
+        if self.oracle:
+            parts.append("ORACLE: " + ", ".join(self.oracle))
+        return "; ".join(parts)
+
+
+def knowledge_of(agent: Any) -> Knowledge:
+    """Return an agent's declared knowledge (an agent that declares none gets the default: no oracle)."""
+    k = getattr(agent, "knowledge", None)
+    return k if isinstance(k, Knowledge) else Knowledge()
+
+
+__all__ = ["Knowledge", "KnowledgeError", "ORACLE_PARTS", "knowledge_of"]
