@@ -121,8 +121,18 @@ def _obj_references(path: Path) -> list[Path]:
             tex = mtl.parent / name
             if not tex.is_file():
                 raise InputError(display_path(path), f"texture file '{name}' referenced by {mtl.name} not found")
+            if tex.stat().st_size == 0:  # trimesh would drop it silently and the object would lose its texture
+                raise InputError(display_path(path), f"texture file '{name}' referenced by {mtl.name} is empty (0 bytes)")
             refs.append(tex)
     return refs
+
+
+def read_json(path: str | os.PathLike[str]) -> Any:
+    """Read a JSON file or raise InputError naming it."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise InputError(display_path(path), f"cannot read JSON: {e}") from None
 
 
 def _gltf_json(path: Path) -> dict[str, Any]:
@@ -172,6 +182,9 @@ def _gltf_references(path: Path) -> list[Path]:
                     continue
                 what = "texture file" if kind == "images" else "buffer file"
                 raise InputError(display_path(path), f"{what} '{uri}' not found")
+            if p.stat().st_size == 0 and (kind == "buffers" or i in colour_images):
+                what = "texture file" if kind == "images" else "buffer file"
+                raise InputError(display_path(path), f"{what} '{uri}' is empty (0 bytes)")
             refs.append(p)
     if path.suffix.lower() == ".glb":
         data = path.read_bytes()
@@ -363,7 +376,14 @@ def load_mesh(path: str | Path, units: str | float = "auto", up: str = "auto", k
     rot, up_name = up_rotation(up, path)
     parts: list[Part] = []
     nan_count = 0
-    for node in sorted(scene.graph.nodes_geometry):
+    # trimesh names the nodes of a multi-primitive glTF mesh '<node>_<6 random hex>': sort by the node name without
+    # it, then by the geometry's load order (the primitive order), so parts come in the same order in every process
+    order = {g: k for k, g in enumerate(scene.geometry)}
+
+    def node_key(node: str) -> tuple[str, int, str]:
+        return re.sub(r"_[0-9a-f]{6}$", "", node), order.get(scene.graph[node][1], -1), node
+
+    for node in sorted(scene.graph.nodes_geometry, key=node_key):
         transform, gname = scene.graph[node]
         geom = scene.geometry.get(gname)
         if geom is None or not hasattr(geom, "faces") or geom.faces is None or len(geom.faces) == 0:

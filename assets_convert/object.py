@@ -120,7 +120,8 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
                           units: str | float = "auto", up: str = "auto", target_size: float = 0.0,
                           density: float | None = None, name: str | None = None,
                           config: ConvertConfig | None = None,
-                          cache_dir: str | Path | None = None) -> tuple[ObjectAsset, dict[str, Any]]:
+                          cache_dir: str | Path | None = None,
+                          source: str | None = None) -> tuple[ObjectAsset, dict[str, Any]]:
     """Convert one object and also return report figures (faces, hulls, seconds, cache hit, warnings).
 
     Parameters
@@ -130,11 +131,12 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
     out_dir : str or Path
         Output root; the object goes to ``<out_dir>/objects/<name>/``.
     category : str, optional
-        Object category (default: ``meta.json`` beside the file, else the grandparent folder name).
+        Object category (default: ``assets.yaml`` metadata, ``meta.json`` beside the file, else the grandparent
+        folder name).
     units : str or float
-        "auto", a unit name or metres per file unit ("auto": the config's).
+        "auto", a unit name or metres per file unit ("auto": ``assets.yaml`` metadata, else the config's).
     up : str
-        The file's up axis ("auto": the config's).
+        The file's up axis ("auto": ``assets.yaml`` metadata, else the config's).
     target_size : float
         When > 0, rescale so the largest extent is this many metres (0: the config's).
     density : float, optional
@@ -145,21 +147,30 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
         Conversion settings (default: ``ConvertConfig()``).
     cache_dir : str or Path, optional
         Conversion cache folder (default: the user cache).
+    source : str, optional
+        The source recorded in the asset (default: `path`; a multi-part object names its folder, not its scratch GLB).
     """
     from .load import referenced_files
+    from .metadata import meta_for
 
     t0 = time.perf_counter()
     cfg = config or ConvertConfig()
     path = Path(path)
     out_dir = Path(out_dir)
-    files = referenced_files(path)
+    meta = meta_for(path)  # assets.yaml / <file>.yaml: wins over the run-wide config, not over explicit arguments
+    files = referenced_files(path) + meta.sources
     name = sanitize(name) if name else default_name(path)
-    category = category or default_category(path)
+    category = category or meta.category or default_category(path)
+    if str(units) == "auto" and (meta.units is not None or meta.scale != 1.0):
+        units = meta.units_value(cfg.units)
+    if up == "auto" and meta.up is not None:
+        up = meta.up
     u, a, t = _resolve(cfg, units, up, target_size)
     dens = float(density) if density else density_for(category, cfg.default_density)
     params = {"kind": "object", "name": name, "category": category, "units": u, "up": a, "target_size": t,
+              **({"source": source} if source else {}),
               "density": dens, "config": {k: getattr(cfg, k) for k in sorted(cfg.__dataclass_fields__)
-                                          if k not in ("jobs", "timeout_s")}}
+                                          if k not in ("jobs", "timeout_s", "add_floor")}}
     key = cache.cache_key(files, params)
     root = cache.cache_root(cache_dir)
     target = out_dir / "objects" / name
@@ -174,9 +185,11 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
     try:
         asset, info = _build(path, tmp, name, category, u, a, t, dens, cfg)
         asset.content_hash = key
-        asset.source = display_path(path)
+        asset.source = source or display_path(path)
         atomic_write_text(tmp / "asset.json", dumps(asset.to_dict()))
-        atomic_write_text(tmp / "report.json", dumps(info))
+        # the stored report holds figures of the object only: wall seconds stay in the returned info (a run
+        # folder's bytes must not depend on how long CoACD took)
+        atomic_write_text(tmp / "report.json", dumps({k: v for k, v in info.items() if k != "hull_seconds"}))
         cache.store(root, key, tmp)
         cache.replace_dir(tmp, target)
     finally:

@@ -9,11 +9,25 @@ chosen with ``convert.converter``.
 from __future__ import annotations
 
 import argparse
+import json
 import tempfile
 from pathlib import Path
 
 from sdovon_mj.config import ConvertConfig
 from sdovon_mj.records import ObjectAsset, SceneAsset, save_json
+from sdovon_mj.store import atomic_write_text, dumps
+
+
+def provenance(path: str | Path, out_root: str | Path) -> str:
+    """Return the source recorded for an input: relative to the run folder when inside it, else its full path.
+
+    Inputs the run wrote itself (the default world) are then named the same wherever the run folder lives and
+    whichever run first filled the conversion cache, so a run's bytes do not depend on either.
+    """
+    from .load import display_path
+
+    p, root = Path(path).resolve(), Path(out_root).resolve()
+    return p.relative_to(root).as_posix() if p.is_relative_to(root) else display_path(path)
 
 
 class MeshConverter:
@@ -32,8 +46,11 @@ class MeshConverter:
         """Convert one scene file into ``<out_root>/scenes/<name>/`` and return its SceneAsset."""
         from .scene import convert_scene
 
-        return convert_scene(Path(path), out_root, name=name, units=cfg.units, up=cfg.up,
-                             texture_max_size=cfg.texture_max_size)
+        asset = convert_scene(Path(path), out_root, name=name, units=cfg.units, up=cfg.up,
+                              texture_max_size=cfg.texture_max_size, add_floor=cfg.add_floor)
+        asset.source = provenance(path, out_root)
+        atomic_write_text(Path(out_root) / "scenes" / name / "asset.json", asset.to_json())
+        return asset
 
     def convert_library(self, items: list[tuple[Path, str | None]], out_root: str | Path,
                         cfg: ConvertConfig) -> tuple[list[ObjectAsset], dict[str, str]]:
@@ -56,17 +73,51 @@ class MeshConverter:
             report = convert_tree([p for p, _c in items], scratch, jobs=cfg.jobs, timeout=cfg.timeout_s,
                                   progress=False, config=cfg, categories={str(p): c for p, c in items if c})
             rows = {r["file"]: r for r in report["items"]}
+            for r in report["items"]:  # a multi-part object (assets.yaml) answers for each of its part files
+                rows.update({part: r for part in r.get("parts", [])})
+            done: set[str] = set()
             for path, _category in items:
                 row = rows[display_path(path)]
                 if row["status"] != "ok":
                     failures[str(path)] = str(row["error"])
                     continue
+                if row["name"] in done:
+                    continue
+                done.add(row["name"])
                 asset = load_converted(scratch, row["name"])
-                link_tree(Path(scratch) / "objects" / asset.name, Path(out_root) / "objects" / asset.name)
-                save_json(asset, Path(out_root) / "objects" / asset.name / "object.json")
+                dst = Path(out_root) / "objects" / asset.name
+                link_tree(Path(scratch) / "objects" / asset.name, dst)
+                # the cached record names the input of the conversion that filled the cache: name this run's
+                # (a multi-part object: its folder); rewriting replaces the hard link, the cache entry stays
+                asset.source = provenance(Path(path).parent if row.get("parts") else path, out_root)
+                stored = json.loads((dst / "asset.json").read_text(encoding="utf-8"))
+                stored["source"] = asset.source
+                atomic_write_text(dst / "asset.json", dumps(stored))
+                save_json(asset, dst / "object.json")
                 assets.append(asset)
         assets.sort(key=lambda a: a.name)
         return assets, failures
+
+    def scene_files(self, folder: str | Path) -> list[Path]:
+        """Return the scenes a folder holds (mesh files, Habitat scene instances; companions and dataset assets skipped)."""
+        from .tree import find_inputs
+
+        return find_inputs(Path(folder), kind="scene")
+
+    def extra_inputs(self, path: str | Path) -> list[Path]:
+        """Return the files besides `path` that its conversion reads and a stage fingerprint must cover.
+
+        These are ``assets.yaml`` / ``<file>.yaml`` metadata and the companion files of a dataset layout (HM3D
+        semantic mesh and txt; a Habitat scene's dataset config, templates and assets); [] for a plain file.
+        """
+        from . import habitat
+        from .metadata import meta_for
+
+        path = Path(path)
+        out = list(meta_for(path).sources)
+        if habitat.layout_of(path):
+            out += [f for f in habitat.input_files(path) if f != path]
+        return out
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         """Declare the `sdovon-mj convert` options."""

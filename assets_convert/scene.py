@@ -18,7 +18,6 @@ import re
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -27,18 +26,43 @@ from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, Support
 from sdovon_mj.sim.model import instance_geom_name, save_scene_mesh
 from sdovon_mj.store import atomic_write_text
 
-from . import cache
-from .load import Material, Part, display_path, load_mesh, referenced_files
+from . import cache, habitat
+from .metadata import meta_for
+from .load import Material, Part, display_path, load_mesh, read_json as _read_json, referenced_files
 from .object import sanitize
 from .writer import AssetWriter, clean_part, fmt, render_template, xml_attr
 
 
+FLOOR_MARGIN = 0.5  # m around the footprint of an added floor: an agent (radius ~0.2 m) can walk round the scene's edge
+LABEL_RULES = 2  # version of `label_from_node` (part of the cache key of scenes labelled by node names)
+PRIMITIVES = frozenset({"box", "cube", "cuboid", "cylinder", "sphere", "capsule", "plane", "mesh", "geom", "ellipsoid",
+                        "cone", "torus", "prism", "primitive", "shape", "quad"})
+
+
 def label_from_node(node: str) -> str:
-    """Return a label from a node name: 'frl_apartment_chair_05' -> 'frl apartment chair'."""
+    """Return a category label from a node or file name, normalised as artists name parts.
+
+    'frl_apartment_chair_05' -> 'frl apartment chair'; 'Cube.001' -> 'cube'; 'mug_Cylinder.002' -> 'mug'; a fixture
+    name with a number followed by a part name and a primitive type, 'stove1 burner box' or
+    'kitchen_cabinet_2_door_cylinder', -> 'stove', 'kitchen cabinet': the name ends at its first numbered word when
+    more words follow it (they name a part of that numbered fixture), and a trailing capitalised primitive name
+    (Box, Cylinder, Mesh, ... as modelling tools name new primitives) goes when a word is left ('cracker box' stays).
+    """
     s = re.sub(r"\.\d+$", "", node)
     s = re.sub(r"[_\-\s]*[0-9a-f]{6}$", "", s) if re.search(r"_[0-9a-f]{6}$", s) else s
-    s = re.sub(r"[_\-]+", " ", s)
-    s = re.sub(r"\s*\d+$", "", s).strip().lower()
+    s = re.sub(r"(\d)\.\d+(?=[_\-\s]|$)", r"\1", s)  # Blender duplicates inside: 'Shelf_03.002_Cube' -> 'Shelf_03_Cube'
+    raw = re.sub(r"[_\-]+", " ", s).split()
+    words = [w.lower() for w in raw]
+    for k, w in enumerate(words[:-1]):
+        m = re.fullmatch(r"([a-z][a-z ]*?)?\d+", w)
+        if m and (m.group(1) or k > 0):
+            words, raw = words[:k] + ([m.group(1)] if m.group(1) else []), raw[:k] + ([m.group(1)] if m.group(1) else [])
+            break
+    # a trailing primitive name written as a modelling tool names a new primitive ('mug_Cylinder') is no category
+    while len(words) > 1 and words[-1] in PRIMITIVES and raw[-1][:1].isupper():
+        words.pop()
+        raw.pop()
+    s = re.sub(r"\s*\d+$", "", " ".join(words)).strip()
     return s or "object"
 
 
@@ -57,14 +81,6 @@ def _scannet_files(path: Path) -> tuple[Path, Path] | None:
     if segs and aggs:
         return segs[0], aggs[0]
     return None
-
-
-def _read_json(path: Path) -> Any:
-    """Read a JSON file or raise InputError naming it."""
-    try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise InputError(display_path(path), f"cannot read JSON: {e}") from None
 
 
 def _rpy_matrix(rpy_deg: list[float]) -> np.ndarray:
@@ -128,23 +144,18 @@ def _node_instance_id(node: str) -> int | None:
 
 def _split_by_vertex_instance(part: Part, vinst: np.ndarray) -> list[tuple[Part, int]]:
     """Split a vertex-coloured scan part by per-vertex instance ids (faces take their first vertex's id)."""
-    finst = vinst[part.faces[:, 0]]
     out = []
-    for iid in np.unique(finst):
-        sel = part.faces[finst == iid]
-        used = np.unique(sel)
-        remap = np.full(len(part.vertices), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        colors = part.colors[used] if part.colors is not None else None
+    for piece, iid in habitat.split_by_face_instance(part, vinst[part.faces[:, 0]]):
+        colors = piece.colors
         rgba = tuple(float(x) for x in (colors[:, :4].mean(axis=0) / 255.0)) if colors is not None else part.material.rgba
-        mat = Material(f"inst_{iid}", rgba, None, f"scan|{iid}")  # type: ignore[arg-type]
-        out.append((Part(part.vertices[used], remap[sel], mat, None, colors, part.node), int(iid)))
+        piece.material, piece.uv = Material(f"inst_{iid}", rgba, None, f"scan|{iid}"), None  # type: ignore[arg-type]
+        out.append((piece, iid))
     return out
 
 
 def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None, units: str | float = "auto",
                   up: str = "auto", semantics: str | Path | None = None, texture_max_size: int = 1024,
-                  cache_dir: str | Path | None = None) -> SceneAsset:
+                  cache_dir: str | Path | None = None, add_floor: bool = False) -> SceneAsset:
     """Convert a scene mesh to visual-only MJCF at `<out_dir>/scenes/<name>/scene.xml`; return its SceneAsset.
 
     Parameters
@@ -165,12 +176,24 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         Largest texture side kept, pixels.
     cache_dir : str or Path, optional
         Conversion cache folder (default: the user cache).
+    add_floor : bool
+        Add a ground slab (instance labelled "floor") under the scene's footprint plus `FLOOR_MARGIN`, its top at
+        the scene's lowest point: for scenes modelled without a floor (an artist kitchen, a furniture set).
     """
     path = Path(path)
     out_dir = Path(out_dir)
-    files = referenced_files(path)
-    name = sanitize(name) if name else sanitize(re.sub(r"_vh_clean(_2)?$", "", path.stem))
-    sidecar_path = Path(semantics) if semantics else _sidecar_for(path)
+    layout = habitat.layout_of(path)
+    files = habitat.input_files(path) if layout else referenced_files(path)
+    meta = meta_for(path)  # assets.yaml / <file>.yaml: wins over run-wide defaults
+    files += meta.sources
+    if str(units) == "auto" and (meta.units is not None or meta.scale != 1.0):
+        units = meta.units_value("auto" if meta.units is None else meta.units)
+    if up == "auto" and meta.up is not None:
+        up = meta.up
+    if meta.add_floor is not None:
+        add_floor = meta.add_floor
+    name = sanitize(name) if name else sanitize(_default_name(path, layout))
+    sidecar_path = Path(semantics) if semantics else (None if layout else _sidecar_for(path))
     placements = path.parent / "placements.json"
     sidecar = _read_json(sidecar_path) if sidecar_path else None
     if sidecar is not None:
@@ -180,13 +203,19 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         if str(units) == "auto" and sidecar.get("units"):
             units = str(sidecar["units"])
     scannet = _scannet_files(path) if path.suffix.lower() == ".ply" else None
-    use_placements = sidecar is None and placements.is_file() and _lists_asset(placements, path)
+    use_placements = sidecar is None and not layout and placements.is_file() and _lists_asset(placements, path)
     if use_placements:
         files.append(placements)
     if scannet:
         files.extend(scannet)
     params = {"kind": "scene", "name": name, "units": str(units), "up": up, "texture_max_size": texture_max_size,
               "placements": use_placements}
+    if layout:
+        params["layout"] = layout  # only then: the keys of other scenes stay as they were
+    if add_floor:
+        params["add_floor"] = FLOOR_MARGIN
+    if sidecar is None and not scannet:
+        params["labels"] = LABEL_RULES  # node-name labels: a new rule must not hit a cached scene labelled by the old
     key = cache.cache_key(files if not use_placements else files + _placement_files(placements), params)
     root = cache.cache_root(cache_dir)
     target = out_dir / "scenes" / name
@@ -198,8 +227,15 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
     work_root.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=work_root))
     try:
+        reading = None
+        if layout == "hm3d":
+            reading = habitat.read_hm3d(path, units, up)
+        elif layout == "mp3d":
+            reading = habitat.read_mp3d(path, units, up)
+        elif layout == "habitat":
+            reading = habitat.read_habitat(path)
         asset = _build_scene(path, tmp, name, units, up, sidecar, scannet, placements if use_placements else None,
-                             texture_max_size)
+                             texture_max_size, reading, add_floor)
         asset.content_hash = key
         atomic_write_text(tmp / "asset.json", asset.to_json())
         cache.store(root, key, tmp)
@@ -208,6 +244,30 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     return _relocate(asset, name)
+
+
+def _default_name(path: Path, layout: str | None) -> str:
+    """Return a scene's default name: the file stem without ScanNet, HM3D (.basis) or Habitat config suffixes."""
+    if layout == "habitat":
+        n = path.name
+        for suffix in (habitat.SCENE_INSTANCE, habitat.DATASET_CONFIG):
+            if n.lower().endswith(suffix):
+                return n[: -len(suffix)]
+    if layout in ("hm3d", "mp3d"):
+        return re.sub(r"\.basis$", "", path.stem)
+    return re.sub(r"_vh_clean(_2)?$", "", path.stem)
+
+
+def floor_slab(vertices: np.ndarray, margin: float | None = None, thickness: float = 0.05) -> Part:
+    """Return a box slab under the XY footprint of `vertices` grown by `margin` (default `FLOOR_MARGIN`), top at their lowest z."""
+    margin = FLOOR_MARGIN if margin is None else margin
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    x0, y0, x1, y1 = lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin
+    z1, z0 = lo[2], lo[2] - thickness
+    v = np.array([[x, y, z] for z in (z0, z1) for y in (y0, y1) for x in (x0, x1)], dtype=np.float64)
+    f = np.array([[4, 5, 7], [4, 7, 6], [0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4], [2, 6, 7], [2, 7, 3],
+                  [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]], dtype=np.int64)
+    return Part(v, f, Material("added_floor", (0.55, 0.53, 0.5, 1.0), None, "added_floor"), None, None, "added_floor")
 
 
 def _relocate(asset: SceneAsset, name: str) -> SceneAsset:
@@ -249,11 +309,14 @@ def _placements_parts_files_only(placements: Path) -> tuple[None, None, list[Pat
 
 
 def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str, sidecar: dict | None,
-                 scannet: tuple[Path, Path] | None, placements: Path | None, texture_max_size: int) -> SceneAsset:
-    """Load, group by instance and material, and write one scene into folder `work`."""
+                 scannet: tuple[Path, Path] | None, placements: Path | None, texture_max_size: int,
+                 reading: habitat.Reading | None = None, add_floor: bool = False) -> SceneAsset:
+    """Load, group by instance and material, and write one scene into folder `work` (`reading`: a dataset reader's)."""
     inst_meta: dict[int, dict] = {}
     pairs: list[tuple[Part, int]] = []
-    if placements is not None:
+    if reading is not None:
+        pairs, inst_meta = reading.pairs, dict(reading.meta)
+    elif placements is not None:
         pairs, insts, _files = _placements_parts(path, placements, str(units), up)
         inst_meta = {d["id"]: d for d in insts}
     else:
@@ -283,6 +346,11 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
             inst_meta[int(d["id"])] = {**inst_meta.get(int(d["id"]), {}), **d}
     if not pairs:
         raise InputError(display_path(path), "no triangles in the scene")
+    if add_floor:
+        slab = floor_slab(np.concatenate([p.vertices for p, _i in pairs]))
+        iid = max(max(i for _p, i in pairs), max(inst_meta, default=-1)) + 1
+        inst_meta[iid] = {"id": iid, "label": "floor", "kind": "structure", "name": "added_floor"}
+        pairs = [*pairs, (slab, iid)]
 
     writer = AssetWriter(work / "assets", texture_max_size)
     geoms: list[str] = []
@@ -356,6 +424,8 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
         for s in sidecar.get("support_surfaces", []):
             supports.append(SupportSurface(instance_id=int(s["instance_id"]), height=float(s["height"]),
                                            polygon=np.asarray(s["polygon"], dtype=np.float64)))
+    if reading is not None:
+        rooms = list(reading.rooms)
     return SceneAsset(name=name, mjcf="scene.xml", source=display_path(path), floors=floors, instances=instances,
                       bounds=np.stack([lo, hi]), rooms=rooms, support_surfaces=supports, mesh="scene_mesh.npz")
 

@@ -20,9 +20,23 @@ from sdovon_mj.config import ConvertConfig
 from sdovon_mj.records import dumps
 from sdovon_mj.store import atomic_write_text
 
+from . import habitat
 from .load import SUPPORTED, display_path
+from .metadata import meta_for
 
 SKIP_PREFIXES = ("receptacle_mesh",)  # habitat receptacle annotations, not models
+
+
+def _in_habitat_dataset(f: Path, top: Path) -> bool:
+    """Return whether a mesh is an asset of a Habitat scene dataset under `top` (its scene instances are the scenes)."""
+    if f.name.lower().endswith(habitat.SCENE_INSTANCE):
+        return False
+    for anc in f.parents:
+        if any(anc.glob(f"*{habitat.DATASET_CONFIG}")):
+            return True
+        if anc == top:
+            break
+    return False
 
 
 def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object") -> list[Path]:
@@ -33,9 +47,10 @@ def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object")
         p = Path(item)
         if p.is_dir():
             for f in sorted(p.rglob("*")):
-                if f.is_file() and f.suffix.lower() in SUPPORTED and not f.name.startswith(SKIP_PREFIXES) \
+                scene_cfg = kind == "scene" and f.name.lower().endswith(habitat.SCENE_INSTANCE)
+                if f.is_file() and (f.suffix.lower() in SUPPORTED or scene_cfg) and not f.name.startswith(SKIP_PREFIXES) \
                         and not any(part.startswith(".") for part in f.relative_to(p).parts):
-                    if kind == "scene" and _placed_by_sibling(f):
+                    if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or _in_habitat_dataset(f, p)):
                         continue
                     out.append(f)
         else:
@@ -73,9 +88,24 @@ def _work(task: dict[str, Any]) -> dict[str, Any]:
             from .scene import convert_scene
 
             a = convert_scene(task["path"], task["out_dir"], units=task["config"].units, up=task["config"].up,
-                              cache_dir=task["cache_dir"],
-                              texture_max_size=task["config"].texture_max_size)
+                              cache_dir=task["cache_dir"], texture_max_size=task["config"].texture_max_size,
+                              add_floor=task["config"].add_floor)
             row.update(name=a.name, mjcf=a.mjcf, instances=len(a.instances), cache_hit=False)
+        elif task.get("parts"):
+            import tempfile
+
+            from .metadata import combine_parts
+            from .object import convert_object_report
+
+            cfg = task["config"]
+            with tempfile.TemporaryDirectory(prefix="sdovon-parts-") as tmp:
+                glb = combine_parts([Path(p) for p in task["parts"]], Path(tmp) / "parts.glb", cfg.units, cfg.up)
+                a, info = convert_object_report(glb, task["out_dir"], category=task["category"], units="m", up="+Z",
+                                                name=task["name"], config=cfg, cache_dir=task["cache_dir"],
+                                                source=task["display"])
+            row.update(name=a.name, category=a.category, mjcf=a.mjcf, faces=info.get("faces"), hulls=a.hull_count,
+                       volume_ratio=round(a.volume_ratio, 4), mass=round(a.mass, 6), cache_hit=info.get("cache_hit"),
+                       warnings=info.get("warnings", []), parts=[display_path(p) for p in task["parts"]])
         else:
             from .object import convert_object_report
 
@@ -188,8 +218,23 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     jobs = int(jobs or cfg.jobs or os.cpu_count() or 1)
     jobs = max(1, min(jobs, len(files) or 1))
     cache = None if cache_dir is None else str(cache_dir)
-    tasks = [{"path": str(f), "display": display_path(f), "out_dir": str(out_dir), "kind": kind, "config": cfg,
-              "cache_dir": cache, "category": (categories or {}).get(str(f))} for f in files]
+    tasks = []
+    groups: dict[Path, dict[str, Any]] = {}
+    for f in files:
+        meta = meta_for(f) if kind == "object" else None
+        cat = (categories or {}).get(str(f))
+        if meta is not None and meta.multipart is not None:  # one object of several part files (assets.yaml)
+            g = groups.get(meta.multipart)
+            if g is None:
+                g = groups[meta.multipart] = {"path": str(meta.multipart), "display": display_path(meta.multipart),
+                                              "out_dir": str(out_dir), "kind": kind, "config": cfg, "cache_dir": cache,
+                                              "category": cat or meta.category or meta.multipart.name,
+                                              "name": meta.name, "parts": []}
+                tasks.append(g)
+            g["parts"].append(str(f))
+            continue
+        tasks.append({"path": str(f), "display": display_path(f), "out_dir": str(out_dir), "kind": kind, "config": cfg,
+                      "cache_dir": cache, "category": cat})
     rows: dict[int, dict[str, Any]] = {}
     t_start = time.perf_counter()
     bar = None

@@ -35,7 +35,7 @@ from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
 from . import frames
-from .glb import geoms_mesh, glb_bytes
+from .glb import geoms_scene, glb_bytes
 
 UP, FRONT = [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]
 _OBJ_NUM = re.compile(r"^obj_(\d+)$")
@@ -116,7 +116,8 @@ def episode_json(ep: Episode, index: int, scene_id: str, dataset_config: str) ->
             "start_rotation": frames.agent_rotation_xyzw(ep.start_rotation),
             "info": {"geodesic_distance": float(ep.geodesic_distance), "euclidean_distance": float(ep.euclidean_distance),
                      "closest_goal_object_id": habitat_object_id(ep.closest_goal_object_id, closest.category) if closest else "",
-                     "sdovon_episode_id": ep.episode_id, "variant": ep.variant, "scene": ep.scene, "floor": int(ep.floor)},
+                     "sdovon_episode_id": ep.episode_id, "variant": ep.variant, "scene": ep.scene, "floor": int(ep.floor),
+                     "start_filters": {k: float(v) for k, v in sorted(ep.start_filters.items())}},
             "goals": [], "start_room": None, "shortest_paths": None, "object_category": ep.object_category}
 
 
@@ -160,7 +161,7 @@ class HabitatExporter(Exporter):
                 smodel, sdata = _compile(run.path(scene.mjcf))
                 mujoco.mj_forward(smodel, sdata)
                 geoms = [g for g in range(smodel.ngeom) if int(smodel.geom_group[g]) in (GROUP_SCENE, GROUP_CEILING)]
-                mesh = geoms_mesh(smodel, sdata, geoms, np.eye(4), frames.C)
+                mesh = geoms_scene(smodel, sdata, geoms, np.eye(4), frames.C)  # textured where MuJoCo is
                 if mesh is None:
                     raise InputError(run.path(scene.mjcf), "scene has no visual geometry to export as a stage")
                 write(sd / "stages" / f"{scene.name}.glb", glb_bytes(mesh))
@@ -178,7 +179,7 @@ class HabitatExporter(Exporter):
                 T[:3, :3] = data.xmat[b].reshape(3, 3)
                 T[:3, 3] = data.xpos[b]
                 if p.asset not in templates_done:
-                    mesh = geoms_mesh(model, data, _body_geoms(model, b, (GROUP_OBJECT_VISUAL,)), T, frames.C)
+                    mesh = geoms_scene(model, data, _body_geoms(model, b, (GROUP_OBJECT_VISUAL,)), T, frames.C)
                     if mesh is None:
                         raise InputError(run.path(variant.mjcf), f"body {p.object_id} has no visual geoms (group 2)")
                     mass = float(objects[p.asset].mass) if p.asset in objects else float(model.body_subtreemass[b])

@@ -10,7 +10,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare world's options."""
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--seeds", type=int, nargs="+", default=[0], help="apartment seeds")
-    p.add_argument("--mode", choices=("clean", "scan"), default="clean", help="clean GLB or noisy ScanNet-style PLY")
+    p.add_argument("--mode", choices=("clean", "scan", "hm3d", "mp3d", "habitat"), default="clean",
+                   help="clean GLB, noisy ScanNet-style PLY, HM3D-Semantics or Matterport3D files, or a Habitat scene dataset")
     p.add_argument("--floors", type=int, choices=(0, 1, 2), default=0, help="storeys (0 = seeded choice)")
     p.add_argument("--objects", action="store_true", help="also write the object library")
     p.add_argument("--object-seed", type=int, default=0)

@@ -26,6 +26,9 @@ from .io import save_shards
 from .navmap import navigable_map, navmap_image, save_png
 from .render_views import load_model, render_observations, view_angles
 
+NO_FLOOR_HINT = ("; a scene modelled without a floor can get one: --set convert.add_floor=true adds a ground slab "
+                 "under its footprint")
+
 
 def load_mesh(scene: SceneAsset, store_root: str | Path) -> tuple[Path, np.ndarray, np.ndarray, np.ndarray]:
     """Load a scene's mesh sidecar: path, vertices, faces, face_instance (InputError when missing)."""
@@ -62,7 +65,7 @@ def scene_floors_and_maps(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveC
     try:
         floors = find_floors(vertices, faces, cfg, agent)
     except StageError as e:
-        raise InputError(source, str(e)) from None
+        raise InputError(source, str(e) + NO_FLOOR_HINT) from None
     maps: list[NavMap] = []
     skipped: dict[int, str] = {}
     for fl in floors:
@@ -71,7 +74,7 @@ def scene_floors_and_maps(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveC
         except StageError as e:
             skipped[fl.index] = str(e)
     if not maps:
-        raise InputError(source, "no floor has navigable area: " + "; ".join(skipped.values()))
+        raise InputError(source, "no floor has navigable area: " + "; ".join(skipped.values()) + NO_FLOOR_HINT)
     return floors, maps, skipped
 
 

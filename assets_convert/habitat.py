@@ -1,0 +1,625 @@
+"""Readers of Habitat-native scene datasets: HM3D-Semantics scans and Habitat scene-dataset configs (HSSD, ReplicaCAD).
+
+Both return a `Reading`: (part, instance id) pairs in MuJoCo's frame (metres, Z up), per-instance metadata
+(label, room, kind, name) and the input's region annotations as `Room` records; `scene.convert_scene` turns it
+into the visual-only MJCF as for any other scene.
+
+**HM3D** (`<id>.glb` or `<id>.basis.glb`, `<id>.semantic.glb`, `<id>.semantic.txt`): the txt lists
+``<instance id>,<RRGGBB>,"<category>",<region id>`` (after an optional ``HM3D Semantic Annotations`` line); the
+semantic GLB paints every triangle with its instance colour (per-vertex COLOR_0 or a texture, sampled at the
+triangle's centroid). Each visual triangle takes the instance of the nearest semantic triangle (centroids), so a
+visual mesh triangulated differently from its semantic mesh still splits into instances. The raw GLBs are Z up
+(habitat-sim's convention for raw scan GLBs), so ``up="auto"`` means +Z here. Black (000000) is unannotated
+surface; any other colour missing from the txt is an error naming both files.
+
+**Habitat scene datasets** (`*.scene_instance.json`, or a `*.scene_dataset_config.json` holding exactly one
+scene instance): the dataset config beside the scene instance or in a parent folder registers stage, object and
+semantic configs (``paths`` folders and globs, ``configs`` entries with ``original_file``, ``template_handle`` and
+``attributes`` overrides, ``default_attributes``). A ``template_name`` resolves as habitat-sim does it: an exact
+handle, else the first registered handle (sorted) that contains it. Asset frames come from ``up``/``front``
+(default Y up, front -Z), then ``scale`` and ``units_to_meters``; instances apply ``non_uniform_scale``,
+``uniform_scale``, ``rotation`` (wxyz) and ``translation`` with ``translation_origin`` (``asset_local``: the
+translation places the asset origin; ``COM``: it places the centre of mass, ``COM`` of the template or its
+bounding-box centre). Habitat's Y-up world becomes MuJoCo's Z up: (x, y, z) -> (x, -z, y). The stage's nodes become
+instances labelled by their glTF node extras ``label`` or their node name; each object instance is one instance,
+labelled by the dataset's semantic lexicon (``classes``, through the template's ``semantic_id``), else by its
+template name. ``region_annotations`` of the scene's semantic config become `Room` records (label = type) and
+assign each instance whose centre lies inside one its room.
+"""
+
+from __future__ import annotations
+
+import csv
+import glob
+import io
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sdovon_mj.errors import InputError
+from sdovon_mj.geometry import points_in_polygon
+from sdovon_mj.records import Room
+
+from .load import Part, _gltf_json, display_path, load_mesh, read_json as _read_json, referenced_files, up_rotation
+
+SCENE_INSTANCE = ".scene_instance.json"
+DATASET_CONFIG = ".scene_dataset_config.json"
+HAB_TO_MJ = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # (x, y, z)_hab -> (x, -z, y)
+UNANNOTATED = "000000"
+
+
+@dataclass
+class Reading:
+    """What a dataset reader found: parts with instance ids, instance metadata, regions and the files read."""
+
+    pairs: list[tuple[Part, int]]
+    meta: dict[int, dict[str, Any]]
+    rooms: list[Room] = field(default_factory=list)
+    files: list[Path] = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------------------------
+# detection
+
+
+def _hm3d_base(path: Path) -> Path | None:
+    """Return the HM3D stem path (folder / id) of `<id>.glb` / `<id>.basis.glb`, or None for other files."""
+    name = path.name
+    if not name.lower().endswith(".glb") or name.lower().endswith(".semantic.glb"):
+        return None
+    stem = re.sub(r"(\.basis)?\.glb$", "", name, flags=re.IGNORECASE)
+    return path.parent / stem
+
+
+def layout_of(path: str | Path) -> str | None:
+    """Return "hm3d", "mp3d", "habitat" or None (another reader) for a scene input path."""
+    path = Path(path)
+    low = path.name.lower()
+    if low.endswith(SCENE_INSTANCE) or low.endswith(DATASET_CONFIG):
+        return "habitat"
+    base = _hm3d_base(path)
+    if base is not None and (Path(f"{base}.semantic.glb").is_file() or Path(f"{base}.semantic.txt").is_file()):
+        return "hm3d"
+    if _mp3d_base(path) is not None:
+        return "mp3d"
+    return None
+
+
+def is_companion(path: str | Path) -> bool:
+    """Return whether a file is a companion of another input (HM3D / MP3D semantic mesh), not a scene of its own."""
+    name = Path(path).name.lower()
+    return name.endswith(".semantic.glb") or name.endswith("_semantic.ply")
+
+
+def input_files(path: str | Path) -> list[Path]:
+    """Return every file a dataset-layout scene reads (for the conversion cache key)."""
+    path = Path(path)
+    layout = layout_of(path)
+    if layout == "hm3d":
+        base = _hm3d_base(path)
+        files = referenced_files(path)
+        for suffix in (".semantic.glb", ".semantic.txt"):
+            p = Path(f"{base}{suffix}")
+            if p.is_file():
+                files.append(p)
+        return files
+    if layout == "mp3d":
+        base = path.parent / path.stem
+        return referenced_files(path) + [p for p in (Path(f"{base}_semantic.ply"), Path(f"{base}.house")) if p.is_file()]
+    if layout == "habitat":
+        scene, ds = _scene_and_dataset(path)
+        reg = _Registry(ds)
+        files = [scene] + ([ds.path] if ds.path else []) + reg.config_files()
+        doc = _read_json(scene)
+        for inst in [doc.get("stage_instance") or {}, *(doc.get("object_instances") or [])]:
+            if inst.get("template_name"):
+                try:
+                    attrs, base = reg.resolve("stages" if inst is doc.get("stage_instance") else "objects",
+                                              str(inst["template_name"]), scene)
+                except InputError:
+                    continue
+                asset = base / str(attrs.get("render_asset", ""))
+                if asset.is_file():
+                    files.extend(referenced_files(asset))
+        return sorted(set(files))
+    return referenced_files(path)
+
+
+# ----------------------------------------------------------------------------------------------
+# HM3D
+
+
+def read_semantic_txt(path: Path) -> dict[str, dict[str, Any]]:
+    """Parse an HM3D ``.semantic.txt``: hex colour -> {id, label, region}; raise InputError naming the line."""
+    if not path.is_file():
+        raise InputError(display_path(path), "missing: an HM3D scene needs its .semantic.txt (instance ids, "
+                                             "categories, regions) beside the .semantic.glb")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(display_path(path), f"cannot read: {e}") from None
+    out: dict[str, dict[str, Any]] = {}
+    for n, row in enumerate(csv.reader(io.StringIO(text)), start=1):
+        if not row or (n == 1 and len(row) == 1 and not row[0].strip()[:1].isdigit()):
+            continue  # the header line
+        if len(row) < 4:
+            raise InputError(display_path(path), f"line {n}: expected id,RRGGBB,\"category\",region, got {','.join(row)!r}")
+        try:
+            iid, hexcol, label, region = int(row[0]), row[1].strip().upper(), row[2].strip(), int(row[3])
+        except ValueError:
+            raise InputError(display_path(path), f"line {n}: id and region must be integers: {','.join(row)!r}") from None
+        if not re.fullmatch(r"[0-9A-F]{6}", hexcol):
+            raise InputError(display_path(path), f"line {n}: colour {row[1]!r} is not RRGGBB hex")
+        if hexcol in out:
+            raise InputError(display_path(path), f"line {n}: colour {hexcol} already names instance {out[hexcol]['id']}")
+        out[hexcol] = {"id": iid, "label": label or "object", "room": region}
+    return out
+
+
+def _face_colours(part: Part) -> np.ndarray:
+    """Return (F, 3) uint8 colours of a semantic part's faces (vertex colour of the first corner, else texture at the centroid)."""
+    if part.colors is not None:
+        return np.asarray(part.colors, dtype=np.uint8)[part.faces[:, 0], :3]
+    if part.material.image is not None and part.uv is not None:
+        img = np.asarray(part.material.image.convert("RGB"))
+        h, w = img.shape[:2]
+        uv = part.uv[part.faces].mean(axis=1)
+        col = np.clip(np.floor((uv[:, 0] % 1.0) * w), 0, w - 1).astype(np.int64)
+        row = np.clip(np.floor((1.0 - uv[:, 1] % 1.0) * h), 0, h - 1).astype(np.int64)
+        return img[row, col]
+    rgb = np.round(np.asarray(part.material.rgba[:3]) * 255).astype(np.uint8)
+    return np.tile(rgb, (len(part.faces), 1))
+
+
+def split_by_face_instance(part: Part, finst: np.ndarray) -> list[tuple[Part, int]]:
+    """Split a part by per-face instance ids, keeping material, UVs and vertex colours."""
+    out = []
+    for iid in np.unique(finst):
+        sel = part.faces[finst == iid]
+        used = np.unique(sel)
+        remap = np.full(len(part.vertices), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        out.append((Part(part.vertices[used], remap[sel], part.material,
+                         None if part.uv is None else part.uv[used],
+                         None if part.colors is None else part.colors[used], part.node), int(iid)))
+    return out
+
+
+def read_hm3d(path: str | Path, units: str | float = "auto", up: str = "auto") -> Reading:
+    """Read an HM3D-Semantics scene (visual GLB + ``.semantic.glb`` + ``.semantic.txt``) into instances and regions."""
+    from scipy.spatial import cKDTree
+
+    path = Path(path)
+    base = _hm3d_base(path)
+    sem_glb, sem_txt = Path(f"{base}.semantic.glb"), Path(f"{base}.semantic.txt")
+    if not sem_glb.is_file():
+        raise InputError(display_path(sem_glb), "missing: an HM3D scene needs its .semantic.glb beside the .glb")
+    table = read_semantic_txt(sem_txt)
+    up = "+Z" if str(up).lower() == "auto" else up
+    visual = load_mesh(path, units=units, up=up, kind="scene")
+    semantic = load_mesh(sem_glb, units=visual.scale, up=up, kind="scene")
+    cents, ids = [], []
+    missing: dict[str, int] = {}
+    unlabeled = max((d["id"] for d in table.values()), default=0) + 1
+    for sp in semantic.parts:
+        cols = _face_colours(sp)
+        hexes = np.array([f"{r:02X}{g:02X}{b:02X}" for r, g, b in cols])
+        for h in np.unique(hexes):
+            if h not in table and h != UNANNOTATED:
+                missing[str(h)] = int(np.sum(hexes == h))
+        ids.append(np.array([table[h]["id"] if h in table else unlabeled for h in hexes], dtype=np.int64))
+        cents.append(sp.vertices[sp.faces].mean(axis=1))
+    if missing:
+        shown = ", ".join(f"{h} ({n} triangles)" for h, n in sorted(missing.items())[:5])
+        raise InputError(display_path(sem_glb), f"{len(missing)} instance colour(s) absent from {sem_txt.name}: {shown}")
+    tree = cKDTree(np.concatenate(cents))
+    face_ids = np.concatenate(ids)
+    pairs: list[tuple[Part, int]] = []
+    for vp in visual.parts:
+        pairs.extend(split_by_face_instance(vp, _match_faces(vp, tree, face_ids)))
+    meta = {d["id"]: {"id": d["id"], "label": d["label"], "room": d["room"], "kind": "", "name": f"{h}"}
+            for h, d in table.items()}
+    meta[unlabeled] = {"id": unlabeled, "label": "unlabeled", "room": -1, "kind": "", "name": UNANNOTATED}
+    return Reading(pairs, meta, [], [path, sem_glb, sem_txt])
+
+
+def _match_faces(part: Part, tree: Any, face_ids: np.ndarray, k: int = 8) -> np.ndarray:
+    """Return the instance of each of a visual part's faces: that of the nearest semantic face (centroids).
+
+    Ties (coincident triangles of two instances, e.g. a wall face behind a window pane) go to the instance most of
+    the part's unambiguous faces have, and pieces too small for a MuJoCo mesh (< 4 vertices) join that instance too.
+    """
+    cent = part.vertices[part.faces].mean(axis=1)
+    k = min(k, len(face_ids))
+    dist, idx = tree.query(cent, k=k)
+    dist, idx = dist.reshape(len(cent), k), idx.reshape(len(cent), k)
+    cand = face_ids[idx]
+    tie = (dist <= dist[:, :1] + 1e-9) & (cand != cand[:, :1])
+    ambiguous = tie.any(axis=1)
+    ids = cand[:, 0].copy()
+    clear = ids[~ambiguous] if (~ambiguous).any() else ids
+    vals, counts = np.unique(clear, return_counts=True)
+    major = int(vals[np.argmax(counts)])
+    for f in np.flatnonzero(ambiguous):
+        options = cand[f][dist[f] <= dist[f, 0] + 1e-9]
+        ids[f] = major if major in options else int(options.min())
+    for iid in np.unique(ids):
+        if iid != major and len(np.unique(part.faces[ids == iid])) < 4:
+            ids[ids == iid] = major
+    return ids
+
+
+# ----------------------------------------------------------------------------------------------
+# Matterport3D
+
+# Matterport3D's one-letter region labels (its README's table)
+MP3D_REGIONS = {"a": "bathroom", "b": "bedroom", "c": "closet", "d": "dining room", "e": "entryway", "f": "family room",
+                "g": "garage", "h": "hallway", "i": "library", "j": "laundry room", "k": "kitchen", "l": "living room",
+                "m": "meeting room", "n": "lounge", "o": "office", "p": "porch", "r": "game room", "s": "stairs",
+                "t": "toilet", "u": "utility room", "v": "tv room", "w": "gym", "x": "outdoor", "y": "balcony",
+                "z": "other room", "B": "bar", "C": "classroom", "D": "dining booth", "S": "spa", "Z": "junk"}
+
+
+def _mp3d_base(path: Path) -> Path | None:
+    """Return the MP3D stem path of `<id>.glb` when `<id>_semantic.ply` or `<id>.house` lies beside it."""
+    if path.suffix.lower() != ".glb":
+        return None
+    base = path.parent / path.stem
+    return base if Path(f"{base}_semantic.ply").is_file() or Path(f"{base}.house").is_file() else None
+
+
+def read_house(path: Path) -> tuple[dict[int, dict[str, Any]], dict[int, str], dict[int, dict[str, Any]]]:
+    """Parse a Matterport3D ``.house`` file: (regions, categories, objects) by index; raise InputError naming the line."""
+    if not path.is_file():
+        raise InputError(display_path(path), "missing: a Matterport3D scene needs its .house file (regions, "
+                                             "object categories) beside the .glb")
+    regions: dict[int, dict[str, Any]] = {}
+    cats: dict[int, str] = {}
+    objects: dict[int, dict[str, Any]] = {}
+    for n, line in enumerate(path.read_text(encoding="utf-8", errors="replace").splitlines(), start=1):
+        f = line.split()
+        try:
+            if f[:1] == ["R"]:
+                box = [float(x) for x in f[9:15]]
+                regions[int(f[1])] = {"level": int(f[2]), "label": MP3D_REGIONS.get(f[5], "other room"),
+                                      "box": box}
+            elif f[:1] == ["C"]:
+                raw, coarse = f[3], f[5] if len(f) > 5 else f[3]
+                name = raw if raw not in ("", "-", "unknown") else coarse
+                cats[int(f[1])] = re.sub(r"[_#]+", " ", name).strip() or "object"
+            elif f[:1] == ["O"]:
+                objects[int(f[1])] = {"region": int(f[2]), "category": int(f[3])}
+        except (IndexError, ValueError):
+            raise InputError(display_path(path), f"line {n}: malformed {f[0] if f else ''} record: {line.strip()!r}") \
+                from None
+    return regions, cats, objects
+
+
+def read_mp3d(path: str | Path, units: str | float = "auto", up: str = "auto") -> Reading:
+    """Read a Matterport3D scene (``<id>.glb`` + ``<id>_semantic.ply`` + ``<id>.house``) into instances and regions."""
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    path = Path(path)
+    base = path.parent / path.stem
+    sem_ply, house = Path(f"{base}_semantic.ply"), Path(f"{base}.house")
+    if not sem_ply.is_file():
+        raise InputError(display_path(sem_ply), "missing: a Matterport3D scene needs its _semantic.ply beside the .glb")
+    regions, cats, objects = read_house(house)
+    up = "+Z" if str(up).lower() == "auto" else up
+    visual = load_mesh(path, units=units, up=up, kind="scene")
+    try:
+        ply = trimesh.load(str(sem_ply), process=False)
+        raw = ply.metadata["_ply_raw"]["face"]["data"]
+        face_obj = np.asarray(raw["object_id"], dtype=np.int64).ravel()
+    except Exception as e:  # noqa: BLE001 - any parser failure is a bad input
+        raise InputError(display_path(sem_ply), f"cannot read per-face object_id: {type(e).__name__}: {e}") from None
+    missing = sorted(set(np.unique(face_obj).tolist()) - set(objects) - {-1})
+    if missing:
+        raise InputError(display_path(sem_ply), f"{len(missing)} object id(s) absent from {house.name}: "
+                                                f"{', '.join(map(str, missing[:8]))}")
+    rot, _name = up_rotation(up, sem_ply)
+    sv = np.asarray(ply.vertices, dtype=np.float64) @ rot.T * visual.scale
+    tree = cKDTree(sv[np.asarray(ply.faces)].mean(axis=1))
+    pairs: list[tuple[Part, int]] = []
+    for vp in visual.parts:
+        pairs.extend(split_by_face_instance(vp, _match_faces(vp, tree, face_obj)))
+    meta = {k: {"id": k, "label": cats.get(o["category"], "object"), "room": o["region"],
+                "floor": regions.get(o["region"], {}).get("level", -1), "kind": "", "name": f"object {k}"}
+            for k, o in objects.items()}
+    meta[-1] = {"id": -1, "label": "unlabeled", "room": -1, "kind": "", "name": "unlabeled"}
+    rooms = []
+    for k in sorted(regions):
+        x0, y0, _z0, x1, y1, _z1 = (v * visual.scale for v in regions[k]["box"])
+        rooms.append(Room(id=k, type=regions[k]["label"], floor=regions[k]["level"],
+                          polygon=np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])))
+    return Reading(pairs, meta, rooms, [path, sem_ply, house])
+
+
+# ----------------------------------------------------------------------------------------------
+# Habitat scene datasets
+
+
+@dataclass
+class _Dataset:
+    """A scene dataset config (path None: a scene instance without one)."""
+
+    path: Path | None
+    doc: dict[str, Any]
+
+    @property
+    def root(self) -> Path:
+        """The folder its relative paths start from."""
+        return self.path.parent if self.path else Path(".")
+
+
+def _scene_and_dataset(path: Path) -> tuple[Path, _Dataset]:
+    """Return (scene instance file, its dataset config) for a scene-instance or dataset-config input."""
+    if path.name.lower().endswith(DATASET_CONFIG):
+        ds = _Dataset(path, _read_json(path))
+        scenes = _Registry(ds).files("scene_instances", SCENE_INSTANCE)
+        if len(scenes) != 1:
+            listing = ", ".join(display_path(s.relative_to(path.parent)) for s in scenes) or "none"
+            raise InputError(display_path(path), f"holds {len(scenes)} scene instances ({listing}); pass one "
+                                                 f"*{SCENE_INSTANCE} file")
+        return scenes[0], ds
+    for anc in [path.parent, *path.parent.parents][:4]:
+        cands = sorted(anc.glob(f"*{DATASET_CONFIG}"))
+        if cands:
+            return path, _Dataset(cands[0], _read_json(cands[0]))
+    return path, _Dataset(None, {})
+
+
+class _Registry:
+    """The templates a dataset config registers (stages, objects, semantic configs) by handle."""
+
+    SUFFIX = {"stages": ".stage_config.json", "objects": ".object_config.json",
+              "semantic_scene_descriptor_instances": ".semantic_config.json"}
+
+    def __init__(self, ds: _Dataset) -> None:
+        self.ds = ds
+
+    def files(self, section: str, suffix: str) -> list[Path]:
+        """Return the config files a section's ``paths`` register (folders searched recursively, globs expanded)."""
+        sec = self.ds.doc.get(section) or {}
+        out: set[Path] = set()
+        for entry in (sec.get("paths") or {}).get(".json", []) if isinstance(sec, dict) else []:
+            pattern = str(self.ds.root / str(entry))
+            for hit in sorted(glob.glob(pattern)):
+                p = Path(hit)
+                if p.is_dir():
+                    out.update(q for q in p.rglob(f"*{suffix}") if q.is_file())
+                elif p.name.lower().endswith(suffix):
+                    out.add(p)
+        return sorted(out)
+
+    def config_files(self) -> list[Path]:
+        """Return every registered config file (for the cache key)."""
+        out: list[Path] = []
+        for sec, suf in self.SUFFIX.items():
+            out += self.files(sec, suf)
+        return out
+
+    def handles(self, section: str) -> list[tuple[str, dict[str, Any], Path]]:
+        """Return (handle, attributes, folder of relative paths) of a section's templates, in registration order."""
+        sec = self.ds.doc.get(section) or {}
+        defaults = dict(sec.get("default_attributes") or {}) if isinstance(sec, dict) else {}
+        out = []
+        for f in self.files(section, self.SUFFIX[section]):
+            attrs = {**defaults, **_read_json(f)}
+            out.append((f.relative_to(self.ds.root).as_posix(), attrs, f.parent))
+        for cfg in (sec.get("configs") or []) if isinstance(sec, dict) else []:
+            handle = str(cfg.get("template_handle", ""))
+            attrs, base = dict(defaults), self.ds.root
+            if cfg.get("original_file"):
+                orig = self.ds.root / str(cfg["original_file"])
+                attrs.update(_read_json(orig))
+                base = orig.parent
+            attrs.update(cfg.get("attributes") or {})
+            if "render_asset" in (cfg.get("attributes") or {}):
+                base = self.ds.root
+            out.append((handle, attrs, base))
+        return out
+
+    def resolve(self, section: str, name: str, where: Path) -> tuple[dict[str, Any], Path]:
+        """Return (attributes, folder) of the template `name`: an exact handle, else the first handle containing it."""
+        entries = self.handles(section)
+        for handle, attrs, base in entries:
+            if handle == name:
+                return attrs, base
+        for handle, attrs, base in sorted(entries, key=lambda e: e[0]):
+            if name in handle:
+                return attrs, base
+        direct = self.ds.root / name
+        if direct.is_file() and direct.name.lower().endswith(self.SUFFIX[section]):
+            return _read_json(direct), direct.parent
+        kind = {"stages": "stage", "objects": "object"}.get(section, section)
+        known = ", ".join(sorted(h for h, _a, _b in entries)[:8]) or "none"
+        raise InputError(display_path(where), f"{kind} template '{name}' is not in the dataset "
+                                              f"({display_path(self.ds.path) if self.ds.path else 'no dataset config'}; "
+                                              f"registered: {known})")
+
+
+def _frame(attrs: dict[str, Any], where: Path) -> np.ndarray:
+    """Return the rotation taking an asset's (up, front) to Habitat's (+Y, -Z)."""
+    up = np.asarray(attrs.get("up", [0.0, 1.0, 0.0]), dtype=float)
+    front = np.asarray(attrs.get("front", [0.0, 0.0, -1.0]), dtype=float)
+    if up.shape != (3,) or front.shape != (3,) or np.linalg.norm(up) == 0 or np.linalg.norm(front) == 0:
+        raise InputError(display_path(where), "'up' and 'front' must be non-zero 3-vectors")
+    up, front = up / np.linalg.norm(up), front / np.linalg.norm(front)
+    if abs(float(up @ front)) > 1e-6:
+        raise InputError(display_path(where), f"'up' {up.tolist()} and 'front' {front.tolist()} are not orthogonal")
+    right = np.cross(front, up)
+    return np.stack([right, up, -front])
+
+
+def _quat_wxyz(q: Any, where: Path) -> np.ndarray:
+    """Return the rotation matrix of a Habitat wxyz quaternion."""
+    a = np.asarray(q if q is not None else [1.0, 0.0, 0.0, 0.0], dtype=float)
+    if a.shape != (4,) or not np.isfinite(a).all() or np.linalg.norm(a) == 0:
+        raise InputError(display_path(where), f"'rotation' must be a wxyz quaternion, got {q!r}")
+    w, x, y, z = a / np.linalg.norm(a)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def _placed_parts(attrs: dict[str, Any], base: Path, inst: dict[str, Any], origin: str, where: Path) -> list[Part]:
+    """Load a template's render asset and place it as the instance says; parts in MuJoCo's frame."""
+    asset = base / str(attrs.get("render_asset", ""))
+    if not attrs.get("render_asset") or not asset.is_file():
+        raise InputError(display_path(where), f"render asset '{attrs.get('render_asset', '')}' of template "
+                                              f"'{inst.get('template_name')}' not found (looked at {display_path(asset)})")
+    units = float(attrs.get("units_to_meters", 1.0))
+    mesh = load_mesh(asset, units=units, up="+Z", kind="scene")  # +Z: no axis change here; the frame is below
+    frame = _frame(attrs, asset)
+    scale = np.asarray(attrs.get("scale", [1.0, 1.0, 1.0]), dtype=float) * np.asarray(
+        inst.get("non_uniform_scale", [1.0, 1.0, 1.0]), dtype=float) * float(inst.get("uniform_scale", 1.0))
+    local = [(p.vertices @ frame.T) * scale for p in mesh.parts]
+    allv = np.concatenate(local)
+    if str(inst.get("translation_origin", origin)).lower() == "com":
+        com = (np.asarray(attrs["COM"], dtype=float) * scale if "COM" in attrs
+               else (allv.min(axis=0) + allv.max(axis=0)) / 2)
+    else:
+        com = np.zeros(3)
+    R = _quat_wxyz(inst.get("rotation"), where)
+    t = np.asarray(inst.get("translation", [0.0, 0.0, 0.0]), dtype=float)
+    out = []
+    for p, v in zip(mesh.parts, local):
+        world = (v - com) @ R.T + t
+        out.append(Part(world @ HAB_TO_MJ.T, p.faces, p.material, p.uv, p.colors, p.node))
+    return out
+
+
+def _node_extras(asset: Path) -> dict[str, dict[str, Any]]:
+    """Return glTF node name -> extras of a GLB/glTF (empty when it has none)."""
+    try:
+        doc = _gltf_json(asset)
+    except InputError:
+        return {}
+    return {str(n.get("name", "")): n.get("extras") or {} for n in doc.get("nodes", []) if isinstance(n, dict)}
+
+
+def _semantic_config(scene_doc: dict[str, Any], scene: Path, ds: _Dataset, reg: _Registry) -> dict[str, Any]:
+    """Return the scene's semantic config (lexicon, region annotations), or {} when it names none that exists."""
+    handle = scene_doc.get("semantic_scene_instance")
+    sec = ds.doc.get("scene_instances") or {}
+    if not handle and isinstance(sec, dict):
+        handle = (sec.get("default_attributes") or {}).get("semantic_scene_instance")
+    if not handle:
+        return {}
+    stem = scene.name[: -len(SCENE_INSTANCE)] if scene.name.lower().endswith(SCENE_INSTANCE) else scene.stem
+    handle = str(handle).replace("%%CONFIG_NAME_AS_ASSET_FILENAME%%", stem)
+    ssd = ds.doc.get("semantic_scene_descriptor_instances") or {}
+    target = str(ssd.get(handle, handle)) if isinstance(ssd, dict) else str(handle)
+    direct = ds.root / target
+    if direct.is_file():
+        return _read_json(direct)
+    for f in reg.files("semantic_scene_descriptor_instances", ".semantic_config.json"):
+        if Path(target).name in f.name:
+            return _read_json(f)
+    return {}
+
+
+def _rooms(semantic: dict[str, Any], where: Path) -> list[Room]:
+    """Return the region annotations of a semantic config as Rooms (MuJoCo frame, CCW polygons)."""
+    rooms = []
+    regions = semantic.get("region_annotations") or []
+    heights = sorted({round(float(r.get("floor_height", 0.0)), 3) for r in regions})
+    for k, r in enumerate(regions):
+        loop = np.asarray(r.get("poly_loop", []), dtype=float)
+        if loop.ndim != 2 or loop.shape[1] != 3 or len(loop) < 3:
+            raise InputError(display_path(where), f"region_annotations[{k}] ('{r.get('name', '')}'): poly_loop must "
+                                                  "list at least 3 [x, y, z] points")
+        poly = (loop @ HAB_TO_MJ.T)[:, :2]
+        x, y = poly[:, 0], poly[:, 1]
+        if float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) < 0:
+            poly = poly[::-1]
+        rooms.append(Room(id=k, type=str(r.get("label") or r.get("name") or "region"),
+                          floor=heights.index(round(float(r.get("floor_height", 0.0)), 3)), polygon=poly))
+    return rooms
+
+
+def read_habitat(path: str | Path) -> Reading:
+    """Read a Habitat scene dataset's scene instance (stage + placed objects, semantics, regions)."""
+    scene, ds = _scene_and_dataset(Path(path))
+    reg = _Registry(ds)
+    doc = _read_json(scene)
+    if not isinstance(doc, dict) or not isinstance(doc.get("stage_instance"), dict):
+        raise InputError(display_path(scene), "no 'stage_instance' object: not a Habitat scene instance")
+    origin = str(doc.get("translation_origin", "asset_local"))
+    semantic = _semantic_config(doc, scene, ds, reg)
+    lexicon = {int(c["id"]): str(c["name"]) for c in semantic.get("classes", []) if "id" in c and "name" in c}
+    rooms = _rooms(semantic, scene)
+    pairs: list[tuple[Part, int]] = []
+    meta: dict[int, dict[str, Any]] = {}
+    from .scene import label_from_node
+
+    stage_inst = doc["stage_instance"]
+    attrs, base = reg.resolve("stages", str(stage_inst.get("template_name", "")), scene)
+    stage_parts = _placed_parts(attrs, base, stage_inst, origin, scene)
+    extras = _node_extras(base / str(attrs["render_asset"]))
+    node_ids: dict[str, int] = {}
+    for p in stage_parts:
+        m = re.match(r"^(.*?)(?:_[0-9a-f]{6})?$", p.node)
+        ex = extras.get(p.node) or extras.get(m.group(1) if m else p.node) or {}
+        if "instance_id" in ex:
+            iid = int(ex["instance_id"])
+        else:
+            iid = node_ids.setdefault(p.node, 10**6 + len(node_ids))
+        entry = {"id": iid, "label": str(ex.get("label") or label_from_node(p.node)),
+                 "kind": str(ex.get("kind", "structure")), "name": p.node}
+        entry.update({k: int(ex[k]) for k in ("room", "floor") if k in ex})
+        meta.setdefault(iid, entry)
+        pairs.append((p, iid))
+    nxt = max([i for _p, i in pairs if i < 10**6], default=-1) + 1
+    renum = {}
+    for tmp in sorted(set(node_ids.values())):
+        renum[tmp] = nxt
+        meta[nxt] = {**meta.pop(tmp), "id": nxt}
+        nxt += 1
+    pairs = [(p, renum.get(i, i)) for p, i in pairs]
+    for k, inst in enumerate(doc.get("object_instances") or []):
+        name = str(inst.get("template_name", ""))
+        if not name:
+            raise InputError(display_path(scene), f"object_instances[{k}] has no template_name")
+        attrs, base = reg.resolve("objects", name, scene)
+        parts = _placed_parts(attrs, base, inst, origin, scene)
+        sid = attrs.get("semantic_id", inst.get("semantic_id"))
+        stem = Path(name).name
+        stem = stem[: -len(".object_config.json")] if stem.endswith(".object_config.json") else stem
+        label = lexicon.get(int(sid)) if sid is not None and int(sid) in lexicon else label_from_node(stem)
+        meta[nxt] = {"id": nxt, "label": label, "kind": "furniture", "name": name}
+        pairs.extend((p, nxt) for p in parts)
+        nxt += 1
+    if rooms:
+        _assign_rooms(pairs, meta, rooms, semantic)
+    return Reading(pairs, meta, rooms, [scene] + ([ds.path] if ds.path else []))
+
+
+def _assign_rooms(pairs: list[tuple[Part, int]], meta: dict[int, dict[str, Any]], rooms: list[Room],
+                  semantic: dict[str, Any]) -> None:
+    """Set each instance's room (and floor) to the region containing its bounding-box centre (XY, within the extrusion)."""
+    regions = semantic.get("region_annotations") or []
+    by: dict[int, list[np.ndarray]] = {}
+    for p, i in pairs:
+        by.setdefault(i, []).append(p.vertices)
+    for i, vs in by.items():
+        v = np.concatenate(vs)
+        c = (v.min(axis=0) + v.max(axis=0)) / 2
+        if "room" in meta[i]:
+            continue  # the input said it (glTF node extras)
+        for room, r in zip(rooms, regions):
+            h0 = float(r.get("floor_height", -np.inf))
+            h1 = h0 + float(r.get("extrusion_height", np.inf))
+            if h0 - 0.5 <= c[2] <= h1 + 0.5 and points_in_polygon(room.polygon, c[None, :2])[0]:
+                meta[i]["room"], meta[i]["floor"] = room.id, room.floor
+                break
+
+
+__all__ = ["Reading", "input_files", "is_companion", "layout_of", "read_habitat", "read_house", "read_hm3d", "read_mp3d",
+           "read_semantic_txt",
+           "split_by_face_instance"]
