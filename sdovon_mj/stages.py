@@ -171,12 +171,45 @@ def scene_inputs(store: Store, cfg: RunConfig) -> dict[str, str]:
         return {f"apt_{seed:04d}": "" for seed in cfg.world.scene_seeds}
     out: dict[str, str] = {}
     for path in inputs["scenes"]:
-        name = _safe_name(Path(path).stem.replace("_vh_clean", ""))
+        name = _safe_name(re.sub(r"\.(scene_instance|scene_dataset_config|basis)$", "",
+                                 Path(path).stem.replace("_vh_clean", "")))
         base, k = name, 1
         while name in out:
             k += 1
             name = f"{base}_{k}"
         out[name] = path
+    return out
+
+
+def expand_scene_inputs(scenes: list[str] | None, cfg: RunConfig) -> list[str] | None:
+    """Return the scene inputs with folders replaced by the one scene they hold; raise InputError listing several.
+
+    A folder is a ``sdovon-mj convert --kind scene`` output (its ``convert_report.json`` names the converted
+    inputs) or a folder of scene files as the converter finds them (an HM3D scene, a Habitat dataset, ...).
+    """
+    if not scenes:
+        return scenes
+    import json
+
+    out: list[str] = []
+    for s in scenes:
+        p = Path(s)
+        if not p.is_dir():
+            out.append(s)
+            continue
+        report = p / "convert_report.json"
+        if report.is_file():
+            rows = json.loads(report.read_text(encoding="utf-8")).get("items", [])
+            found = [Path(r["file"]) for r in rows if r.get("status") == "ok" and (p / "scenes" / str(r.get("name"))).is_dir()]
+        else:
+            found = list(converter(cfg).scene_files(p)) if hasattr(converter(cfg), "scene_files") else []
+        if len(found) == 1:
+            out.append(str(found[0]))
+        elif not found:
+            raise InputError(p, "folder holds no scene (no converted scene, no scene file)")
+        else:
+            raise InputError(p, f"folder holds {len(found)} scenes, pass one (or each) of them: "
+                                + ", ".join(str(f) for f in found[:12]) + (" ..." if len(found) > 12 else ""))
     return out
 
 
@@ -260,8 +293,16 @@ def _objects(ctx: StageContext) -> list[str]:
 
 def _objects_extra(ctx: StageContext) -> list[Any]:
     """Return the object stage's further inputs: converter version and (name, category, digest) per file."""
-    return [converter(ctx.cfg).version,
-            [(_input_name(ctx.store, p), c, file_hash(p)) for p, c in _object_files(ctx)]]
+    conv = converter(ctx.cfg)
+    return [conv.version, [(_input_name(ctx.store, p), c, file_hash(p), *_extra_digests(conv, p))
+                           for p, c in _object_files(ctx)]]
+
+
+def _extra_digests(conv: Any, path: Path) -> list[list[str]]:
+    """Return [[digest of each further file the converter reads for `path`]] ([] when none: metadata, companions)."""
+    extra = getattr(conv, "extra_inputs", None)
+    files = list(extra(path)) if extra is not None else []
+    return [[file_hash(Path(f)) for f in files]] if files else []
 
 
 def _world_scene(ctx: StageContext) -> list[str]:
@@ -339,7 +380,7 @@ def _perceive(ctx: StageContext) -> list[str]:
 
 def _semantics(ctx: StageContext) -> list[str]:
     """Region maps per floor, planes with floor and region, relevance of the library's categories."""
-    from .semantics import annotate_planes, region_map, region_picture, relevance
+    from .semantics import annotate_planes, input_region_map, region_map, region_picture, relevance
 
     d, p = ctx.key("semantics"), ctx.key("perceive")
     instances: list[Instance] = load_npz(ctx.store.path(f"{p}/instances.npz"))  # type: ignore[assignment]
@@ -347,8 +388,15 @@ def _semantics(ctx: StageContext) -> list[str]:
     backend = _llm_backend(ctx)
     outs: list[str] = []
     maps = {}
+    rooms = ctx.view.scene(ctx.scene).rooms if ctx.cfg.semantics.regions == "input" else None
     for nm in ctx.view.navmaps(ctx.scene):
-        rm = region_map(instances, nm, backend, ctx.cfg.semantics)
+        if rooms is not None:
+            try:
+                rm = input_region_map(rooms, nm)
+            except ValueError as e:
+                raise StageError(str(e)) from None
+        else:
+            rm = region_map(instances, nm, backend, ctx.cfg.semantics)
         maps[nm.floor] = (nm, rm)
         save_json(rm, ctx.store.path(f"{d}/regions_{nm.floor}.json"))
         region_picture(rm, ctx.store.path(f"{d}/regions_{nm.floor}.png"), navmap=nm)
@@ -414,7 +462,8 @@ _DECLARED = [
           _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)], applies=lambda ctx: not ctx.scene_source()),
     Stage("convert", "scene", "scenes/{scene}/convert", ("world:scene",), ("convert",),
           "scenes/<scene>/scene.json (SceneAsset), its MJCF and mesh sidecar",
-          _convert, extra=lambda ctx: [converter(ctx.cfg).version, file_hash(scene_file(ctx))]),
+          _convert, extra=lambda ctx: [converter(ctx.cfg).version, file_hash(scene_file(ctx)),
+                                       *_extra_digests(converter(ctx.cfg), scene_file(ctx))]),
     Stage("observe", "scene", "scenes/{scene}/observe", ("convert",),
           ("observe", "agent.radius", "agent.height", "agent.camera_height", "agent.hfov"),
           "navmap_<floor>.json, viewpoints.json, obs_*.npz shards, pictures",
@@ -478,4 +527,4 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
 
 
 __all__ = ["COMMAND_STAGES", "STAGES", "SCOPES", "Stage", "StageContext", "closure", "converter", "describe", "run_stage",
-           "run_task", "scene_inputs", "scene_names", "scope_stages", "section_value", "stage_fingerprint"]
+           "expand_scene_inputs", "run_task", "scene_inputs", "scene_names", "scope_stages", "section_value", "stage_fingerprint"]
