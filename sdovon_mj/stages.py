@@ -3,7 +3,9 @@
 A `Stage` names its scope (run, scene, variant, export), the marker folder of its outputs in the run folder
 (`key`), the stages whose outputs it reads (`needs`), the config it reads (`sections`: a section such as
 ``observe`` or one field such as ``world.floors``), further inputs of its fingerprint (`extra`: seeds, input
-file digests, converter version) and the function that does the work (`make`, returning its output paths).
+file digests, converter version), the stages that write its input files (`after`: run first, but only the
+files' digests enter its fingerprint, so a converted scene depends on its content, not on who wrote it) and
+the function that does the work (`make`, returning its output paths).
 From that declaration alone come
 
 - its fingerprint: ``fingerprint(name, needs' fingerprints, sections' values, extra)`` (`stage_fingerprint`);
@@ -95,6 +97,7 @@ class Stage:
     make: Callable[[StageContext], list[str]]
     extra: Callable[[StageContext], list[Any]] = field(default=lambda ctx: [])
     applies: Callable[[StageContext], bool] = field(default=lambda ctx: True)
+    after: tuple[str, ...] = ()  # stages that write this one's input files (run first; their digests are in `extra`)
     when_sections: Callable[[RunConfig], tuple[str, ...]] = field(default=lambda cfg: ())
 
     def read_sections(self, cfg: RunConfig) -> tuple[str, ...]:
@@ -145,7 +148,7 @@ def closure(names: list[str] | tuple[str, ...]) -> list[str]:
             raise StageError(f"unknown stage '{n}' (stages: {', '.join(STAGES)})")
         if n not in want:
             want.add(n)
-            todo += STAGES[n].needs
+            todo += STAGES[n].needs + STAGES[n].after
     return [n for n in STAGES if n in want]
 
 
@@ -454,16 +457,17 @@ _DECLARED = [
     Stage("world:objects", "run", "inputs/objects", (), ("world.object_seed", "world.object_variants", "world.object_categories"),
           "the default world's object library as input files (only when no --objects are given)",
           _world_objects, applies=lambda ctx: not ctx.inputs["objects"]),
-    Stage("objects", "run", "objects", ("world:objects",), ("convert",),
+    Stage("objects", "run", "objects", (), ("convert",),
           "objects/objects.json (list[ObjectAsset]), objects/failures.json, objects/<name>/ (MJCF, hulls, textures)",
-          _objects, extra=_objects_extra),
+          _objects, extra=_objects_extra, after=("world:objects",)),
     Stage("world:scene", "scene", "inputs/scenes/{scene}", (), ("world.floors", "world.scene_mode"),
           "a default-world apartment as an input file (only for default-world scenes)",
           _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)], applies=lambda ctx: not ctx.scene_source()),
-    Stage("convert", "scene", "scenes/{scene}/convert", ("world:scene",), ("convert",),
+    Stage("convert", "scene", "scenes/{scene}/convert", (), ("convert",),
           "scenes/<scene>/scene.json (SceneAsset), its MJCF and mesh sidecar",
           _convert, extra=lambda ctx: [converter(ctx.cfg).version, file_hash(scene_file(ctx)),
-                                       *_extra_digests(converter(ctx.cfg), scene_file(ctx))]),
+                                       *_extra_digests(converter(ctx.cfg), scene_file(ctx))],
+          after=("world:scene",)),
     Stage("observe", "scene", "scenes/{scene}/observe", ("convert",),
           ("observe", "agent.radius", "agent.height", "agent.camera_height", "agent.hfov"),
           "navmap_<floor>.json, viewpoints.json, obs_*.npz shards, pictures",

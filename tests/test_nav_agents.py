@@ -31,12 +31,17 @@ def fixture_root(tmp_path_factory):
     return fixture_bundle(tmp_path_factory.mktemp("fx"), variants=1, seed=5)
 
 
+def _fixture_copy(fixture_root, tmp_path_factory, name):
+    """Copy the fixture's first variant to a new folder; return it and its episodes."""
+    dst = tmp_path_factory.mktemp(name) / "v"
+    shutil.copytree(fixture_root / "fixture_apartment_v000", dst)
+    return dst, load_json(dst / "episodes.json", Episode)
+
+
 @pytest.fixture(scope="module")
 def straight_bundle(fixture_root, tmp_path_factory):
     """A bundle with one episode: start at (4.6, 3.6) facing +X, one view point exactly 2.0 m ahead."""
-    dst = tmp_path_factory.mktemp("straight") / "v"
-    shutil.copytree(fixture_root / "fixture_apartment_v000", dst)
-    eps = load_json(dst / "episodes.json", Episode)
+    dst, eps = _fixture_copy(fixture_root, tmp_path_factory, "straight")
     g = eps[0].goals[0]
     goal = Goal(g.object_id, g.category, g.position, [ViewPoint(np.array([6.6, 3.6, 0.0]), yaw_quat(0.0))], g.bounds)
     ep = Episode("straight", eps[0].scene, eps[0].variant, g.category, np.array([4.6, 3.6, 0.0]), yaw_quat(0.0), [goal], 2.0, 2.0)
@@ -214,9 +219,7 @@ def test_semantic_beats_random_and_fn_helps_on_fixture(tmp_path):
 @pytest.fixture(scope="module")
 def easy_bundle(fixture_root, tmp_path_factory):
     """The fixture variant with 3 episodes: an easy one (the goal in view, about 1 m ahead) and two of its own."""
-    dst = tmp_path_factory.mktemp("easy") / "v"
-    shutil.copytree(fixture_root / "fixture_apartment_v000", dst)
-    eps = load_json(dst / "episodes.json", Episode)
+    dst, eps = _fixture_copy(fixture_root, tmp_path_factory, "easy")
     g = eps[0].goals[0]
     vps = np.array([vp.position for vp in g.view_points])
     d = np.linalg.norm(vps[:, :2] - g.position[:2], axis=1)

@@ -368,3 +368,48 @@ def test_zero_byte_texture_is_named_and_the_rest_of_the_library_converts(tmp_pat
                                                        ConvertConfig(jobs=1))
     assert [a.category for a in assets] == ["apple"]
     assert list(failures) == [str(box)] and "texture file 'empty.png' referenced by box.mtl is empty (0 bytes)" in failures[str(box)]
+
+
+# Every stage and exporter of the tiny run, in the order a run finishes them (the tiny config has one variant).
+ALL_STAGES = ("inputs/objects", "objects", "inputs/scenes/apt_0000", f"{SCENE}/convert", f"{SCENE}/observe",
+              f"{SCENE}/perceive", f"{SCENE}/semantics", f"{VARIANT}/place", f"{VARIANT}/episodes",
+              "export/habitat.stage", "export/mjcf.stage")
+
+
+@pytest.mark.slow
+def test_a_signal_in_every_stage_and_exporter_then_resume_is_identical(reference: Path, tiny: Path,
+                                                                        tmp_path: Path) -> None:
+    """One run is stopped once in each stage and exporter in turn, SIGTERM and SIGKILL alternating: each time the
+    signal comes as that stage starts (the one before it has just written its marker); every restart resumes
+    from what is finished, and the run ends with the reference bytes.
+
+    A SIGTERM ends with exit 143 and the resume message; a SIGKILL leaves a stale lock the next start takes over.
+    A stage so short that it finishes before the signal lands is simply done: what is asserted is the way out
+    (exit status, message) and the final bytes.
+    """
+    assert sorted(str(p.parent.relative_to(reference)) for p in reference.rglob(".done.json")) == sorted(ALL_STAGES)
+    run = copy_run(reference, tmp_path / "run")
+    unfinish(run, *ALL_STAGES)
+    for k, stage in enumerate(ALL_STAGES):
+        sig = signal.SIGTERM if k % 2 == 0 else signal.SIGKILL
+        proc = popen("generate", "--out", str(run), "--config", str(tiny), "--quiet")
+        try:
+            wait_for(run / ".sdovon.lock" if k == 0 else run / ALL_STAGES[k - 1] / ".done.json", proc)
+            if sig == signal.SIGKILL:
+                os.killpg(proc.pid, sig)
+            else:
+                proc.send_signal(sig)
+            _, err = proc.communicate(timeout=300)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.communicate()
+        if sig == signal.SIGTERM and proc.returncode != 0:  # 0: the whole run was done before the signal landed
+            assert proc.returncode == 128 + signal.SIGTERM, (stage, err)
+            assert "run the same command again to resume" in err, (stage, err)
+        elif sig == signal.SIGKILL:
+            assert proc.returncode == -signal.SIGKILL, stage
+    again = cli("generate", "--out", str(run), "--config", str(tiny), "--quiet")
+    assert again.returncode == 0, again.stderr
+    assert not (run / ".sdovon.lock").exists() and not list(run.rglob(".*.tmp"))
+    assert_same_outputs(run, reference)

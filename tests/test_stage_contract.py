@@ -34,7 +34,7 @@ def test_every_declaration_is_consistent():
     keys = set()
     for name, st in stages.STAGES.items():
         assert st.name == name and st.scope in stages.SCOPES
-        for need in st.needs:  # a stage needs only stages declared before it
+        for need in st.needs + st.after:  # a stage needs only stages declared before it
             assert list(stages.STAGES).index(need) < list(stages.STAGES).index(name), (name, need)
         for sec in st.read_sections(cfg):
             stages.section_value(cfg, sec)  # raises AttributeError for a section that does not exist
@@ -42,7 +42,7 @@ def test_every_declaration_is_consistent():
         keys.add(st.key)
     assert stages.closure(["episodes"]) == ["world:objects", "objects", "world:scene", "convert", "observe", "perceive",
                                             "semantics", "place", "episodes"]
-    assert stages.closure(["observe"]) == ["world:scene", "convert", "observe"]
+    assert stages.closure(["observe"]) == ["world:scene", "convert", "observe"]  # world:scene via `after`
     with pytest.raises(StageError, match="unknown stage 'nope'"):
         stages.closure(["nope"])
     assert "perceive" in stages.describe()

@@ -15,6 +15,8 @@ from sdovon_mj.sim.model import object_segment_id, pose_settled
 from sdovon_mj.store import atomic_copy, atomic_write_text
 from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
 
+from exporters.simparts import exportable_variants
+
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
 BUNDLE_VERSION = 2  # 2: generator artefacts (navmaps, labels, relevance, region maps) under oracle/
@@ -144,11 +146,7 @@ class MjcfBundleExporter(Exporter):
         report = ExportReport(format=self.name, out_dir=str(out_dir), name=options.name)
         written: list[Path] = []
         index = []
-        for variant in run.all_variants():
-            eps = run.episodes(variant)
-            if not eps:
-                report.skipped[variant.name] = "no valid goals (zero episodes)"
-                continue
+        for variant, eps in exportable_variants(run, report):
             bdir = root / variant.name
             xml, copied = bundle_variant_xml(run, variant, bdir)
             atomic_write_text(bdir / "scene.xml", xml)
