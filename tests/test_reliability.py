@@ -20,6 +20,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_generate import _wait_for as wait_for  # the run-folder helpers of the generate tests: one home
 from test_generate import TINY_YAML, assert_same_outputs, cli, snapshot
@@ -413,3 +414,34 @@ def test_a_signal_in_every_stage_and_exporter_then_resume_is_identical(reference
     assert again.returncode == 0, again.stderr
     assert not (run / ".sdovon.lock").exists() and not list(run.rglob(".*.tmp"))
     assert_same_outputs(run, reference)
+
+
+@pytest.mark.slow
+def test_a_scene_of_a_million_tiny_triangles_ends_clearly_and_resumes(tiny: Path, tmp_path: Path) -> None:
+    """A 10 m x 5 m floor of 1,000,000 triangles (1 cm cells) with one box on it: the run converts, observes and
+    ends with the empty-run warning (nothing there is a receptacle) and exit 1; a rerun finds every stage done
+    and leaves the same bytes."""
+    import trimesh
+
+    nx, ny = 1000, 500
+    xs, ys = np.meshgrid(np.linspace(0.0, 10.0, nx + 1), np.linspace(0.0, 5.0, ny + 1))
+    v = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], 1)
+    i = (np.arange(ny)[:, None] * (nx + 1) + np.arange(nx)[None, :]).ravel()
+    f = np.concatenate([np.stack([i, i + 1, i + nx + 2], 1), np.stack([i, i + nx + 2, i + nx + 1], 1)])
+    floor = trimesh.Trimesh(v, f, process=False)
+    box = trimesh.creation.box(extents=(0.8, 0.5, 0.7))
+    box.apply_translation((5.0, 2.5, 0.35))
+    scene = tmp_path / "million.ply"
+    trimesh.util.concatenate([floor, box]).export(scene)
+    assert len(f) == 1_000_000
+    run = tmp_path / "run"
+    first = cli("generate", "--out", str(run), "--config", str(tiny), "--scenes", str(scene), "--quiet", timeout=1200)
+    assert first.returncode == 1, first.stderr
+    assert "empty result" in first.stderr and "--allow-empty" in first.stderr, first.stderr
+    before = snapshot(run)
+    again = cli("generate", "--out", str(run), "--config", str(tiny), "--scenes", str(scene), "--quiet",
+                "--allow-empty", timeout=1200)
+    assert again.returncode == 0, again.stderr
+    after = snapshot(run)
+    assert {k: v for k, v in after.items() if k != "manifest.json"} == {k: v for k, v in before.items()
+                                                                        if k != "manifest.json"}
