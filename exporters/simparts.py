@@ -15,18 +15,14 @@ from __future__ import annotations
 
 import hashlib
 import io
-import json
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
 from sdovon_mj.errors import InputError
-from sdovon_mj.records import Episode, SceneVariant
+from sdovon_mj.records import SceneVariant
 from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_COLLISION, GROUP_OBJECT_VISUAL, GROUP_SCENE, GROUP_SUPPORT
-from sdovon_mj.export import ExportOptions, ExportReport, RunView
-from sdovon_mj.store import atomic_write_text
+from sdovon_mj.export import RunView
 
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
@@ -185,27 +181,6 @@ def variant_parts(run: RunView, variant: SceneVariant) -> VariantParts:
                         gravity=model.opt.gravity.copy())
 
 
-def exportable_variants(run: RunView, report: ExportReport) -> Iterator[tuple[SceneVariant, list[Episode]]]:
-    """Yield (variant, episodes) for every variant with episodes; record the others in report.skipped."""
-    for variant in run.all_variants():
-        eps = run.episodes(variant)
-        if not eps:
-            report.skipped[variant.name] = "no valid goals (zero episodes)"
-            continue
-        yield variant, eps
-
-
-def finish_export(report: ExportReport, root: Path, options: ExportOptions, index: list[dict],
-                  written: list[Path]) -> ExportReport:
-    """Write the dataset's index.json ({dataset, split, variants: index}) and fill report.files; return report."""
-    atomic_write_text(root / "index.json", json.dumps({"dataset": options.name, "split": options.split,
-                                                       "variants": index}, indent=1, sort_keys=True) + "\n")
-    written.append(root / "index.json")
-    out_dir = Path(report.out_dir)
-    report.files = sorted({p.relative_to(out_dir).as_posix() for p in written})
-    return report
-
-
 def obj_text(part: MeshPart, mtl: str = "", material: str = "") -> str:
     """Return a MeshPart as Wavefront OBJ text (with ``vt`` and a material reference when textured/coloured)."""
     lines = ["# sdovon-mj export: metres, Z up"]
@@ -223,4 +198,4 @@ def obj_text(part: MeshPart, mtl: str = "", material: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["MeshPart", "RigidBody", "VariantParts", "geom_part", "texture_png", "variant_parts", "obj_text", "exportable_variants", "finish_export"]
+__all__ = ["MeshPart", "RigidBody", "VariantParts", "geom_part", "texture_png", "variant_parts", "obj_text"]

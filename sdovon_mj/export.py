@@ -21,10 +21,11 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 from . import plugins
 from .errors import InputError, SdovonError
+from .records import Episode, SceneVariant
 from .runview import RunView
 from .store import atomic_write_text
 
@@ -125,6 +126,26 @@ def run_export(exporter: Exporter, run: RunView, out_dir: Path, options: ExportO
     return report
 
 
+def exportable_variants(run: RunView, report: ExportReport) -> Iterator[tuple[SceneVariant, list[Episode]]]:
+    """Yield (variant, episodes) for every variant with episodes; record the others in report.skipped."""
+    for variant in run.all_variants():
+        eps = run.episodes(variant)
+        if not eps:
+            report.skipped[variant.name] = "no valid goals (zero episodes)"
+            continue
+        yield variant, eps
+
+
+def finish_export(report: ExportReport, root: Path, options: ExportOptions, index: list[dict], written: list[Path],
+                  index_key: str = "variants") -> ExportReport:
+    """Write the dataset's ``index.json`` ({dataset, split, <index_key>: index}) and fill report.files; return report."""
+    atomic_write_text(root / "index.json", json.dumps({"dataset": options.name, "split": options.split,
+                                                       index_key: index}, indent=1, sort_keys=True) + "\n")
+    written.append(root / "index.json")
+    report.files = sorted({p.relative_to(Path(report.out_dir)).as_posix() for p in written})
+    return report
+
+
 def make_exporter(fmt: str) -> Exporter:
     """Return an exporter instance for a plugin name."""
     obj = plugins.load("exporter", fmt)
@@ -143,4 +164,5 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path, name: str = "sdov
 
 
 __all__ = ["MANIFEST", "ExportError", "ExportOptions", "ExportReport", "Exporter", "RunView", "read_manifest",
-           "prepare_out_dir", "record_export", "run_export", "make_exporter", "export_run"]
+           "prepare_out_dir", "record_export", "run_export", "make_exporter", "export_run", "exportable_variants",
+           "finish_export"]

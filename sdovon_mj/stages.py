@@ -205,7 +205,8 @@ def expand_scene_inputs(scenes: list[str] | None, cfg: RunConfig) -> list[str] |
             rows = json.loads(report.read_text(encoding="utf-8")).get("items", [])
             found = [Path(r["file"]) for r in rows if r.get("status") == "ok" and (p / "scenes" / str(r.get("name"))).is_dir()]
         else:
-            found = list(converter(cfg).scene_files(p)) if hasattr(converter(cfg), "scene_files") else []
+            conv = converter()
+            found = list(conv.scene_files(p)) if hasattr(conv, "scene_files") else []
         if len(found) == 1:
             out.append(str(found[0]))
         elif not found:
@@ -264,9 +265,9 @@ def _input_name(store: Store, path: Path) -> str:
         return str(Path(path).resolve())
 
 
-def converter(cfg: RunConfig) -> Any:
-    """Return the converter plugin (kind ``converter``; ``mesh`` is assets_convert's)."""
-    obj = plugins.load("converter", "mesh")
+def converter(name: str = "mesh") -> Any:
+    """Return an instance of the converter plugin `name` (kind ``converter``; ``mesh`` is assets_convert's)."""
+    obj = plugins.load("converter", name)
     return obj() if isinstance(obj, type) else obj
 
 
@@ -286,7 +287,7 @@ def _world_objects(ctx: StageContext) -> list[str]:
 
 def _objects(ctx: StageContext) -> list[str]:
     """Convert the object library into ``objects/<name>/`` (+ object.json) and ``objects/objects.json``."""
-    assets, failures = converter(ctx.cfg).convert_library(_object_files(ctx), ctx.store.root, ctx.cfg.convert)
+    assets, failures = converter().convert_library(_object_files(ctx), ctx.store.root, ctx.cfg.convert)
     if not assets:
         raise StageError("no object converted: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
     save_json(assets, ctx.store.path("objects/objects.json"))
@@ -296,9 +297,14 @@ def _objects(ctx: StageContext) -> list[str]:
 
 def _objects_extra(ctx: StageContext) -> list[Any]:
     """Return the object stage's further inputs: converter version and (name, category, digest) per file."""
-    conv = converter(ctx.cfg)
+    conv = converter()
     return [conv.version, [(_input_name(ctx.store, p), c, file_hash(p), *_extra_digests(conv, p))
                            for p, c in _object_files(ctx)]]
+
+
+def _convert_extra(conv: Any, path: Path) -> list[Any]:
+    """Return the convert stage's further inputs: converter version, the scene file's digest, its companions'."""
+    return [conv.version, file_hash(path), *_extra_digests(conv, path)]
 
 
 def _extra_digests(conv: Any, path: Path) -> list[list[str]]:
@@ -342,7 +348,7 @@ def scene_file(ctx: StageContext) -> Path:
 
 def _convert(ctx: StageContext) -> list[str]:
     """Convert the scene file into ``scenes/<scene>/`` (scene.json, MJCF, mesh sidecar)."""
-    asset = converter(ctx.cfg).convert_scene(scene_file(ctx), ctx.store.root, ctx.scene, ctx.cfg.convert)
+    asset = converter().convert_scene(scene_file(ctx), ctx.store.root, ctx.scene, ctx.cfg.convert)
     save_json(asset, ctx.store.path(f"scenes/{ctx.scene}/scene.json"))
     return [f"scenes/{ctx.scene}/scene.json", asset.mjcf, asset.mesh]
 
@@ -465,8 +471,7 @@ _DECLARED = [
           _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)], applies=lambda ctx: not ctx.scene_source()),
     Stage("convert", "scene", "scenes/{scene}/convert", (), ("convert",),
           "scenes/<scene>/scene.json (SceneAsset), its MJCF and mesh sidecar",
-          _convert, extra=lambda ctx: [converter(ctx.cfg).version, file_hash(scene_file(ctx)),
-                                       *_extra_digests(converter(ctx.cfg), scene_file(ctx))],
+          _convert, extra=lambda ctx: _convert_extra(converter(), scene_file(ctx)),
           after=("world:scene",)),
     Stage("observe", "scene", "scenes/{scene}/observe", ("convert",),
           ("observe", "agent.radius", "agent.height", "agent.camera_height", "agent.hfov"),

@@ -365,7 +365,7 @@ def test_zero_byte_texture_is_named_and_the_rest_of_the_library_converts(tmp_pat
                    + "".join("f " + " ".join(f"{v}/{k + 1}" for k, v in enumerate(q)) + "\n" for q in quads), encoding="utf-8")
     (box.parent / "box.mtl").write_text("newmtl m\nKd 1 1 1\nmap_Kd empty.png\n", encoding="utf-8")
     (box.parent / "empty.png").write_bytes(b"")
-    assets, failures = converter(None).convert_library([(good, "apple"), (box, "box")], tmp_path / "out",
+    assets, failures = converter().convert_library([(good, "apple"), (box, "box")], tmp_path / "out",
                                                        ConvertConfig(jobs=1))
     assert [a.category for a in assets] == ["apple"]
     assert list(failures) == [str(box)] and "texture file 'empty.png' referenced by box.mtl is empty (0 bytes)" in failures[str(box)]

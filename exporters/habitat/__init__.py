@@ -30,7 +30,7 @@ from sdovon_mj.records import Episode, Goal, SceneVariant
 from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from sdovon_mj.sim.model import pose_settled
 from sdovon_mj.store import atomic_write_bytes
-from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
+from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView, exportable_variants
 
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
@@ -137,13 +137,7 @@ class HabitatExporter(Exporter):
         report = ExportReport(format=self.name, out_dir=str(out_dir), name=name)
         objects = run.objects()
         # Pass 1: which variants have episodes.
-        todo: list[tuple[SceneVariant, list[Episode]]] = []
-        for v in run.all_variants():
-            eps = run.episodes(v)
-            if not eps:
-                report.skipped[v.name] = "no valid goals (zero episodes)"
-                continue
-            todo.append((v, eps))
+        todo = list(exportable_variants(run, report))
         categories = sorted({ep.object_category for _v, eps in todo for ep in eps})
         cat_ids = {c: i for i, c in enumerate(categories)}
         maps = {"category_to_task_category_id": cat_ids, "category_to_scene_annotation_category_id": dict(cat_ids)}

@@ -10,12 +10,10 @@ from pathlib import Path
 import numpy as np
 
 from sdovon_mj.errors import InputError
-from sdovon_mj.records import SceneVariant, dumps
+from sdovon_mj.records import NavMap, SceneVariant, dumps
 from sdovon_mj.sim.model import object_segment_id, pose_settled
 from sdovon_mj.store import atomic_copy, atomic_write_text
-from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
-
-from exporters.simparts import exportable_variants
+from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView, exportable_variants, finish_export
 
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
@@ -104,7 +102,7 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path) ->
     return spec.to_xml(), copied
 
 
-def write_oracle(run: RunView, variant: SceneVariant, bdir: Path) -> list[Path]:
+def write_oracle(run: RunView, variant: SceneVariant, bdir: Path, navmaps: list[NavMap]) -> list[Path]:
     """Write the generator's artefacts of a variant into ``<bundle>/oracle/`` (out of honest agents' reach).
 
     ``navmap_<floor>.json`` (the environment's collision map and the metrics' geodesics),
@@ -116,7 +114,7 @@ def write_oracle(run: RunView, variant: SceneVariant, bdir: Path) -> list[Path]:
     """
     odir = bdir / "oracle"
     out: list[Path] = []
-    for nm in run.navmaps(variant.scene):
+    for nm in navmaps:
         atomic_write_text(odir / f"navmap_{nm.floor}.json", nm.to_json())
         out.append(odir / f"navmap_{nm.floor}.json")
     labels = {str(i.id): i.label for i in sorted(run.scene(variant.scene).instances, key=lambda i: i.id)}
@@ -154,7 +152,7 @@ class MjcfBundleExporter(Exporter):
             navmaps = run.navmaps(variant.scene)
             atomic_write_text(bdir / "episodes.json", dumps([e.to_dict() for e in eps]))
             written.append(bdir / "episodes.json")
-            written += write_oracle(run, variant, bdir)
+            written += write_oracle(run, variant, bdir, navmaps)
             meta = {"bundle_version": BUNDLE_VERSION, "dataset": options.name, "split": options.split,
                     "scene": variant.scene, "variant": variant.name, "model": "scene.xml", "episodes": "episodes.json",
                     "navmaps": {str(nm.floor): f"oracle/navmap_{nm.floor}.json" for nm in navmaps}, "oracle": "oracle/",
@@ -166,8 +164,4 @@ class MjcfBundleExporter(Exporter):
             index.append({"variant": variant.name, "path": variant.name, "n_episodes": len(eps)})
             report.variants.append(variant.name)
             report.episodes += len(eps)
-        atomic_write_text(root / "index.json", json.dumps({"dataset": options.name, "split": options.split,
-                                                           "bundles": index}, indent=1, sort_keys=True) + "\n")
-        written.append(root / "index.json")
-        report.files = sorted(p.relative_to(out_dir).as_posix() for p in written)
-        return report
+        return finish_export(report, root, options, index, written, index_key="bundles")

@@ -37,9 +37,9 @@ from scipy.spatial.transform import Rotation
 
 from sdovon_mj.records import dumps
 from sdovon_mj.store import atomic_write_bytes, atomic_write_text
-from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
+from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView, exportable_variants, finish_export
 
-from exporters.simparts import MeshPart, RigidBody, VariantParts, obj_text, texture_png, variant_parts, exportable_variants, finish_export
+from exporters.simparts import MeshPart, RigidBody, VariantParts, obj_text, texture_png, variant_parts
 
 
 def _f(v, digits: int = 9) -> str:

@@ -28,9 +28,9 @@ import numpy as np
 
 from sdovon_mj.records import dumps
 from sdovon_mj.store import atomic_write_bytes, atomic_write_text
-from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView
+from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView, exportable_variants, finish_export
 
-from exporters.simparts import MeshPart, RigidBody, VariantParts, texture_png, variant_parts, exportable_variants, finish_export
+from exporters.simparts import MeshPart, RigidBody, VariantParts, texture_png, variant_parts
 
 try:
     from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt

@@ -68,6 +68,21 @@ def lattice_cells(mask: np.ndarray, frame: GridFrame, lo: np.ndarray, hi: np.nda
     return cells[np.hypot(dx, dy) <= radius]
 
 
+def reachable_field(traversable: np.ndarray, frame: GridFrame, position: np.ndarray) -> tuple[GeodesicField, np.ndarray] | None:
+    """Return the geodesic field from an agent position and that position (world XY) on the planning map.
+
+    An agent standing off its map (at its rim) starts from the nearest traversable cell; None when there is none.
+    """
+    pos = np.asarray(position, float)[:2]
+    rc = frame.to_cell(pos[None])[0]
+    if not (frame.inside(rc[None])[0] and traversable[rc[0], rc[1]]):
+        near = nearest_true(traversable, rc)
+        if near is None:
+            return None
+        pos = frame.to_world(near[None])[0]
+    return GeodesicField(traversable, frame, pos[None]), pos
+
+
 def infer_view_points(points: np.ndarray, traversable: np.ndarray, frame: GridFrame, position: np.ndarray,
                       radius: float = 1.0, step: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
     """Return candidate view points (K, 2) around an object's points, nearest by path first, and path lengths (K,)."""
@@ -75,14 +90,10 @@ def infer_view_points(points: np.ndarray, traversable: np.ndarray, frame: GridFr
     cells = lattice_cells(traversable, frame, lo, hi, radius, step)
     if len(cells) == 0:
         return np.zeros((0, 2)), np.zeros(0)
-    pos = np.asarray(position, float)[:2]
-    rc = frame.to_cell(pos[None])[0]
-    if not (frame.inside(rc[None])[0] and traversable[rc[0], rc[1]]):
-        near = nearest_true(traversable, rc)
-        if near is None:
-            return np.zeros((0, 2)), np.zeros(0)
-        pos = frame.to_world(near[None])[0]
-    field = GeodesicField(traversable, frame, pos[None])
+    reach = reachable_field(traversable, frame, position)
+    if reach is None:
+        return np.zeros((0, 2)), np.zeros(0)
+    field, pos = reach
     xy = frame.to_world(cells)
     d = field.field[cells[:, 0], cells[:, 1]] + np.linalg.norm(xy - pos, axis=1) * 1e-6
     ok = np.isfinite(d)
@@ -97,14 +108,10 @@ def approach_point(target: np.ndarray, traversable: np.ndarray, frame: GridFrame
     What Navigate(p_g | eps_nav) drives to when p_g itself stands on furniture: the closest point the agent
     can reach on its own map by a path no longer than its straight distance to the target now.
     """
-    pos = np.asarray(position, float)[:2]
-    rc = frame.to_cell(pos[None])[0]
-    if not (frame.inside(rc[None])[0] and traversable[rc[0], rc[1]]):
-        near = nearest_true(traversable, rc)
-        if near is None:
-            return None
-        pos = frame.to_world(near[None])[0]
-    field = GeodesicField(traversable, frame, pos[None])
+    reach = reachable_field(traversable, frame, position)
+    if reach is None:
+        return None
+    field, pos = reach
     cells = np.argwhere(np.isfinite(field.field))
     if len(cells) == 0:
         return None
