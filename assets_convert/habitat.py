@@ -17,7 +17,8 @@ scene instance): the dataset config beside the scene instance or in a parent fol
 semantic configs (``paths`` folders and globs, ``configs`` entries with ``original_file``, ``template_handle`` and
 ``attributes`` overrides, ``default_attributes``). A ``template_name`` resolves as habitat-sim does it: an exact
 handle, else the first registered handle (sorted) that contains it. Asset frames come from ``up``/``front``
-(default Y up, front -Z), then ``scale`` and ``units_to_meters``; instances apply ``non_uniform_scale``,
+(default Y up, front -Z), then ``scale`` and ``units_to_meters``, then a stage config's ``origin`` (habitat-sim's
+"origin of the stage in the world frame, for alignment": the asset's origin is put there); instances apply ``non_uniform_scale``,
 ``uniform_scale``, ``rotation`` (wxyz) and ``translation`` with ``translation_origin`` (``asset_local``: the
 translation places the asset origin; ``COM``: it places the centre of mass, ``COM`` of the template or its
 bounding-box centre). Habitat's Y-up world becomes MuJoCo's Z up: (x, y, z) -> (x, -z, y). The stage's nodes become
@@ -271,21 +272,51 @@ def _mp3d_base(path: Path) -> Path | None:
     return base if Path(f"{base}_semantic.ply").is_file() or Path(f"{base}.house").is_file() else None
 
 
+HOUSE_COUNTS = {"L": 12, "R": 10, "S": 6, "V": 5, "C": 9, "O": 8}  # record -> its count's field on the H line
+
+
 def read_house(path: Path) -> tuple[dict[int, dict[str, Any]], dict[int, str], dict[int, dict[str, Any]]]:
-    """Parse a Matterport3D ``.house`` file: (regions, categories, objects) by index; raise InputError naming the line."""
+    """Parse a Matterport3D ``.house`` file: (regions, categories, objects) by index; raise InputError naming the line.
+
+    The layout of Matterport's ``data_organization.md`` (house_segmentations): an ``ASCII 1.1`` line, then
+    ``H name label #images #panoramas #vertices #surfaces #segments #objects #categories #regions #portals #levels
+    0 0 0 0 0 xlo ylo zlo xhi yhi zhi 0 0 0 0 0``, ``L level_index #regions label px py pz xlo .. zhi ..``,
+    ``R region_index level_index 0 0 label px py pz xlo ylo zlo xhi yhi zhi height 0 0 0 0``,
+    ``S surface_index region_index 0 label px py pz nx ny nz xlo .. zhi ..``,
+    ``V vertex_index surface_index label px py pz nx ny nz 0 0 0``,
+    ``C category_index category_mapping_index category_mapping_name mpcat40_index mpcat40_name ..``,
+    ``O object_index region_index category_index px py pz a0x a0y a0z a1x a1y a1z r0 r1 r2 ..`` (``P``, ``I``, ``E``
+    lines are read past). A region's extent is the counter-clockwise polygon of the ``V`` vertices of its ``S``
+    surfaces (the largest when it has several), else its box (``polygon`` None). The H line's counts of levels,
+    regions, surfaces, vertices, categories and objects must match the lines that follow (a cut file is an error).
+    """
     if not path.is_file():
         raise InputError(display_path(path), "missing: a Matterport3D scene needs its .house file (regions, "
                                              "object categories) beside the .glb")
     regions: dict[int, dict[str, Any]] = {}
     cats: dict[int, str] = {}
     objects: dict[int, dict[str, Any]] = {}
+    surfaces: dict[int, int] = {}
+    verts: dict[int, list[tuple[float, float]]] = {}
+    seen = {k: 0 for k in HOUSE_COUNTS}
+    header: list[str] | None = None
     for n, line in enumerate(path.read_text(encoding="utf-8", errors="replace").splitlines(), start=1):
         f = line.split()
         try:
-            if f[:1] == ["R"]:
+            if f[:1] == ["H"]:
+                header = f
+                for pos in HOUSE_COUNTS.values():
+                    int(f[pos])  # the counts must be integers
+            elif f[:1] == ["R"]:
                 box = [float(x) for x in f[9:15]]
+                if len(box) != 6:
+                    raise IndexError
                 regions[int(f[1])] = {"level": int(f[2]), "label": MP3D_REGIONS.get(f[5], "other room"),
-                                      "box": box}
+                                      "box": box, "polygon": None}
+            elif f[:1] == ["S"]:
+                surfaces[int(f[1])] = int(f[2])
+            elif f[:1] == ["V"]:
+                verts.setdefault(int(f[2]), []).append((float(f[4]), float(f[5])))
             elif f[:1] == ["C"]:
                 raw, coarse = f[3], f[5] if len(f) > 5 else f[3]
                 name = raw if raw not in ("", "-", "unknown") else coarse
@@ -295,6 +326,23 @@ def read_house(path: Path) -> tuple[dict[int, dict[str, Any]], dict[int, str], d
         except (IndexError, ValueError):
             raise InputError(display_path(path), f"line {n}: malformed {f[0] if f else ''} record: {line.strip()!r}") \
                 from None
+        if f[:1] and f[0] in seen:
+            seen[f[0]] += 1
+    if header is not None:
+        names = {"L": "levels", "R": "regions", "S": "surfaces", "V": "vertices", "C": "categories", "O": "objects"}
+        for rec, pos in HOUSE_COUNTS.items():
+            if int(header[pos]) != seen[rec]:
+                raise InputError(display_path(path), f"the H line says {header[pos]} {names[rec]}, the file has "
+                                                     f"{seen[rec]} {rec} lines (a cut or edited file?)")
+    for sid, rid in sorted(surfaces.items()):
+        poly = np.asarray(verts.get(sid, []), dtype=float)
+        if rid in regions and len(poly) >= 3:
+            area = 0.5 * abs(float(np.dot(poly[:, 0], np.roll(poly[:, 1], -1)) - np.dot(np.roll(poly[:, 0], -1), poly[:, 1])))
+            old = regions[rid]["polygon"]
+            if old is None or area > old[1]:
+                regions[rid]["polygon"] = (poly, area)
+    for r in regions.values():
+        r["polygon"] = None if r["polygon"] is None else r["polygon"][0]
     return regions, cats, objects
 
 
@@ -334,8 +382,11 @@ def read_mp3d(path: str | Path, units: str | float = "auto", up: str = "auto") -
     rooms = []
     for k in sorted(regions):
         x0, y0, _z0, x1, y1, _z1 = (v * visual.scale for v in regions[k]["box"])
-        rooms.append(Room(id=k, type=regions[k]["label"], floor=regions[k]["level"],
-                          polygon=np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])))
+        poly = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) if regions[k]["polygon"] is None \
+            else regions[k]["polygon"] * visual.scale
+        if float(np.dot(poly[:, 0], np.roll(poly[:, 1], -1)) - np.dot(np.roll(poly[:, 0], -1), poly[:, 1])) < 0:
+            poly = poly[::-1]
+        rooms.append(Room(id=k, type=regions[k]["label"], floor=regions[k]["level"], polygon=poly))
     return Reading(pairs, meta, rooms, [path, sem_ply, house])
 
 
@@ -478,10 +529,14 @@ def _placed_parts(attrs: dict[str, Any], base: Path, inst: dict[str, Any], origi
     frame = _frame(attrs, asset)
     scale = np.asarray(attrs.get("scale", [1.0, 1.0, 1.0]), dtype=float) * np.asarray(
         inst.get("non_uniform_scale", [1.0, 1.0, 1.0]), dtype=float) * float(inst.get("uniform_scale", 1.0))
-    local = [(p.vertices @ frame.T) * scale for p in mesh.parts]
+    shift = np.asarray(attrs.get("origin", [0.0, 0.0, 0.0]), dtype=float)  # a stage config's origin (world frame)
+    if shift.shape != (3,) or not np.isfinite(shift).all():
+        raise InputError(display_path(where), f"'origin' of template '{inst.get('template_name')}' must be a 3-vector, "
+                                              f"got {attrs.get('origin')!r}")
+    local = [(p.vertices @ frame.T) * scale + shift for p in mesh.parts]
     allv = np.concatenate(local)
     if str(inst.get("translation_origin", origin)).lower() == "com":
-        com = (np.asarray(attrs["COM"], dtype=float) * scale if "COM" in attrs
+        com = (np.asarray(attrs["COM"], dtype=float) * scale + shift if "COM" in attrs
                else (allv.min(axis=0) + allv.max(axis=0)) / 2)
     else:
         com = np.zeros(3)

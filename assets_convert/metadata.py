@@ -10,6 +10,10 @@ sidecar (``kettle.stl.yaml``) wins over all. Within one file, its top-level keys
     scale: 1.0             # extra factor on the units
     category: kettle       # object category
     add_floor: false       # scenes: add a ground slab (convert.add_floor)
+    receptacle: false      # scenes: force (true) or forbid (false) every instance of the file as a receptacle
+    nodes:                 # scenes: per node-name glob (the instance's node name or its label), in order
+      "Shelf_Wall*": {receptacle: true}
+      "Upper_Cabinet*": {receptacle: false}
     multipart: true        # this folder's object files are one object, rigidly joined (its parts)
     name: kettle_01        # the multi-part object's name (default: the folder name)
     files:
@@ -33,7 +37,8 @@ from .load import UNIT_NAMES, display_path
 
 FILE_NAME = "assets.yaml"
 MAX_LEVELS = 3  # parent folders searched above a file's own folder
-ENTRY_KEYS = ("units", "up", "scale", "category", "add_floor")
+ENTRY_KEYS = ("units", "up", "scale", "category", "add_floor", "receptacle", "nodes")
+NODE_KEYS = ("receptacle",)  # what a ``nodes`` glob may say about the matching scene instances
 FOLDER_KEYS = ENTRY_KEYS + ("multipart", "name", "files")
 UP_AXES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z", "X", "Y", "Z")
 
@@ -49,6 +54,8 @@ class AssetMeta:
     add_floor: bool | None = None
     multipart: Path | None = None  # the folder whose files form one object
     name: str | None = None
+    receptacle: bool | None = None  # scenes: every instance forced (True) / forbidden (False) as a receptacle
+    nodes: list[tuple[str, bool]] = field(default_factory=list)  # scenes: (node-name glob, receptacle), in order
     sources: list[Path] = field(default_factory=list)  # the metadata files read (for cache keys)
 
     def units_value(self, default: str | float) -> str | float:
@@ -93,10 +100,16 @@ def _check_entry(doc: dict[str, Any], allowed: tuple[str, ...], path: Path, wher
         elif key == "scale":
             ok = isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0
             bad = None if ok else "a positive number"
-        elif key in ("add_floor", "multipart"):
+        elif key in ("add_floor", "multipart", "receptacle"):
             bad = None if isinstance(value, bool) else "true or false"
         elif key in ("category", "name"):
             bad = None if isinstance(value, str) and value.strip() else "a non-empty string"
+        elif key == "nodes":
+            if not (isinstance(value, dict) and all(isinstance(v, dict) for v in value.values())):
+                bad = "a mapping of node-name glob -> {receptacle: true|false}"
+            else:
+                for pattern, entry in value.items():
+                    _check_entry(entry, NODE_KEYS, path, f"{where}nodes.{pattern}.")
         elif key == "files":
             bad = None if isinstance(value, dict) and all(isinstance(v, dict) for v in value.values()) \
                 else "a mapping of glob -> {key: value}"
@@ -117,6 +130,11 @@ def _apply(meta: AssetMeta, entry: dict[str, Any]) -> None:
         meta.category = str(entry["category"]).strip()
     if "add_floor" in entry:
         meta.add_floor = bool(entry["add_floor"])
+    if "receptacle" in entry:
+        meta.receptacle = bool(entry["receptacle"])
+    for pattern, node in (entry.get("nodes") or {}).items():
+        if "receptacle" in node:
+            meta.nodes.append((str(pattern), bool(node["receptacle"])))
 
 
 def meta_for(path: str | Path) -> AssetMeta:
@@ -146,6 +164,20 @@ def meta_for(path: str | Path) -> AssetMeta:
         meta.sources.append(side)
         _apply(meta, doc)
     return meta
+
+
+def receptacle_flag(meta: AssetMeta, node: str, label: str = "") -> bool | None:
+    """Return what metadata says of one scene instance being a receptacle (None: nothing; labels decide).
+
+    The file's ``receptacle`` first, then every ``nodes`` glob matching the instance's node name or its label
+    (case ignored), the last match winning.
+    """
+    flag = meta.receptacle
+    for pattern, value in meta.nodes:
+        pat = pattern.lower()
+        if fnmatch.fnmatchcase(str(node).lower(), pat) or (label and fnmatch.fnmatchcase(str(label).lower(), pat)):
+            flag = value
+    return flag
 
 
 def combine_parts(files: list[Path], out_file: Path, units: str | float, up: str) -> Path:
@@ -188,4 +220,4 @@ def combine_parts(files: list[Path], out_file: Path, units: str | float, up: str
     return out_file
 
 
-__all__ = ["AssetMeta", "FILE_NAME", "combine_parts", "meta_for"]
+__all__ = ["AssetMeta", "FILE_NAME", "combine_parts", "meta_for", "receptacle_flag"]

@@ -14,7 +14,7 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -153,6 +153,10 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
     from .load import referenced_files
     from .metadata import meta_for
 
+    if Path(path).suffix.lower() == ".urdf":  # an articulated object: links and joints (assets_convert.urdf)
+        from .urdf import convert_urdf_report
+
+        return convert_urdf_report(path, out_dir, category, density, name, config, cache_dir, source)
     t0 = time.perf_counter()
     cfg = config or ConvertConfig()
     path = Path(path)
@@ -172,6 +176,31 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
               "density": dens, "config": {k: getattr(cfg, k) for k in sorted(cfg.__dataclass_fields__)
                                           if k not in ("jobs", "timeout_s", "add_floor")}}
     key = cache.cache_key(files, params)
+    return cached_object(out_dir, name, key, cache_dir, source or display_path(path), t0,
+                         lambda tmp: _build(path, tmp, name, category, u, a, t, dens, cfg))
+
+
+def cached_object(out_dir: Path, name: str, key: str, cache_dir: str | Path | None, source: str, t0: float,
+                  build: Callable[[Path], tuple[ObjectAsset, dict[str, Any]]]) -> tuple[ObjectAsset, dict[str, Any]]:
+    """Return a converted object from the conversion cache, or build it into a temp folder, store and place it.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The conversion output folder (the object lands in ``objects/<name>``).
+    name : str
+        The object's folder name.
+    key : str
+        Its cache key (`cache.cache_key` of its input files and parameters).
+    cache_dir : str, Path or None
+        The cache root (None: the default `cache.cache_root`).
+    source : str
+        The source recorded in the asset (run-relative where possible).
+    t0 : float
+        `time.perf_counter()` at the start of the conversion (the returned info's seconds).
+    build : callable
+        ``build(work_dir) -> (asset, info)`` writes the object's files into work_dir.
+    """
     root = cache.cache_root(cache_dir)
     target = out_dir / "objects" / name
     hit = cache.lookup(root, key)
@@ -183,9 +212,9 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
         return asset, info
     tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=_mkdir(out_dir / "objects")))
     try:
-        asset, info = _build(path, tmp, name, category, u, a, t, dens, cfg)
+        asset, info = build(tmp)
         asset.content_hash = key
-        asset.source = source or display_path(path)
+        asset.source = source
         atomic_write_text(tmp / "asset.json", dumps(asset.to_dict()))
         # the stored report holds figures of the object only: wall seconds stay in the returned info (a run
         # folder's bytes must not depend on how long CoACD took)
@@ -196,8 +225,7 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     asset.mjcf = (Path("objects") / name / "model.xml").as_posix()
-    info = dict(info, cache_hit=False, seconds=time.perf_counter() - t0)
-    return asset, info
+    return asset, dict(info, cache_hit=False, seconds=time.perf_counter() - t0)
 
 
 def load_converted(out_dir: str | Path, name: str) -> ObjectAsset:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import tempfile
 from pathlib import Path
 
@@ -30,8 +31,18 @@ def provenance(path: str | Path, out_root: str | Path) -> str:
     return p.relative_to(root).as_posix() if p.is_relative_to(root) else display_path(path)
 
 
+def _urdf_linked(paths: list[Path]) -> set[str]:
+    """Return (real paths of) the mesh files the URDFs among `paths` reference."""
+    import os
+
+    from .urdf import urdf_mesh_files
+
+    return {os.path.realpath(m) for p in paths if Path(p).suffix.lower() == ".urdf" for m in urdf_mesh_files(p)}
+
+
 class MeshConverter:
-    """OBJ / GLB / glTF / PLY / STL objects and scenes -> MJCF (CoACD hulls for objects, visual-only scenes)."""
+    """OBJ / GLB / glTF / PLY / STL objects and scenes -> MJCF (CoACD hulls for objects, visual-only scenes); URDF
+    articulated objects -> MJCF bodies with hinge/slide joints (`assets_convert.urdf`)."""
 
     name = "mesh"
 
@@ -76,7 +87,10 @@ class MeshConverter:
             for r in report["items"]:  # a multi-part object (assets.yaml) answers for each of its part files
                 rows.update({part: r for part in r.get("parts", [])})
             done: set[str] = set()
+            linked = _urdf_linked([p for p, _c in items])
             for path, _category in items:
+                if display_path(path) not in rows and os.path.realpath(path) in linked:
+                    continue  # a mesh of a URDF's link: part of that articulated object
                 row = rows[display_path(path)]
                 if row["status"] != "ok":
                     failures[str(path)] = str(row["error"])
@@ -115,6 +129,13 @@ class MeshConverter:
 
         path = Path(path)
         out = list(meta_for(path).sources)
+        from .articulated_scene import input_files as articulated_inputs
+
+        out += articulated_inputs(path)  # a scene's <stem>.articulated.json and its URDF pieces (world.articulated)
+        if path.suffix.lower() == ".urdf":  # its meshes, their textures, a Habitat ao_config and render asset
+            from .urdf import read_urdf
+
+            out += [f for f in read_urdf(path).files() if f != path]
         if habitat.layout_of(path):
             out += [f for f in habitat.input_files(path) if f != path]
         return out

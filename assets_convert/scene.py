@@ -26,8 +26,10 @@ from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, Support
 from sdovon_mj.sim.model import instance_geom_name, save_scene_mesh
 from sdovon_mj.store import atomic_write_text
 
-from . import cache, habitat
-from .metadata import meta_for
+from sdovon_mj.config import ConvertConfig
+
+from . import articulated_scene, cache, habitat
+from .metadata import AssetMeta, meta_for, receptacle_flag
 from .load import Material, Part, display_path, load_mesh, read_json as _read_json, referenced_files
 from .object import sanitize
 from .writer import AssetWriter, clean_part, fmt, render_template, xml_attr
@@ -203,6 +205,9 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         if str(units) == "auto" and sidecar.get("units"):
             units = str(sidecar["units"])
     scannet = _scannet_files(path) if path.suffix.lower() == ".ply" else None
+    art_sidecar = None if layout else articulated_scene.sidecar_for(path)  # world.articulated pieces (URDF)
+    if art_sidecar is not None:
+        files += articulated_scene.input_files(path)
     use_placements = sidecar is None and not layout and placements.is_file() and _lists_asset(placements, path)
     if use_placements:
         files.append(placements)
@@ -235,7 +240,10 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         elif layout == "habitat":
             reading = habitat.read_habitat(path)
         asset = _build_scene(path, tmp, name, units, up, sidecar, scannet, placements if use_placements else None,
-                             texture_max_size, reading, add_floor)
+                             texture_max_size, reading, add_floor, meta)
+        if art_sidecar is not None:
+            asset = articulated_scene.add_articulated(tmp, path, asset, art_sidecar,
+                                                      ConvertConfig(texture_max_size=texture_max_size), cache_dir)
         asset.content_hash = key
         atomic_write_text(tmp / "asset.json", asset.to_json())
         cache.store(root, key, tmp)
@@ -274,6 +282,8 @@ def _relocate(asset: SceneAsset, name: str) -> SceneAsset:
     """Make the asset's paths relative to the output folder."""
     asset.mjcf = f"scenes/{name}/scene.xml"
     asset.mesh = f"scenes/{name}/scene_mesh.npz"
+    for fx in asset.articulated:  # world.articulated pieces: converted under the scene's folder
+        fx.model = f"scenes/{name}/articulated/objects/art_{fx.instance_id}/model.xml"
     return asset
 
 
@@ -310,8 +320,12 @@ def _placements_parts_files_only(placements: Path) -> tuple[None, None, list[Pat
 
 def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str, sidecar: dict | None,
                  scannet: tuple[Path, Path] | None, placements: Path | None, texture_max_size: int,
-                 reading: habitat.Reading | None = None, add_floor: bool = False) -> SceneAsset:
-    """Load, group by instance and material, and write one scene into folder `work` (`reading`: a dataset reader's)."""
+                 reading: habitat.Reading | None = None, add_floor: bool = False,
+                 asset_meta: AssetMeta | None = None) -> SceneAsset:
+    """Load, group by instance and material, and write one scene into folder `work` (`reading`: a dataset reader's).
+
+    `asset_meta` (the file's assets.yaml metadata) may force or forbid instances as receptacles (`receptacle`, `nodes`).
+    """
     inst_meta: dict[int, dict] = {}
     pairs: list[tuple[Part, int]] = []
     if reading is not None:
@@ -393,9 +407,11 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
             all_i.append(np.full(len(p.faces), iid, dtype=np.int64))
             nv += len(p.vertices)
         v = np.concatenate([p.vertices for p in parts])
+        flag = None if asset_meta is None or meta.get("name") == "added_floor" else \
+            receptacle_flag(asset_meta, str(meta.get("name", "")), label)
         instances.append(SemanticInstance(id=int(iid), label=label, geoms=gnames, room=int(meta.get("room", -1)),
                                           floor=int(meta.get("floor", -1)), kind=str(meta.get("kind", "")),
-                                          bounds=np.stack([v.min(axis=0), v.max(axis=0)])))
+                                          bounds=np.stack([v.min(axis=0), v.max(axis=0)]), receptacle=flag))
     V = np.concatenate(all_v)
     F = np.concatenate(all_f)
     FI = np.concatenate(all_i)

@@ -24,6 +24,7 @@ from . import habitat
 from .load import SUPPORTED, display_path
 from .metadata import meta_for
 
+URDF_SUFFIX = ".urdf"  # articulated objects (assets_convert.urdf); their meshes are not objects of their own
 SKIP_PREFIXES = ("receptacle_mesh",)  # habitat receptacle annotations, not models
 
 
@@ -48,13 +49,17 @@ def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object")
         if p.is_dir():
             for f in sorted(p.rglob("*")):
                 scene_cfg = kind == "scene" and f.name.lower().endswith(habitat.SCENE_INSTANCE)
-                if f.is_file() and (f.suffix.lower() in SUPPORTED or scene_cfg) and not f.name.startswith(SKIP_PREFIXES) \
+                urdf = kind == "object" and f.suffix.lower() == URDF_SUFFIX
+                if f.is_file() and (f.suffix.lower() in SUPPORTED or scene_cfg or urdf) and not f.name.startswith(SKIP_PREFIXES) \
                         and not any(part.startswith(".") for part in f.relative_to(p).parts):
                     if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or _in_habitat_dataset(f, p)):
                         continue
                     out.append(f)
         else:
             out.append(p)
+    # the meshes a URDF among the inputs references are its links, not objects of their own
+    linked = {os.path.realpath(m) for f in out if f.suffix.lower() == URDF_SUFFIX for m in _urdf_meshes(f)}
+    out = [f for f in out if f.suffix.lower() == URDF_SUFFIX or os.path.realpath(f) not in linked]
     seen: set[str] = set()
     uniq = []
     for f in out:
@@ -63,6 +68,13 @@ def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object")
             seen.add(k)  # type: ignore[arg-type]
             uniq.append(f)
     return sorted(uniq, key=lambda f: os.fsencode(str(f)))
+
+
+def _urdf_meshes(f: Path) -> list[Path]:
+    """Return the mesh files a URDF references ([] when it cannot be read: its conversion reports why)."""
+    from .urdf import urdf_mesh_files
+
+    return urdf_mesh_files(f)
 
 
 def _placed_by_sibling(f: Path) -> bool:

@@ -47,6 +47,8 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=None)
     ap.add_argument("--width", type=int, default=320)
     ap.add_argument("--quick", action="store_true", help="the three agents with the paper's FN only")
+    ap.add_argument("--no-ablation", action="store_true",
+                    help="the three agents with the paper's FN and both A* agents without FN (no lattice/ORACLE rows)")
     a = ap.parse_args()
     root = Path(a.dataset) if a.dataset else generate_dataset(Path(a.generate), a.scenes, a.variants, a.k_e)
     body = AgentConfig(sensor_width=a.width, sensor_height=a.width * 3 // 4)
@@ -55,8 +57,9 @@ def main() -> None:
             ("semantic-frontier (no prior)", SemanticFrontierAgent(agent=body))]
     if not a.quick:
         runs += [("semantic-astar no-FN", SemanticAStar(agent=body, final_nav=False)),
-                 ("random-astar no-FN", RandomAStar(agent=body, final_nav=False)),
-                 ("semantic-astar lattice-FN", SemanticAStar(nav=lattice, agent=body)),
+                 ("random-astar no-FN", RandomAStar(agent=body, final_nav=False))]
+    if not (a.quick or a.no_ablation):
+        runs += [("semantic-astar lattice-FN", SemanticAStar(nav=lattice, agent=body)),
                  ("random-astar lattice-FN", RandomAStar(nav=lattice, agent=body))]
         for parts in (("relevance",), ("region_map",), ("navmap",), ("relevance", "region_map", "navmap")):
             runs.append((f"ORACLE semantic-astar + {'+'.join(parts)}", SemanticAStar(agent=body, oracle_parts=parts)))

@@ -13,8 +13,15 @@ Peak memory per stage is each stage's peak resident set (VmHWM, reset at the sta
 process that ran it, as recorded in timings.json. A second run measures a scan-mode apartment of about
 500k triangles (`write_apartment(..., mode="scan", max_faces=500_000)`) through the whole scene pipeline.
 
+With ``--full 3k`` (8 scenes x 45 variants) or ``--full 10k`` (25 scenes x 45 variants), 12 categories,
+the bench runs the full-size job itself (no scan run) and prints the measured wall time beside the
+extrapolation from the same run's per-stage seconds. ``--profile N`` (default 8) re-runs the observe,
+perceive, place and episodes stages of the first scene / variant under cProfile on a copy of the job
+and prints each stage's top N functions by own time (0: skip).
+
     python bench/bench_generate.py                      # 2 scenes x 6 variants + the scan apartment
     python bench/bench_generate.py --scenes 1 --variants 2 --no-scan    # quicker
+    python bench/bench_generate.py --full 3k            # the SD-OVON-3k-size job, measured (idle machine!)
 """
 
 from __future__ import annotations
@@ -30,7 +37,11 @@ from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-FULL = {"name": "SD-OVON-3k", "scenes": 8, "variants": 363, "episodes": 2900}
+# Paper table 1 sizes (the extrapolation target) and the job --full runs (45 variants per scene).
+SIZES = {"3k": {"name": "SD-OVON-3k", "scenes": 8, "variants": 363, "episodes": 2900, "job_variants": 45},
+         "10k": {"name": "SD-OVON-10k", "scenes": 25, "variants": 1127, "episodes": 10629, "job_variants": 45}}
+FULL = SIZES["3k"]
+PROFILED = ("observe", "perceive", "place", "episodes")
 SCENE_STAGES = ("world:scene", "convert", "observe", "perceive", "semantics")
 VARIANT_STAGES = ("place", "episodes")
 CATEGORIES = ["mug", "bowl", "plate", "book", "bottle", "apple", "pillow", "laptop", "toothbrush", "towel", "vase",
@@ -106,7 +117,49 @@ def episode_breakdown(out: Path, cfg, limit: int) -> None:
     print(f"  total {m['total_s']:.2f} s = model load {m['load_s']:.2f} + ray pre-test {m['rays_s']:.2f} "
           f"({m['rays']:.0f} candidates) + pixel rays {m['pixel_rays_s']:.2f} ({m['ray_confirmed']:.0f} view points "
           f"confirmed without a render) + visibility renders {m['render_s']:.2f} ({m['renders']:.0f} renders, "
+          f"{m.get('renders_skipped', 0):.0f} skipped by the pixel bound, "
           f"{1000 * m['render_s'] / max(m['renders'], 1):.1f} ms each) + start poses {m['starts_s']:.2f} + other {other:.2f}")
+
+
+def profile_stages(out: Path, cfg, top: int) -> None:
+    """Re-run each stage of PROFILED once (first scene, first variant) under cProfile on a copy of the job.
+
+    Prints, per stage, its seconds and the `top` functions by own time (the copy keeps the job's bytes
+    and stage markers untouched; the stage writes the same bytes into the copy).
+    """
+    import cProfile
+    import pstats
+    import shutil
+
+    from sdovon_mj.stages import STAGES, StageContext
+    from sdovon_mj.store import Store
+
+    scenes = sorted(p.name for p in (out / "scenes").iterdir() if p.is_dir()) if (out / "scenes").is_dir() else []
+    if not scenes:
+        return
+    copy = out.parent / (out.name + "_profile")
+    shutil.rmtree(copy, ignore_errors=True)
+    shutil.copytree(out, copy)
+    store = Store(copy)
+    print(f"\nwhere each stage's time goes (cProfile, one task each, top {top} functions by own time):")
+    for name in PROFILED:
+        stage = STAGES[name]
+        ctx = StageContext(store, cfg, scenes[0], 0 if stage.scope == "variant" else -1, "")
+        prof = cProfile.Profile()
+        t0 = time.perf_counter()
+        prof.enable()
+        try:
+            stage.make(ctx)
+        finally:
+            prof.disable()
+        wall = time.perf_counter() - t0
+        st = pstats.Stats(prof)
+        rows = sorted(st.stats.items(), key=lambda kv: -kv[1][2])[:top]  # (file, line, func) -> (cc, nc, tt, ct, callers)
+        print(f"  {name} ({ctx.scene}{'/v0' if ctx.variant == 0 else ''}): {wall:.2f} s under the profiler")
+        for (fname, line, func), (_cc, nc, tt, ct, _callers) in rows:
+            where = f"{Path(fname).name}:{line}" if line else "~"
+            print(f"    {tt:7.2f} s own {ct:7.2f} s cum {nc:8d} calls  {func} ({where})")
+    shutil.rmtree(copy, ignore_errors=True)
 
 
 def main() -> None:
@@ -125,7 +178,16 @@ def main() -> None:
     ap.add_argument("--scan-faces", type=int, default=500_000, help="triangles of the scan-mode apartment")
     ap.add_argument("--no-scan", action="store_true", help="skip the scan-mode memory run")
     ap.add_argument("--breakdown", type=int, default=4, help="variants re-run to print where the episodes stage's time goes")
+    ap.add_argument("--profile", type=int, default=8, metavar="N",
+                    help="print each stage's top N functions (cProfile re-run of one task; 0: skip)")
+    ap.add_argument("--full", choices=sorted(SIZES), default=None,
+                    help="run the full-size job (3k: 8 x 45, 10k: 25 x 45 variants, 12 categories) and print "
+                         "its measured wall time beside the extrapolation (run it on an idle machine)")
     args = ap.parse_args()
+    global FULL
+    if args.full:
+        FULL = SIZES[args.full]
+        args.scenes, args.variants, args.categories, args.no_scan = FULL["scenes"], FULL["job_variants"], 12, True
     work = Path(args.out or tempfile.mkdtemp(prefix="bench_generate_"))
     work.mkdir(parents=True, exist_ok=True)
 
@@ -161,9 +223,17 @@ def main() -> None:
     tot = sum(full_split.values()) or 1.0
     print("where the time goes at full size: " + ", ".join(f"{k} {100 * v / tot:.0f}%" for k, v in
                                                             sorted(full_split.items(), key=lambda kv: -kv[1])))
+    if args.full:
+        print(f"MEASURED {FULL['name']}-size job ({args.scenes} scenes x {args.variants} variants, {n_var} variants, "
+              f"{n_eps} episodes): wall {wall / 60:.1f} min ({wall_ex / 60:.1f} min without the object library), "
+              f"on {args.jobs} workers / {os.cpu_count()} CPUs; the extrapolation from this run's per-stage seconds "
+              f"(ideal scaling, {FULL['variants']} variants): {full_cpu / 60 / args.jobs:.1f} min; "
+              f"goal: < {12 if args.full == '3k' else 30} min")
     print(f"peak memory, any stage: {max(peak.values()):.0f} MiB (main process {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB)")
     print(f"load average while running (1, 5, 15 min): {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs")
     episode_breakdown(out, cfg, args.breakdown)
+    if args.profile > 0:
+        profile_stages(out, cfg, args.profile)
 
     if args.no_scan:
         return

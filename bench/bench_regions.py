@@ -1,6 +1,7 @@
 """Region map on default-world apartments: agreement with true room types per room type, and timing.
 
-    python bench/bench_regions.py [--seeds 5] [--radius R] [--step D] [--plain-disc] [--embeddings]
+    python bench/bench_regions.py [--seeds 5] [--radius R] [--step D] [--plain-disc] [--votes both|walking|euclidean]
+                                  [--embeddings]
 
 Ground-truth instances (one per furniture instance, from the apartment mesh), a NavMap rasterised
 from the room polygons, the offline backend. Prints, per room type, the share of navigable cells the
@@ -25,6 +26,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--radius", type=float, default=None, help="window radius r (default: config)")
     ap.add_argument("--step", type=float, default=None, help="window step d (default: config)")
     ap.add_argument("--plain-disc", action="store_true", help="the paper's plain disc windows (walls do not cut)")
+    ap.add_argument("--votes", choices=("both", "walking", "euclidean"), default="both",
+                    help="window vote weighting (semantics.region_votes); both: before/after table")
     ap.add_argument("--embeddings", action="store_true", help="also score the embedding fallback against the table")
     args = ap.parse_args(argv)
 
@@ -47,38 +50,49 @@ def main(argv: list[str] | None = None) -> int:
         cfg = dataclasses.replace(cfg, window_walls=False)
     backend = get_backend(cfg)
     backend.priors.resolve("bed")
-    print(f"r={cfg.window_radius} m, d={cfg.window_step} m, walls cut windows: {cfg.window_walls}, backend {backend.label}")
-    per_type: dict[str, list[int]] = {}
-    secs, questions, maps = 0.0, 0, 0
-    for seed in range(args.seeds):
-        apt = generate_apartment(seed)
-        insts = apartment_instances(apt)
-        for fl in apt.floors:
-            nav = apartment_navmap(apt, fl.index)
-            t0 = time.perf_counter()
-            rm = region_map(insts, nav, backend, cfg)
-            dt = time.perf_counter() - t0
-            secs += dt
-            maps += 1
-            n_sets = len({w[3] for w in _windows(floor_instances(insts, nav), nav, cfg.window_radius, cfg.window_step,
-                                                  cfg.window_walls) if w[3]})
-            questions += n_sets
-            acc = region_accuracy(rm, apt, nav)
-            hit, tot = sum(a for a, _ in acc.values()), sum(n for _, n in acc.values())
-            print(f"seed {seed} floor {fl.index}: {hit / max(tot, 1):.3f} of {tot} navigable cells; "
-                  + ", ".join(f"{k} {a / max(n, 1):.2f}" for k, (a, n) in sorted(acc.items()))
-                  + f"; {n_sets} label sets; {dt:.2f} s")
-            for k, (a, n) in acc.items():
-                v = per_type.setdefault(k, [0, 0])
-                v[0] += a
-                v[1] += n
-    print("\nper room type (navigable cells labelled with the true type):")
-    for k, (a, n) in sorted(per_type.items()):
-        print(f"  {k:<12} {a / max(n, 1):.3f}  ({n} cells)")
-    hit = sum(a for a, _ in per_type.values())
-    tot = sum(n for _, n in per_type.values())
-    print(f"  {'all':<12} {hit / max(tot, 1):.3f}  ({tot} cells)")
-    print(f"{maps} maps, {secs / max(maps, 1):.2f} s per map, {questions / max(maps, 1):.1f} region questions per map")
+    modes = ("euclidean", "walking") if args.votes == "both" else (args.votes,)
+    print(f"r={cfg.window_radius} m, d={cfg.window_step} m, walls cut windows: {cfg.window_walls}, backend {backend.label}, "
+          f"votes: {', '.join(modes)}")
+    per_mode: dict[str, dict[str, list[int]]] = {}
+    for mode in modes:
+        mcfg = dataclasses.replace(cfg, region_votes=mode)
+        per_type = per_mode.setdefault(mode, {})
+        secs, questions, maps = 0.0, 0, 0
+        for seed in range(args.seeds):
+            apt = generate_apartment(seed)
+            insts = apartment_instances(apt)
+            for fl in apt.floors:
+                nav = apartment_navmap(apt, fl.index)
+                t0 = time.perf_counter()
+                rm = region_map(insts, nav, backend, mcfg)
+                dt = time.perf_counter() - t0
+                secs += dt
+                maps += 1
+                n_sets = len({w[3] for w in _windows(floor_instances(insts, nav), nav, cfg.window_radius, cfg.window_step,
+                                                      cfg.window_walls, walking=mode == "walking" and cfg.window_walls) if w[3]})
+                questions += n_sets
+                acc = region_accuracy(rm, apt, nav)
+                hit, tot = sum(a for a, _ in acc.values()), sum(n for _, n in acc.values())
+                print(f"[{mode}] seed {seed} floor {fl.index}: {hit / max(tot, 1):.3f} of {tot} navigable cells; "
+                      + ", ".join(f"{k} {a / max(n, 1):.2f}" for k, (a, n) in sorted(acc.items()))
+                      + f"; {n_sets} label sets; {dt:.2f} s")
+                for k, (a, n) in acc.items():
+                    v = per_type.setdefault(k, [0, 0])
+                    v[0] += a
+                    v[1] += n
+        print(f"[{mode}] {maps} maps, {secs / max(maps, 1):.2f} s per map, {questions / max(maps, 1):.1f} region questions per map")
+    print("\nper room type (share of navigable cells labelled with the true type):")
+    print(f"  {'room type':<12} " + " ".join(f"{m:>10}" for m in modes) + "   cells")
+    types = sorted({k for pt in per_mode.values() for k in pt})
+    for k in types + ["all"]:
+        cells = 0
+        row = []
+        for m in modes:
+            pt = per_mode[m]
+            a, n = (sum(v[0] for v in pt.values()), sum(v[1] for v in pt.values())) if k == "all" else tuple(pt.get(k, (0, 0)))
+            row.append(f"{a / max(n, 1):>10.3f}")
+            cells = n
+        print(f"  {k:<12} " + " ".join(row) + f"   {cells}")
     if args.embeddings:
         embedding_agreement(backend.priors)
     return 0

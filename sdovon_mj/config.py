@@ -69,6 +69,7 @@ class WorldConfig:
     object_seed: int = _p(0, "-", "seed of the procedural object library", ge=0)
     object_variants: int = _p(3, "-", "shape variants per object category", ge=1)
     object_categories: tuple[str, ...] = _p((), "-", "restrict the object library to these categories (empty = all)")
+    articulated: bool = _p(False, "-", "articulated furniture (cabinets, dressers, wardrobes, fridges, microwaves as URDF with doors and drawers) in the apartments")
 
 
 @dataclass(frozen=True)
@@ -111,6 +112,7 @@ class ObserveConfig:
     r_max: float = _p(1.5, "m", "observation range; sigma of the coverage Gaussian (1.5: enough viewpoints that receptacle surfaces are seen from several sides, bench/bench_perceive.py --world)", "r_max", gt=0)
     coverage_threshold: float = _p(0.95, "-", "stop when this fraction of navigable cells has M_P >= eps_p_obs (0.9 leaves small rooms unseen)", gt=0,le=1)
     max_iterations: int = _p(500, "-", "maximum candidate draws of the coverage sampler", ge=1)
+    open_parts: float = _p(1.0, "-", "articulated scene pieces (world.articulated): observe/perceive render every door and drawer open this fraction of its range", ge=0, le=1)
     min_obstacle_distance: float = _p(0.3, "m", "candidates closer than this to an obstacle are rejected", ge=0)
     yaw_steps: int = _p(6, "-", "camera yaw steps per viewpoint (360 deg / yaw_steps)", ge=1)
     pitch_angles: tuple[float, ...] = _p((-30.0, 0.0), "deg", "camera pitch angles per yaw (negative looks down)", ge=-90,le=90,min_len=1)
@@ -169,6 +171,7 @@ class ReceptacleConfig:
         ("table", "desk", "dresser", "bookshelf", "shelf", "bed", "sofa", "couch", "counter",
          "nightstand", "coffee table", "cabinet"),
         "-", "receptacle labels (prespecified); empty: ask the LLM backend", "L_rec")
+    llm_share: float = _p(0.05, "-", "when fewer than this share of the fused instances match labels (node-named artist scenes), the LLM backend also names receptacles among the instance labels (prompt C.1); 0: never", ge=0, le=1)
     eps_t: float = _p(0.03, "m", "plane slab thickness", "epsilon_t", gt=0)
     rho_min: int = _p(50, "points", "minimum points in a slab to try a plane", "rho_min", ge=1)
     eps_c: float = _p(0.95, "-", "convergence: fraction of inliers kept between iterations", "epsilon_c", gt=0,le=1)
@@ -184,6 +187,8 @@ class ReceptacleConfig:
     fit_band: float = _p(0.01, "m", "final fit and polygon use the densest layer of this half-thickness (vertical faces within eps_t excluded); 0: off", ge=0)
     min_width: float = _p(0.15, "m", "support regions narrower than this are cut off (strips around a sink, points seen through a gap); real shelves are >= 0.2 m deep", ge=0)
     open_cell: float = _p(0.025, "m", "XY grid cell of the min_width opening", gt=0)
+    min_seen_above: float = _p(0.5, "-", "planes whose inliers were seen from above (by a camera centre more than seen_above_margin higher than the point) less often than this are rejected: an up-facing surface is visible only from above, so a closed box's underside (a wall cabinet's bottom) is no support surface; instances without recorded view heights are not tested; 0: off", ge=0, le=1)
+    seen_above_margin: float = _p(0.02, "m", "a camera centre counts as above a point when higher than it by more than this (depth noise on grazing views)", ge=0)
 
 
 @dataclass(frozen=True)
@@ -207,6 +212,7 @@ class SemanticsConfig:
     temperature: float = _p(0.0, "-", "sampling temperature sent to server backends", ge=0)
     seed: int = _p(0, "-", "sampling seed sent to server backends (the cache, not the seed, makes re-runs exact)", ge=0)
     window_walls: bool = _p(True, "-", "walls cut windows: a window covers only the floor space connected to its centre (False: the paper's plain disc)")
+    region_votes: str = _p("walking", "-", "region-map window votes weighed by walking distance on the floor space from the window centre (walking; the window is the cells within r walk) or by straight-line distance (euclidean; always with window_walls=False; bench/bench_regions.py)", choices=("walking", "euclidean"))
     regions: str = _p("window", "-", "region map: window (LLM sliding window, the paper) or input (the scene's own region annotations: HM3D/MP3D regions, Habitat region_annotations)", choices=("window", "input"))
 
 
@@ -237,6 +243,12 @@ class PlaceConfig:
     fell_drop: float = _p(0.1, "m", "an object whose centre ends this far below its plane (or on a floor) fell", gt=0)
     sleep: bool = _p(True, "-", "let MuJoCo put resting objects to sleep while settling (faster; speeds are still checked)")
     support_condim: int = _p(6, "-", "contact dimension of support geoms: 6 adds torsional and rolling friction so round objects stop", choices=(1,3,4,6))
+    part_open_p: float = _p(0.3, "-", "articulated scenes: probability that a variant leaves a door/drawer open (relative to part_closed_p and part_ajar_p)", ge=0)
+    part_closed_p: float = _p(0.5, "-", "articulated scenes: probability that a variant closes a door/drawer", ge=0)
+    part_ajar_p: float = _p(0.2, "-", "articulated scenes: probability that a variant leaves a door/drawer ajar", ge=0)
+    part_ajar: tuple[float, float] = _p((0.15, 0.5), "-", "an ajar part is open a uniform fraction of its range in this interval", ge=0, le=1, min_len=2)
+    part_settle_time: float = _p(0.5, "s", "articulated scenes: simulated time objects settle on the real shelves with the parts open, and again after the parts moved to the variant's state", gt=0)
+    part_move_tol: float = _p(0.05, "m", "articulated scenes: an object that moves more than this relative to its shelf or drawer when the parts move is classified displaced (or tunnelled, when it left the piece)", gt=0)
 
 
 @dataclass(frozen=True)
@@ -279,6 +291,7 @@ class NavConfig:
     map_size: float = _p(40.0, "m", "side of the square map an agent builds around where it starts (its own frame)", gt=0)
     map_resolution: float = _p(0.05, "m", "cell size of the agent's own occupancy map", gt=0)
     frontier_radius: float = _p(2.0, "m", "no-prior agent: labels detected within this distance of a frontier score it", gt=0)
+    open_reach: float = _p(1.5, "m", "OPEN/CLOSE: an articulated part (door, drawer) is within reach when the nearest point of its box is this close to the agent camera", gt=0)
 
 
 @dataclass(frozen=True)
@@ -521,6 +534,11 @@ def check_cross_fields(cfg: RunConfig, source: str = "") -> None:
          f"the obstacle band top ({o.obstacle_max_height:g} m; 0 = agent.height) must lie above its bottom ({band:g} m)")
     need(o.h_map > 0 and (o.nav_slice != "plane" or o.h_map < a.height), "'observe.h_map', 'agent.height'",
          f"the map slice ({o.h_map:g} m) must lie below the agent height ({a.height:g} m)")
+    pc = cfg.place
+    need(pc.part_open_p + pc.part_closed_p + pc.part_ajar_p > 0, "'place.part_open_p', 'place.part_closed_p', 'place.part_ajar_p'",
+         "the part state probabilities must not all be 0")
+    need(len(pc.part_ajar) == 2 and 0 <= pc.part_ajar[0] <= pc.part_ajar[1] <= 1, "'place.part_ajar'",
+         f"must be two fractions 0 <= lo <= hi <= 1, got {list(pc.part_ajar)}")
     e = cfg.episodes
     need(e.min_start_distance < e.max_start_distance, "'episodes.min_start_distance', 'episodes.max_start_distance'",
          f"min_start_distance ({e.min_start_distance:g} m) must be below max_start_distance ({e.max_start_distance:g} m)")

@@ -14,10 +14,20 @@ every export records itself in ``<out>/sdovon_export.json`` as {format, name, sp
 - only other datasets (other names or formats): refuse unless ``merge=True``; with merge, the new
   dataset is added next to them under its own name (Habitat: its own ``data/scene_datasets/<name>``
   and ``data/datasets/objectnav/<name>``; MJCF: its own ``<out>/<name>/``). Nothing is ever mixed.
+
+Units (optional, for parallel exports): an exporter may split its work by overriding `Exporter.units`
+(a list of `ExportUnit`: a key and the scenes whose records it reads, or None for the whole run),
+`Exporter.export_unit` (writes one unit's files, returns a JSON-able `UnitResult`) and `Exporter.finish`
+(writes the dataset-level files from the units' results, in `units` order). Its `export` then need not be
+written: the base class runs the units in order and finishes (the serial path). The pipeline runs the units
+as tasks of their own (each with its done-marker under ``export/<fmt>.units/<key>``, started as soon as the
+scenes it reads are done) and the finishing step last; both paths write the same bytes. A plugin that
+declares no units (``units`` returns None) runs as one task through its ``export``, as before.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,7 +37,7 @@ from . import plugins
 from .errors import InputError, SdovonError
 from .records import Episode, SceneVariant
 from .runview import RunView
-from .store import atomic_write_text
+from .store import atomic_write_text, fingerprint
 
 MANIFEST = "sdovon_export.json"
 
@@ -66,14 +76,112 @@ class ExportReport:
         return "\n".join(lines)
 
 
+@dataclass(frozen=True)
+class ExportUnit:
+    """One independently exportable piece of a dataset (see the module docstring, Units)."""
+
+    key: str  # unique within the export and file-system safe (e.g. a scene name)
+    scenes: tuple[str, ...] | None = None  # the scenes whose records it reads; None: every scene (waits for all)
+
+
+@dataclass
+class UnitResult:
+    """What one unit wrote (JSON-able: the pipeline keeps it beside the unit's done-marker)."""
+
+    key: str
+    variants: list[str] = field(default_factory=list)
+    skipped: dict[str, str] = field(default_factory=dict)  # variant -> reason
+    episodes: int = 0
+    files: list[str] = field(default_factory=list)  # relative to the export's out_dir
+    index: list[dict] = field(default_factory=list)  # the unit's rows of the dataset index (exporter-defined)
+    data: dict[str, Any] = field(default_factory=dict)  # anything else the exporter's finish step needs
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the result as plain JSON data."""
+        return {"key": self.key, "variants": list(self.variants), "skipped": dict(self.skipped),
+                "episodes": int(self.episodes), "files": sorted(self.files), "index": list(self.index),
+                "data": dict(self.data)}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "UnitResult":
+        """Return a result from `to_dict` data."""
+        return cls(str(d["key"]), list(d["variants"]), dict(d["skipped"]), int(d["episodes"]), list(d["files"]),
+                   list(d["index"]), dict(d["data"]))
+
+
 class Exporter:
     """Base of exporter plugins: sees records and the run folder only."""
 
     name: str = "base"
+    # The layout version of what the exporter writes: part of every export fingerprint, so a run exported by an
+    # older layout is exported again on resume instead of being kept (bump it when the written files change).
+    version: str = ""
+
+    def units(self, run: RunView, options: ExportOptions) -> list[ExportUnit] | None:
+        """Return the export's units in order (None: the exporter runs as one task through `export`)."""
+        return None
+
+    def export_unit(self, run: RunView, out_dir: Path, options: ExportOptions, unit: ExportUnit) -> UnitResult:
+        """Write one unit's files under out_dir and return what it wrote (exporters with units override it)."""
+        raise NotImplementedError
+
+    def finish(self, run: RunView, out_dir: Path, options: ExportOptions, results: list[UnitResult]) -> ExportReport:
+        """Write the dataset-level files from the units' results (in `units` order) and return the report."""
+        raise NotImplementedError
 
     def export(self, run: RunView, out_dir: Path, options: ExportOptions) -> ExportReport:
-        """Write the run in this exporter's format under out_dir and report what was written."""
-        raise NotImplementedError
+        """Write the run in this exporter's format under out_dir and report what was written.
+
+        The base implementation is the serial path of an exporter with units: every unit in order, then
+        `finish`; an exporter without units overrides it.
+        """
+        units = self.units(run, options)
+        if units is None:
+            raise NotImplementedError(f"exporter {type(self).__name__} declares neither units nor export()")
+        return self.finish(run, Path(out_dir), options,
+                           [self.export_unit(run, Path(out_dir), options, u) for u in units])
+
+
+def exporter_units(exporter: Any, run: RunView, options: ExportOptions) -> list[ExportUnit] | None:
+    """Return an exporter's units, or None for a plugin that declares none (also one not subclassing Exporter)."""
+    fn = getattr(exporter, "units", None)
+    units = fn(run, options) if callable(fn) else None
+    if units is None:
+        return None
+    units = list(units)
+    keys = [u.key for u in units]
+    if len(set(keys)) != len(keys) or any(not k or "/" in k or k.startswith(".") for k in keys):
+        raise ExportError(f"exporter {getattr(exporter, 'name', exporter)}: unit keys must be unique file names, got {keys}")
+    return units
+
+
+def unit_digest(run: RunView, unit: ExportUnit) -> str:
+    """Return a digest of the records a unit reads (its scenes' scene, navmap, semantics and variant records, objects).
+
+    A unit that reads the whole run (``scenes`` None) gets the run's `RunView.run_id`.
+    """
+    if unit.scenes is None:
+        return run.run_id()
+    files = [p for s in sorted(unit.scenes) for p in [run.root / "scenes" / s / "scene.json"]
+             + sorted((run.root / "scenes" / s / "observe").glob("navmap_*.json"))
+             + sorted((run.root / "scenes" / s / "semantics").glob("*.json"))
+             + sorted((run.root / "scenes" / s / "variants").glob("*/*.json"))]
+    files += sorted(run.root.glob("objects/*/object.json"))
+    parts = [(p.relative_to(run.root).as_posix(), hashlib.sha256(p.read_bytes()).hexdigest()) for p in files
+             if p.is_file() and not p.name.startswith(".")]  # not the stages' done-markers and timing files
+    return fingerprint(parts)
+
+
+def merge_unit_results(fmt: str, out_dir: Path, name: str, results: list[UnitResult]) -> tuple[ExportReport, list[Path]]:
+    """Return the report of a whole export from its units' results (in unit order) and the files they wrote."""
+    report = ExportReport(format=fmt, out_dir=str(out_dir), name=name)
+    written: list[Path] = []
+    for r in results:
+        report.variants += r.variants
+        report.skipped.update(r.skipped)
+        report.episodes += r.episodes
+        written += [Path(out_dir) / f for f in r.files]
+    return report, written
 
 
 def read_manifest(out_dir: Path) -> list[dict[str, str]] | None:
@@ -158,11 +266,29 @@ def make_exporter(fmt: str) -> Exporter:
 
 
 def export_run(run_dir: str | Path, fmt: str, out: str | Path, name: str = "sdovon", split: str = "val",
-               merge: bool = False) -> ExportReport:
-    """Export a run folder with a named exporter plugin and return its ExportReport."""
-    return run_export(make_exporter(fmt), RunView(run_dir), Path(out), ExportOptions(name=name, split=split, merge=merge))
+               merge: bool = False, extra: dict[str, Any] | None = None) -> ExportReport:
+    """Export a run folder with a named exporter plugin and return its ExportReport.
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        The run folder.
+    fmt : str
+        Exporter plugin name.
+    out : str or Path
+        Output folder (the output-folder policy of the module docstring applies).
+    name, split : str
+        Dataset and split names.
+    merge : bool
+        Add the dataset next to other datasets already in ``out``.
+    extra : dict, optional
+        Exporter-specific options (`ExportOptions.extra`, e.g. ``{"standalone": True}`` for MJCF).
+    """
+    return run_export(make_exporter(fmt), RunView(run_dir), Path(out),
+                      ExportOptions(name=name, split=split, merge=merge, extra=dict(extra or {})))
 
 
-__all__ = ["MANIFEST", "ExportError", "ExportOptions", "ExportReport", "Exporter", "RunView", "read_manifest",
+__all__ = ["MANIFEST", "ExportError", "ExportOptions", "ExportReport", "ExportUnit", "Exporter", "RunView", "UnitResult",
+           "exporter_units", "unit_digest", "merge_unit_results", "read_manifest",
            "prepare_out_dir", "record_export", "run_export", "make_exporter", "export_run", "exportable_variants",
            "finish_export"]

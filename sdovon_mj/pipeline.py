@@ -48,7 +48,7 @@ class TaskSpec:
 
     kind: str  # objects | scene | variant | export
     run_root: str
-    scene: str = ""
+    scene: str = ""  # kind export: one export unit's key ('' = the finishing step, which also runs missing units)
     variant: int = -1
     fmt: str = ""
     stages: tuple[str, ...] = ()  # only these stages of the task's scope (empty: all)
@@ -58,6 +58,8 @@ class TaskSpec:
         """Return a short human name of the task."""
         if self.kind == "variant":
             return f"{self.scene}/v{self.variant:03d}"
+        if self.kind == "export" and self.scene:
+            return f"export:{self.fmt}/{self.scene}"
         return {"objects": "objects", "scene": self.scene, "export": f"export:{self.fmt}"}.get(self.kind, self.kind)
 
 
@@ -111,6 +113,8 @@ def stage_name(key: str) -> str:
     if parts[0] == "inputs" and len(parts) > 1:
         return "world:objects" if parts[1] == "objects" else "world:scene"
     if parts[0] == "export":
+        if len(parts) > 2 and parts[1].endswith(".units"):  # export/<fmt>.units/<unit>: an export unit
+            return "export:" + parts[1].removesuffix(".units")
         return "export:" + parts[-1].removesuffix(".stage")
     return parts[-1]
 
@@ -171,17 +175,28 @@ class LocalExecutor:
         self.jobs = max(1, int(jobs))
         self.retries = max(0, int(retries))
 
-    def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None) -> list[TaskResult]:
-        """Run every task; return results in the order of `specs`."""
+    def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None,
+            follow: Callable[[TaskResult], list[TaskSpec]] | None = None) -> list[TaskResult]:
+        """Run every task; return results in the order of `specs` (then the follow-up tasks in submission order).
+
+        `follow` is called with each final result and returns further tasks to run in the same pool (e.g. a
+        scene's export units once its variants are done).
+        """
+        specs = list(specs)
         results: dict[int, TaskResult] = {}
-        if self.jobs == 1 or len(specs) <= 1:
-            for i, s in enumerate(specs):
-                results[i] = self._with_retries(lambda s=s: run_task(s))
+        if self.jobs == 1 or (len(specs) <= 1 and follow is None):
+            i = 0
+            while i < len(specs):
+                results[i] = self._with_retries(lambda s=specs[i]: run_task(s))
                 if progress:
                     progress(results[i])
+                if follow:
+                    specs += follow(results[i])
+                i += 1
             return [results[i] for i in range(len(specs))]
         pending = {i: 0 for i in range(len(specs))}
-        with ProcessPoolExecutor(max_workers=min(self.jobs, len(specs)), mp_context=get_context("spawn")) as pool:
+        workers = self.jobs if follow else min(self.jobs, len(specs))
+        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
             futs = {pool.submit(run_task, specs[i]): i for i in pending}
             while futs:
                 done, _ = wait(list(futs), return_when=FIRST_COMPLETED)
@@ -199,6 +214,10 @@ class LocalExecutor:
                     results[i] = r
                     if progress:
                         progress(r)
+                    for extra in follow(r) if follow else []:
+                        specs.append(extra)
+                        pending[len(specs) - 1] = 0
+                        futs[pool.submit(run_task, extra)] = len(specs) - 1
         return [results[i] for i in range(len(specs))]
 
     def _with_retries(self, fn: Callable[[], TaskResult]) -> TaskResult:
@@ -227,8 +246,10 @@ class RayExecutor:
                      runtime_env={"env_vars": {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}}, **kwargs)
         self.remote = ray.remote(num_cpus=1)(run_task)
 
-    def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None) -> list[TaskResult]:
-        """Run every task on the cluster; return results in the order of `specs`."""
+    def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None,
+            follow: Callable[[TaskResult], list[TaskSpec]] | None = None) -> list[TaskResult]:
+        """Run every task on the cluster; return results in the order of `specs` (then follow-ups, `LocalExecutor.map`)."""
+        specs = list(specs)
         results: dict[int, TaskResult] = {}
         attempts = {i: 1 for i in range(len(specs))}
         refs = {self.remote.remote(s): i for i, s in enumerate(specs)}
@@ -247,6 +268,10 @@ class RayExecutor:
             results[i] = r
             if progress:
                 progress(r)
+            for extra in follow(r) if follow else []:
+                specs.append(extra)
+                attempts[len(specs) - 1] = 1
+                refs[self.remote.remote(extra)] = len(specs) - 1
         return [results[i] for i in range(len(specs))]
 
 
@@ -290,6 +315,8 @@ class RunSummary:
         lines = [stats.summary_table(st), "", "seconds per stage (this run; 0 = skipped, already done):"]
         for k, v in sorted(self.seconds.items(), key=lambda kv: -kv[1]):
             lines.append(f"  {k:<12} {v:8.2f}")
+        fb = stats.llm_fallbacks(Path(self.run_root))
+        lines.append("LLM replies that failed and fell back: " + ", ".join(f"{k} {v}" for k, v in fb.items()))
         if self.failures:
             lines.append("")
             lines.append("failed tasks:")
@@ -499,21 +526,16 @@ def _generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None, ob
             scene_results = ex.map([TaskSpec("scene", root, s, stages=scene_st) for s in scene_names], tick)
             results += scene_results
             good = [r.spec.scene for r in scene_results if r.ok]
+        variant_specs = []
         if var_st:
             bar.total -= (len(scene_names) - len(good)) * cfg.place.k_v
-            results += ex.map([TaskSpec("variant", root, s, v, stages=var_st) for s in good for v in range(cfg.place.k_v)],
-                              tick)
-        roots = [r for r in results if not r.ok]
-        variants_ok = [r for r in results if r.spec.kind == "variant" and r.ok]
-        for fmt in fmts:
-            if roots and not variants_ok:  # nothing to export: say why once, not once per exporter
-                cause = ", ".join(r.spec.label for r in roots)
-                r = TaskResult(TaskSpec("export", root, fmt=fmt), ok=False, caused_by=cause,
-                               error=f"not run: no variant finished because {cause} failed")
-                results.append(r)
-                bar.update(1, r.spec.label + " not run")
-                continue
-            results += ex.map([TaskSpec("export", root, fmt=fmt)], tick)
+            variant_specs = [TaskSpec("variant", root, s, v, stages=var_st) for s in good for v in range(cfg.place.k_v)]
+        sched = ExportSchedule(root, fmts, cfg, variant_specs, [r for r in results if not r.ok])
+        bar.total += sched.n_units
+        results += ex.map(variant_specs + sched.ready(), tick, follow=sched.follow)
+        for r in sorted(sched.not_run, key=lambda r: fmts.index(r.spec.fmt)):
+            results.append(r)
+            bar.update(1, r.spec.label + " not run")
     seconds: dict[str, float] = {}
     for r in results:
         for k, v in r.seconds.items():
@@ -527,8 +549,95 @@ def _generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None, ob
     return summary
 
 
+class ExportSchedule:
+    """When each export task may start: an exporter's units as soon as the scenes they read have no variant
+    task left (`sdovon_mj.export.ExportUnit`), its finishing step when its units are done; an exporter
+    without units as one task once every variant is done. Used as the `follow` of an executor's map.
+    """
+
+    def __init__(self, root: str, fmts: list[str], cfg: RunConfig, variant_specs: list[TaskSpec],
+                 failed_before: list[TaskResult]) -> None:
+        """Plan the exports of `fmts` (a plugin that cannot be loaded here runs as one task and reports why).
+
+        Parameters
+        ----------
+        root : str
+            The run folder.
+        fmts : list of str
+            Exporter plugin names.
+        cfg : RunConfig
+            The run's config (dataset name and split).
+        variant_specs : list of TaskSpec
+            The variant tasks about to run (their scenes gate the units).
+        failed_before : list of TaskResult
+            Failed tasks so far (objects, scenes): with no variant done, the exports are not run.
+        """
+        from .export import ExportOptions, RunView, exporter_units, make_exporter
+
+        self.root = root
+        self.left: dict[str, int] = {}
+        for v in variant_specs:
+            self.left[v.scene] = self.left.get(v.scene, 0) + 1
+        self.failed = list(failed_before)
+        self.variants_ok = 0
+        self.units: dict[str, list[Any] | None] = {}
+        for fmt in fmts:
+            try:
+                units = exporter_units(make_exporter(fmt), RunView(root), ExportOptions(name=cfg.name, split=cfg.split))
+            except Exception:  # the export task itself reports the cause
+                units = None
+            self.units[fmt] = units
+        self.unsent = {fmt: list(u or []) for fmt, u in self.units.items()}
+        self.units_left = {fmt: len(u or []) for fmt, u in self.units.items()}
+        self.finished: set[str] = set()
+        self.not_run: list[TaskResult] = []
+
+    @property
+    def n_units(self) -> int:
+        """Return the number of unit tasks planned (for the progress bar)."""
+        return sum(len(u or []) for u in self.units.values())
+
+    def _scenes_done(self, scenes: tuple[str, ...] | None) -> bool:
+        return all(n == 0 for n in self.left.values()) if scenes is None else all(self.left.get(s, 0) == 0 for s in scenes)
+
+    def ready(self) -> list[TaskSpec]:
+        """Return the export tasks that may start now (each returned once)."""
+        out: list[TaskSpec] = []
+        for fmt, units in self.units.items():
+            if fmt in self.finished:
+                continue
+            for u in [u for u in self.unsent[fmt] if self._scenes_done(u.scenes)]:
+                self.unsent[fmt].remove(u)
+                out.append(TaskSpec("export", self.root, scene=u.key, fmt=fmt))
+            waiting = self.units_left[fmt] > 0 if units is not None else not self._scenes_done(None)
+            if waiting:
+                continue
+            self.finished.add(fmt)
+            roots = [r for r in self.failed if not r.caused_by and r.spec.kind != "export"]
+            if roots and not self.variants_ok:  # nothing to export: say why once per exporter
+                cause = ", ".join(r.spec.label for r in roots)
+                self.not_run.append(TaskResult(TaskSpec("export", self.root, fmt=fmt), ok=False, caused_by=cause,
+                                               error=f"not run: no variant finished because {cause} failed"))
+                continue
+            out.append(TaskSpec("export", self.root, fmt=fmt))
+        return out
+
+    def follow(self, r: TaskResult) -> list[TaskSpec]:
+        """Account for a finished task and return the export tasks it lets start."""
+        if not r.ok:
+            self.failed.append(r)
+        if r.spec.kind == "variant":
+            self.left[r.spec.scene] -= 1
+            self.variants_ok += int(r.ok)
+        elif r.spec.kind == "export" and r.spec.scene:
+            self.units_left[r.spec.fmt] -= 1
+        return self.ready()
+
+
 def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
     """Write manifest.json (deterministic) and timings.json (wall seconds) for a run."""
+    from . import stats
+
     fps: dict[str, str] = {}
     for marker in sorted(store.root.rglob(".done.json")):
         key = marker.parent.relative_to(store.root).as_posix()
@@ -542,6 +651,7 @@ def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
         "stages": fps,
         "failures": [{"task": r.spec.label, "error": r.error, "attempts": r.attempts,
                       **({"caused_by": r.caused_by} if r.caused_by else {})} for r in summary.failures],
+        "llm_fallbacks": stats.llm_fallbacks(store.root),
     }
     store.write_json("manifest.json", manifest)
     timings = {

@@ -200,6 +200,14 @@ class SemanticInstance(Record):
     floor: int = -1
     kind: str = ""
     bounds: np.ndarray | None = None  # (2, 3) world min/max
+    receptacle: bool | None = None  # the input forces (True) or forbids (False) it as a receptacle; None: labels decide
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `receptacle` only when set (records without it keep their bytes)."""
+        out = super().to_dict()
+        if self.receptacle is None:
+            del out["receptacle"]
+        return out
 
 
 @dataclass
@@ -236,6 +244,14 @@ class SceneAsset(Record):
     support_surfaces: list[SupportSurface] = field(default_factory=list)
     mesh: str = ""  # merged Z-up metre mesh of the whole scene (for ray casts, slicing)
     content_hash: str = ""
+    articulated: list[ArticulatedFixture] = field(default_factory=list)  # omitted from the JSON when empty
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `articulated` left out when empty (older bytes kept)."""
+        out = super().to_dict()
+        if not out.get("articulated", 1):
+            del out["articulated"]
+        return out
 
     def instance(self, instance_id: int) -> SemanticInstance:
         """Return the semantic instance with this id."""
@@ -246,8 +262,66 @@ class SceneAsset(Record):
 
 
 @dataclass
+class ArticulatedPart(Record):
+    """One movable part of an articulated object (a URDF revolute/continuous/prismatic joint) in its MJCF.
+
+    `joint` and `body` are names in the object's model.xml (a composer's attach prefix goes in front);
+    `kind` is "hinge" (range in radians) or "slide" (range in metres); `range` is None for an unlimited
+    (continuous) hinge; `axis` is the joint axis in the frame of `body`; `link` the URDF child link's name.
+    """
+
+    joint: str
+    kind: str  # hinge | slide
+    range: tuple[float, float] | None
+    body: str
+    axis: tuple[float, float, float]
+    link: str = ""
+
+
+@dataclass
+class InteriorSurface(Record):
+    """A support surface inside an articulated scene fixture (a shelf, a drawer bottom, a cabinet floor).
+
+    `height` (m, world Z) and the CCW `polygon` (N, 2, world XY) are taken with every part closed; `joint` is the
+    scene joint that must open to reach it (None: reachable as is); `body` the scene body it moves with.
+    """
+
+    height: float
+    polygon: np.ndarray
+    joint: str | None
+    body: str
+
+
+@dataclass
+class ArticulatedFixture(Record):
+    """An articulated piece built into a converted scene (``world.articulated``): its bodies and joints are in the
+    scene MJCF, its visual geoms named as scene instance `instance_id`'s (``inst_<id>_<j>``).
+
+    `model` is the converted piece's model.xml (relative to the store root, like `SceneAsset.mjcf`), `position` (m)
+    and `yaw` (degrees about +Z) its root frame in the world, `parts` its movable joints with scene names (``art_<id>/
+    <joint>``), `interiors` its inside surfaces.
+    """
+
+    instance_id: int
+    label: str
+    model: str
+    position: np.ndarray
+    yaw: float
+    parts: list[ArticulatedPart] = field(default_factory=list)
+    interiors: list[InteriorSurface] = field(default_factory=list)
+
+
+OMIT_WHEN_NONE = ("parts", "semantic_id")  # ObjectAsset fields left out of the JSON when None (older bytes kept)
+
+
+@dataclass
 class ObjectAsset(Record):
-    """A converted household object: MJCF with visual meshes and CoACD collision hulls."""
+    """A converted household object: MJCF with visual meshes and CoACD collision hulls.
+
+    An articulated object (from URDF) lists its movable `parts`; `semantic_id` is a dataset's semantic
+    class id when the input gave one (Habitat ``.ao_config.json``). Both are None for a rigid mesh object
+    and then absent from the record's JSON.
+    """
 
     name: str
     category: str
@@ -260,6 +334,16 @@ class ObjectAsset(Record):
     source: str = ""
     license: str = ""
     content_hash: str = ""
+    parts: list[ArticulatedPart] | None = None  # articulated objects only (omitted from JSON when None)
+    semantic_id: int | None = None  # dataset semantic id when given (omitted from JSON when None)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `parts` / `semantic_id` left out when None."""
+        out = super().to_dict()
+        for k in OMIT_WHEN_NONE:
+            if out.get(k, 0) is None:
+                del out[k]
+        return out
 
     @property
     def footprint_radius(self) -> float:
@@ -343,6 +427,10 @@ class Instance(Record):
     confidences: list[float] = field(default_factory=list)
     source_views: list[int] = field(default_factory=list)
     gt_id: int = -1
+    # (N,) float32 per point: the greatest height (m) of a camera centre that observed it above the point
+    # (> 0: seen from above; an up-facing support surface can only be seen so); NaN: unknown; None: not
+    # recorded (instances built elsewhere, files written before it existed)
+    view_height: np.ndarray | None = None
 
     @property
     def world_points(self) -> np.ndarray:
@@ -369,6 +457,14 @@ class ReceptaclePlane(Record):
     region: str = ""
     floor: int = 0
     inliers: int = 0
+    part: str | None = None  # the articulated part (scene joint) that closes over it; omitted from the JSON when None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `part` left out when None (older bytes kept)."""
+        out = super().to_dict()
+        if out.get("part", 0) is None:
+            del out["part"]
+        return out
 
     @property
     def area(self) -> float:
@@ -407,16 +503,21 @@ class RegionMap(Record):
         return ""
 
 
+PAIR_MODEL_SOURCES = ("learned",)  # Relevance row sources whose p_pair is a model of the pair itself
+
+
 @dataclass
 class Relevance(Record):
     """P(obj|region) and P(obj|receptacle) tables, the pair model of both directions, and who produced them.
 
     ``p_pair[o, r, c]`` (when the backend has one) is the calibrated chance that a person calls
     receptacle c in region r a right place for object o: the *search* direction ranks the pairs of
-    one object by it (`search`, `pair_score`: Semantic A*), the *placement* direction normalises it
-    over objects per pair (`joint`: placement). Without it, both directions use
-    P(obj|rgn) * P(obj|rec) as before. ``sources[o]`` says what produced row o (``learned``,
-    ``table``, ``embedding`` for a label the table lacks, a server backend's name, or
+    one object by it (`search`, `pair_score`: Semantic A*), the *placement* direction (`joint`) asks
+    which categories belong at a pair more than elsewhere in the scene (Bayes' rule) when p_pair is a
+    learned pair model, else normalises it over objects (the paper's eq. 5 for a product of answers).
+    Without p_pair, both directions use P(obj|rgn) * P(obj|rec) (the paper's eq. 5). ``sources[o]``
+    says what produced row o (``learned``, ``table``, ``embedding`` for a label the table lacks, a
+    server backend's name, or
     ``fallback:<backend>`` when the server's answer failed and the fallback answered).
     """
 
@@ -431,24 +532,48 @@ class Relevance(Record):
     p_pair: np.ndarray | None = None  # (O, R, C): P(pair right | object), 0-1, rows not normalised
     sources: list[str] = field(default_factory=list)  # (O,) what produced each object's row
 
+    def has_pair_model(self) -> bool:
+        """Return whether p_pair comes from a learned pair model for every row (sources all in PAIR_MODEL_SOURCES)."""
+        return self.p_pair is not None and bool(self.sources) and all(s in PAIR_MODEL_SOURCES for s in self.sources)
+
     def _pair_index(self, region: str, receptacle: str) -> tuple[int | None, int | None]:
         r = self.regions.index(region) if region in self.regions else None
         c = self.receptacles.index(receptacle) if receptacle in self.receptacles else None
         return r, c
 
-    def joint(self, region: str, receptacle: str) -> np.ndarray:
+    def joint(self, region: str, receptacle: str,
+              pairs: list[tuple[str, str]] | None = None) -> np.ndarray:
         """Return the placement-direction relevance of every object for one (region, receptacle).
 
-        With a pair model: P(obj | rgn, rec) = p_pair[:, r, c] normalised over objects; else
-        P(obj|rgn) * P(obj|rec) (the paper's eq. 5 without its typo). An unknown region or
-        receptacle counts as uniform.
+        With a learned pair model (every row's source ``learned``), which categories belong here more
+        than elsewhere (Bayes' rule, a uniform prior over categories): a person putting object o
+        somewhere in the scene picks a place q among the scene's pairs in proportion to how right it is,
+        P(q | o) = p_pair[o, q] / sum_q' p_pair[o, q'], and P(o | q) = P(q | o) / sum_o' P(q | o'). An
+        object that fits every place alike (a popular one) puts 1/len(pairs) of its weight here, one
+        that fits only here all of it. `pairs` are the (region, receptacle) pairs the scene offers (its
+        planes'; the queried pair is always one); default: every region x receptacle of this record;
+        pairs this record does not know are left out. Otherwise the paper's eq. 5 (without its typo),
+        `pairs` unused: p_pair (the product of a backend's two answers) normalised over objects, or
+        without p_pair P(obj|rgn) * P(obj|rec). An unknown region or receptacle counts as uniform.
         """
         r, c = self._pair_index(region, receptacle)
         n = len(self.objects)
-        if self.p_pair is not None and r is not None and c is not None:
+        if self.p_pair is not None and r is not None and c is not None and not self.has_pair_model():
             col = np.asarray(self.p_pair[:, r, c], dtype=float)
             tot = float(col.sum())
             return col / tot if tot > 0 else np.full(n, 1.0 / max(n, 1))
+        if self.p_pair is not None and r is not None and c is not None:
+            pp = np.asarray(self.p_pair, dtype=float)
+            if pairs is None:
+                where = {(a, b) for a in range(len(self.regions)) for b in range(len(self.receptacles))}
+            else:
+                where = {self._pair_index(rg, rc) for rg, rc in pairs}
+                where = {(a, b) for a, b in where if a is not None and b is not None} | {(r, c)}
+            rows = np.array([pp[:, a, b] for a, b in sorted(where)]).sum(axis=0)  # (O,) sum over the scene's pairs
+            here = pp[:, r, c]
+            p_q_o = np.where(rows > 0, here / np.where(rows > 0, rows, 1.0), 1.0 / len(where))
+            tot = float(p_q_o.sum())
+            return p_q_o / tot if tot > 0 else np.full(n, 1.0 / max(n, 1))
         pr = self.p_obj_region[:, r] if r is not None else np.full(n, 1.0 / max(n, 1))
         pc = self.p_obj_receptacle[:, c] if c is not None else np.full(n, 1.0 / max(n, 1))
         return np.asarray(pr, dtype=float) * np.asarray(pc, dtype=float)
@@ -494,6 +619,14 @@ class Placement(Record):
     status: str = "pending"  # resting | resting_elsewhere | fell | unstable | dropped
     reason: str = ""
     attempts: int = 1
+    part: str | None = None  # inside an articulated piece: the part (scene joint) closing over it; omitted when None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `part` left out when None (older bytes kept)."""
+        out = super().to_dict()
+        if out.get("part", 0) is None:
+            del out["part"]
+        return out
 
 
 @dataclass
@@ -507,6 +640,14 @@ class SceneVariant(Record):
     qpos: np.ndarray | None = None
     mjcf: str = ""  # composed MJCF (scene + support + objects), relative path
     notes: list[str] = field(default_factory=list)
+    articulation: dict[str, float] | None = None  # articulated part joint -> position (rad / m); omitted when None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `articulation` left out when None (older bytes kept)."""
+        out = super().to_dict()
+        if out.get("articulation", 0) is None:
+            del out["articulation"]
+        return out
 
     @property
     def name(self) -> str:
@@ -541,6 +682,14 @@ class Goal(Record):
     position: np.ndarray  # (3,)
     view_points: list[ViewPoint] = field(default_factory=list)
     bounds: np.ndarray | None = None  # (2, 3)
+    open_part: str | None = None  # hidden in a closed articulated part: the joint to open (view points with it open)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `open_part` left out when None (older bytes kept)."""
+        out = super().to_dict()
+        if out.get("open_part", 0) is None:
+            del out["open_part"]
+        return out
 
 
 @dataclass

@@ -320,9 +320,9 @@ def _world_scene(ctx: StageContext) -> list[str]:
 
     w = ctx.cfg.world
     rel_dir = ctx.key("world:scene")
-    apt = generate_apartment(_apartment_seed(ctx.scene), floors=w.floors or None)
+    apt = generate_apartment(_apartment_seed(ctx.scene), floors=w.floors or None, articulated=w.articulated)
     mesh = write_apartment(apt, ctx.store.path(rel_dir), mode=w.scene_mode, name=ctx.scene)
-    return sorted(ctx.store.rel(p) for p in ctx.store.path(rel_dir).iterdir()
+    return sorted(ctx.store.rel(p) for p in ctx.store.path(rel_dir).rglob("*")
                   if p.is_file() and not p.name.startswith(".")) or [ctx.store.rel(mesh)]
 
 
@@ -362,6 +362,19 @@ def _observe(ctx: StageContext) -> list[str]:
     return list(summary["outputs"])
 
 
+# The semantics fields that decide what the LLM backend answers (perceive asks it to name receptacles):
+# the window and region-map fields do not, so changing them does not redo perception.
+LLM_IDENTITY = tuple(f"semantics.{f}" for f in ("backend", "model", "url", "retries", "fallback", "offline_model",
+                                               "temperature", "seed"))
+
+
+def _offline_semantics() -> str:
+    """Return the digest of the offline backend's shipped model and priors (the semantics stage's extra input)."""
+    from .semantics import offline_data_digest
+
+    return offline_data_digest()
+
+
 def _llm_backend(ctx: StageContext) -> Any:
     """Return the run's LLM backend (replies cached under cache/llm of the run folder when enabled)."""
     from .semantics import get_backend
@@ -378,13 +391,20 @@ def _perceive(ctx: StageContext) -> list[str]:
     d = ctx.key("perceive")
     shards = sorted(ctx.store.path(ctx.key("observe")).glob("*.npz"))
     # with no prespecified receptacle labels the LLM backend names them (prompt C.1), cached like semantics
-    backend = None if ctx.cfg.receptacles.labels else _llm_backend(ctx)
+    backend = None if ctx.cfg.receptacles.labels and not ctx.cfg.receptacles.llm_share else _llm_backend(ctx)
     instances, planes, views = perceive_and_find_planes(load_shards(shards), ctx.view.scene(ctx.scene), ctx.store.root,
                                                         ctx.view.navmaps(ctx.scene), ctx.cfg, ctx.scene_seed, backend)
+    if ctx.view.scene(ctx.scene).articulated:  # planes inside articulated pieces name the part that closes them
+        from .receptacles.inside import assign_parts
+
+        planes = assign_parts(planes, ctx.view.scene(ctx.scene), ctx.store.root, ctx.cfg.observe.open_parts, instances)
     save_npz(instances, ctx.store.path(f"{d}/instances.npz"))
     save_json(planes, ctx.store.path(f"{d}/planes.json"))
     save_targeted_views(views, ctx.store.path(f"{d}/targeted_views.json"))
-    return [f"{d}/instances.npz", f"{d}/planes.json", f"{d}/targeted_views.json"]
+    # receptacle naming's LLM replies that failed and fell back (semantics records its own in its records)
+    ctx.store.write_json(f"{d}/llm.json", {"backend": backend.label if backend is not None else "",
+                                           "fallbacks": list(backend.fallbacks) if backend is not None else []})
+    return [f"{d}/instances.npz", f"{d}/planes.json", f"{d}/targeted_views.json", f"{d}/llm.json"]
 
 
 def _semantics(ctx: StageContext) -> list[str]:
@@ -427,7 +447,7 @@ def _place(ctx: StageContext) -> list[str]:
     planes = load_json(ctx.store.path(f"{s}/planes.json"), ReceptaclePlane)
     rel = load_json(ctx.store.path(f"{s}/relevance.json"), Relevance)
     variant = place_variant(ctx.view.scene(ctx.scene), planes, rel, ctx.view.object_library(), ctx.store.root,
-                            ctx.cfg.place, ctx.variant_seed, ctx.variant)
+                            ctx.cfg.place, ctx.variant_seed, ctx.variant, open_parts=ctx.cfg.observe.open_parts)
     return [f"{Path(ctx.key('place')).parent.as_posix()}/variant.json", variant.mjcf]
 
 
@@ -443,17 +463,112 @@ def _episodes(ctx: StageContext) -> list[str]:
     return [f"{vdir}/episodes.json"]
 
 
-def _export(ctx: StageContext) -> list[str]:
-    """Run one exporter plugin into ``export/<fmt>/`` (replaced whole: our own folder)."""
-    from .export import ExportOptions, make_exporter, run_export
+def export_unit_key(fmt: str, unit: str) -> str:
+    """Return the marker folder (store-relative) of one export unit: ``export/<fmt>.units/<unit>``."""
+    return f"export/{fmt}.units/{unit}"
 
+
+def _export_setup(ctx: StageContext) -> tuple[Any, Any, list[Any] | None]:
+    """Return (exporter, options, its units or None) of this context's format."""
+    from .export import ExportOptions, exporter_units, make_exporter
+
+    exporter = make_exporter(ctx.fmt)
+    options = ExportOptions(name=ctx.cfg.name, split=ctx.cfg.split)
+    return exporter, options, exporter_units(exporter, ctx.view, options)
+
+
+def _exporter_version(fmt: str) -> str:
+    """Return an exporter plugin's layout version ('' when it declares none or cannot be loaded here)."""
+    from .export import make_exporter
+
+    try:
+        return str(getattr(make_exporter(fmt), "version", "") or "")
+    except Exception:  # the export task itself reports why the plugin does not load
+        return ""
+
+
+def _unit_fingerprint(ctx: StageContext, unit: Any, options: Any) -> str:
+    """Return an export unit's fingerprint: format, unit, the export stage's config, the records the unit reads."""
+    from .export import unit_digest
+
+    conf = {s: section_value(ctx.cfg, s) for s in STAGES["export"].read_sections(ctx.cfg)}
+    return fingerprint("export:unit", ctx.fmt, _exporter_version(ctx.fmt), unit.key, list(unit.scenes) if unit.scenes is not None else None,
+                       conf, options.extra, unit_digest(ctx.view, unit))
+
+
+def run_export_units(ctx: StageContext, runner: Any, only: str = "") -> bool:
+    """Run the units of this context's exporter through `runner` (each skipped when done); only `only` if given.
+
+    Without `only` (the finishing step's task) a unit whose marker holds its fingerprint and whose outputs
+    exist is passed over without a note: its own task verified it.
+
+    Returns False when the exporter declares no units (it runs as one task in the export stage).
+    """
+    exporter, options, units = _export_setup(ctx)
+    if units is None:
+        return False
+    if only and only not in {u.key for u in units}:
+        raise StageError(f"exporter {ctx.fmt} has no unit '{only}' (units: {', '.join(u.key for u in units)})")
     out = ctx.store.path(f"export/{ctx.fmt}")
-    if out.exists():
-        shutil.rmtree(out)
-    report = run_export(make_exporter(ctx.fmt), ctx.view, out, ExportOptions(name=ctx.cfg.name, split=ctx.cfg.split))
+    for unit in units:
+        if only and unit.key != only:
+            continue
+        key = export_unit_key(ctx.fmt, unit.key)
+        fp = _unit_fingerprint(ctx, unit, options)
+        if not only and ctx.store.is_done(key, fp):  # the finishing step: a unit its own task finished
+            continue
+
+        def make(unit: Any = unit, key: str = key) -> list[str]:
+            res = exporter.export_unit(ctx.view, out, options, unit)
+            ctx.store.write_json(f"{key}/unit.json", res.to_dict())
+            return [f"{key}/unit.json"] + [f"export/{ctx.fmt}/{f}" for f in res.files]
+
+        runner.run(key, fp, make)
+    return True
+
+
+def _export(ctx: StageContext) -> list[str]:
+    """Run one exporter plugin into ``export/<fmt>/`` (our own folder: nothing else is kept there).
+
+    An exporter with units: its units ran before (`run_export_units`, each with its own marker); this step
+    writes the dataset-level files (`Exporter.finish`), records the export and removes files no unit wrote.
+    Without units: the folder is replaced whole by one `Exporter.export`.
+    """
+    from .export import UnitResult, record_export, run_export
+
+    exporter, options, units = _export_setup(ctx)
+    out = ctx.store.path(f"export/{ctx.fmt}")
+    if units is None:
+        if out.exists():
+            shutil.rmtree(out)
+        report = run_export(exporter, ctx.view, out, options)
+        own = report.files
+    else:
+        results = []
+        for u in units:
+            key = export_unit_key(ctx.fmt, u.key)
+            if not ctx.store.exists(f"{key}/unit.json"):
+                raise StageError(f"export {ctx.fmt}: unit {u.key} has not finished ({key})")
+            results.append(UnitResult.from_dict(ctx.store.read_json(f"{key}/unit.json")))
+        out.mkdir(parents=True, exist_ok=True)
+        report = exporter.finish(ctx.view, out, options, results)
+        record_export(out, ctx.fmt, options.name, options.split, ctx.view.run_id())
+        by_units = {f for r in results for f in r.files}
+        own = [f for f in report.files if f not in by_units]
+        keep = set(report.files) | {"sdovon_export.json"}
+        for p in sorted(out.rglob("*"), reverse=True):  # files of an earlier export that no unit wrote now
+            rel = p.relative_to(out).as_posix()
+            if p.is_file() and rel not in keep:
+                p.unlink()
+            elif p.is_dir() and not any(p.iterdir()):
+                p.rmdir()
+        udir = ctx.store.path(f"export/{ctx.fmt}.units")
+        for d in sorted(udir.iterdir()) if udir.is_dir() else []:
+            if d.is_dir() and d.name not in {u.key for u in units}:
+                shutil.rmtree(d)
     ctx.store.write_json(f"export/{ctx.fmt}.report.json", {"format": report.format, "variants": report.variants,
                                                            "skipped": report.skipped, "episodes": report.episodes})
-    return [f"export/{ctx.fmt}.report.json"] + [f"export/{ctx.fmt}/{f}" for f in report.files]
+    return [f"export/{ctx.fmt}.report.json"] + [f"export/{ctx.fmt}/{f}" for f in own]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -468,7 +583,7 @@ _DECLARED = [
           _objects, extra=_objects_extra, after=("world:objects",)),
     Stage("world:scene", "scene", "inputs/scenes/{scene}", (), ("world.floors", "world.scene_mode"),
           "a default-world apartment as an input file (only for default-world scenes)",
-          _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)], applies=lambda ctx: not ctx.scene_source()),
+          _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)] + (["articulated"] if ctx.cfg.world.articulated else []), applies=lambda ctx: not ctx.scene_source()),
     Stage("convert", "scene", "scenes/{scene}/convert", (), ("convert",),
           "scenes/<scene>/scene.json (SceneAsset), its MJCF and mesh sidecar",
           _convert, extra=lambda ctx: _convert_extra(converter(), scene_file(ctx)),
@@ -479,22 +594,23 @@ _DECLARED = [
           _observe, extra=lambda ctx: [ctx.scene_seed]),
     Stage("perceive", "scene", "scenes/{scene}/perceive", ("observe",),
           ("observe", "perceive", "receptacles", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
-          "instances.npz, planes.json, targeted_views.json",
+          "instances.npz, planes.json, targeted_views.json, llm.json (receptacle naming: backend, fallbacks)",
           _perceive, extra=lambda ctx: [ctx.scene_seed],
-          when_sections=lambda cfg: () if cfg.receptacles.labels else ("semantics",)),
+          when_sections=lambda cfg: () if cfg.receptacles.labels and not cfg.receptacles.llm_share else LLM_IDENTITY),
     Stage("semantics", "scene", "scenes/{scene}/semantics", ("perceive", "objects"), ("semantics",),
           "regions_<floor>.json + .png, planes.json (with floor and region), relevance.json",
-          _semantics),
+          _semantics, extra=lambda ctx: [_offline_semantics()]),
     Stage("place", "variant", "scenes/{scene}/variants/{variant}/place", ("semantics", "objects"), ("place",),
           "variant.json (SceneVariant) and the composed variant MJCF",
-          _place, extra=lambda ctx: [ctx.variant_seed]),
+          _place, extra=lambda ctx: [ctx.variant_seed],
+          when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else ()),
     Stage("episodes", "variant", "scenes/{scene}/variants/{variant}/episodes", ("place",),
           ("episodes", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
           "episodes.json (list[Episode])",
           _episodes, extra=lambda ctx: [ctx.variant_seed]),
     Stage("export", "export", "export/{fmt}.stage", (), ("name", "split", "episodes"),
           "export/<fmt>/ (the exporter plugin's files), export/<fmt>.report.json",
-          _export, extra=lambda ctx: [ctx.fmt, ctx.view.run_id()]),
+          _export, extra=lambda ctx: [ctx.fmt, _exporter_version(ctx.fmt), ctx.view.run_id()]),
 ]
 STAGES: dict[str, Stage] = {s.name: s for s in _DECLARED}
 # the commands `sdovon-mj <stage>` (world writers, conversion and export have their own: world, convert, export)
@@ -524,16 +640,22 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
     scope : str
         ``run``, ``scene``, ``variant`` or ``export``.
     scene, variant, fmt : str, int, str
-        Where in the run: the scene name, the variant index, the export format.
+        Where in the run: the scene name, the variant index, the export format (scope ``export``: ``scene``
+        names one export unit to run alone; empty: every unit not done yet, then the finishing step).
     selected : sequence of str, optional
         Only these stages (default: every stage of the scope).
     """
     if scope not in SCOPES:
         raise StageError(f"unknown stage scope '{scope}' ({', '.join(SCOPES)})")
     ctx = StageContext(store, cfg, scene, variant, fmt)
+    if scope == "export" and "export" in scope_stages(scope, selected):
+        # An exporter's units first (each skipped when done); a task naming one unit (`scene`) runs only it.
+        if run_export_units(ctx, runner, only=scene) and scene:
+            return
     for name in scope_stages(scope, selected):
         run_stage(name, ctx, runner)
 
 
 __all__ = ["COMMAND_STAGES", "STAGES", "SCOPES", "Stage", "StageContext", "closure", "converter", "describe", "run_stage",
+           "export_unit_key", "run_export_units",
            "expand_scene_inputs", "run_task", "scene_inputs", "scene_names", "scope_stages", "section_value", "stage_fingerprint"]

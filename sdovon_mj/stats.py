@@ -40,6 +40,7 @@ from .records import (
     ReceptaclePlane,
     RecordError,
     RegionMap,
+    Relevance,
     SceneAsset,
     SceneVariant,
     dumps,
@@ -574,3 +575,85 @@ def write_statistics(run_root: Path, out_rel: str = "stats") -> list[Path]:
         atomic_write_bytes(out / fname, bar_chart_png(stats["frequency"][key], title, xlabel, ylabel))
         written.append(out / fname)
     return written
+
+
+def llm_fallbacks(run_root: Path) -> dict[str, int]:
+    """Return counts of LLM replies that failed and fell back, summed over the run's scenes, per stage.
+
+    Keys: ``perceive.receptacle_naming`` (perceive's ``llm.json``), ``semantics.region_proposals``
+    (the region maps' ``fallbacks``) and ``semantics.relevance`` (``relevance.json``'s ``fallbacks``).
+    A scene folder that lacks a file adds nothing.
+    """
+    import json
+
+    out = {"perceive.receptacle_naming": 0, "semantics.region_proposals": 0, "semantics.relevance": 0}
+
+    def _count(path: Path) -> int:
+        try:
+            return len(json.loads(path.read_text(encoding="utf-8")).get("fallbacks") or [])
+        except (OSError, ValueError) as e:
+            raise InputError(f"{path}: not a readable JSON record ({e})") from None
+
+    for sd in _scene_dirs(Path(run_root)):
+        if (sd / "perceive" / "llm.json").is_file():
+            out["perceive.receptacle_naming"] += _count(sd / "perceive" / "llm.json")
+        for rp in sorted((sd / "semantics").glob("regions_*.json")):
+            out["semantics.region_proposals"] += _count(rp)
+        if (sd / "semantics" / "relevance.json").is_file():
+            out["semantics.relevance"] += _count(sd / "semantics" / "relevance.json")
+    return out
+
+
+PLACED_STATUSES = ("resting", "resting_elsewhere")
+
+
+def placement_top_pairs(run_root: Path, k: int = 3) -> dict[str, Any]:
+    """Return how often placed objects sit on one of their top-k (region, receptacle) pairs, and a random baseline.
+
+    Per scene, the available pairs are the (region, receptacle label) of its annotated planes
+    (``semantics/planes.json``); an object category's top-k pairs are the k available pairs where it
+    takes the largest share of the placement direction (``Relevance.joint`` over the scene's pairs, what
+    placement samples from; the definition of `place.sample.top_pair_share`, ties by name). A placed object
+    (status resting or resting_elsewhere) counts when its intended plane's pair is one of them. The
+    random baseline places each of the same objects on one of the same planes uniformly: its expected
+    share is the fraction of the scene's planes whose pair is in the category's top k (exact, no sampling).
+    ``ceiling`` is the ratio of a placement that draws, for each counted object's plane, uniformly among
+    the categories whose top-k holds the plane's pair (every draw a hit): with k = 3 and a scene of few
+    pairs, top-3 pairs already cover much of the scene, and no placement rule gets far above this.
+    Returns {"k", "placed", "on_top_k", "share", "random_share", "ratio", "ceiling"}; a ratio is inf when
+    its random share is 0 and its share is not.
+    """
+    placed, hits, rand = 0, 0, 0.0
+    ceil_hits, ceil_rand = 0.0, 0.0
+    for sd in _scene_dirs(Path(run_root)):
+        planes_path, rel_path = sd / "semantics" / "planes.json", sd / "semantics" / "relevance.json"
+        if not (planes_path.is_file() and rel_path.is_file()):
+            continue
+        planes = _read_list(planes_path, ReceptaclePlane)
+        rel = _read(rel_path, Relevance)
+        pair_of = {int(p.id): (str(p.region), str(p.label)) for p in planes}
+        available = set(pair_of.values())
+        scene_pairs = sorted(available)
+        joints = {q: rel.joint(q[0], q[1], scene_pairs) for q in scene_pairs}
+        top = {o: {(r, c) for _s, r, c in sorted((-float(joints[(r, c)][i]), r, c) for r, c in available)[:k]}
+               for i, o in enumerate(rel.objects)}
+        cover = {o: sum(1 for q in pair_of.values() if q in best) / len(pair_of) for o, best in top.items()}
+        for v in _scene_variants(sd, {}, {}):
+            for pl in v["placements"]:
+                if pl.status not in PLACED_STATUSES or int(pl.plane_id) not in pair_of:
+                    continue
+                if pl.category not in top:
+                    raise InputError(f"{rel_path}: no relevance row for placed category {pl.category!r}")
+                q = pair_of[int(pl.plane_id)]
+                placed += 1
+                hits += int(q in top[pl.category])
+                rand += cover[pl.category]
+                good = [o for o in rel.objects if q in top[o]]  # the ceiling's draw on this plane
+                ceil_hits += 1.0 if good else 0.0
+                ceil_rand += float(np.mean([cover[o] for o in (good or rel.objects)]))
+    share = hits / placed if placed else 0.0
+    rshare = rand / placed if placed else 0.0
+    ratio = share / rshare if rshare > 0 else (math.inf if share > 0 else 0.0)
+    ceiling = ceil_hits / ceil_rand if ceil_rand > 0 else (math.inf if ceil_hits > 0 else 0.0)
+    return {"k": int(k), "placed": placed, "on_top_k": hits, "share": share, "random_share": rshare, "ratio": ratio,
+            "ceiling": ceiling}

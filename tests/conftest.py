@@ -59,3 +59,27 @@ def pytest_make_collect_report(collector: pytest.Collector) -> Generator[None, A
     outcome = yield
     if _in_ci():
         _fail_unaccepted_skip(outcome.get_result())
+
+
+@pytest.fixture(scope="session")
+def articulated_closed_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny articulated default-world run (every part closed; tests/test_articulated_pipeline.py's CONFIG) to its
+    episodes, exported as MJCF bundles: ``<root>/run`` and ``<root>/mjcf``. One run shared by the pipeline and suite tests.
+    """
+    import os
+    import subprocess
+    import sys
+
+    from test_articulated_pipeline import CONFIG
+
+    root = tmp_path_factory.mktemp("art_closed")
+    cfg = root / "art.yaml"
+    cfg.write_text(CONFIG, encoding="utf-8")
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    repo = Path(__file__).resolve().parents[1]
+    for args in (["episodes", str(root / "run"), "--config", str(cfg)],
+                 ["export", str(root / "run"), "--format", "mjcf", "--out", str(root / "mjcf")]):
+        proc = subprocess.run([sys.executable, "-m", "sdovon_mj.cli", *args], cwd=repo, env=env, capture_output=True,
+                              text=True, timeout=600)
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    return root

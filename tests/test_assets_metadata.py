@@ -82,3 +82,37 @@ def test_unknown_key_names_file_and_key(tmp_path: Path) -> None:
     (tmp_path / "o" / "assets.yaml").write_text('files:\n  "*.obj": {up: sideways}\n')
     with pytest.raises(InputError, match=r"key 'files\.\*\.obj\.up': 'sideways'"):
         meta_for(tmp_path / "o" / "cube.obj")
+
+
+def test_receptacle_flag_per_file_and_node_glob(tmp_path: Path) -> None:
+    """`receptacle` for a whole scene file, then per node-name glob (last match wins); wrong types name file and key."""
+    from assets_convert.metadata import receptacle_flag
+    from assets_convert.scene import convert_scene
+
+    folder = tmp_path / "s"
+    folder.mkdir()
+    scene = trimesh.Scene()
+    for name, centre in (("Table_Top.001", (0, 0, 0.7)), ("Shelf_Unit.002", (2, 0, 0.5)), ("Floor", (1, 0, -0.05))):
+        scene.add_geometry(_box((0.8, 0.8, 0.1), centre), node_name=name, geom_name=name)
+    scene.export(folder / "room.glb")
+    (folder / "assets.yaml").write_text('up: +Z\nfiles:\n  "room.glb":\n    receptacle: false\n'
+                                        '    nodes:\n      "Shelf_*": {receptacle: true}\n      "*.002": {receptacle: false}\n'
+                                        '      "table top": {receptacle: true}\n')
+    meta = meta_for(folder / "room.glb")
+    assert meta.receptacle is False
+    assert receptacle_flag(meta, "Shelf_Unit.002") is False  # both globs match: the later one wins
+    assert receptacle_flag(meta, "Table_Top.001", "table top") is True  # a glob may name the label
+    assert receptacle_flag(meta, "Floor", "floor") is False  # the file's flag
+    asset = convert_scene(folder / "room.glb", tmp_path / "out", cache_dir="off")
+    assert {s.label: s.receptacle for s in asset.instances} == {"table top": True, "shelf unit": False, "floor": False}
+    # without metadata the instances carry no flag, and their JSON no key (records keep their bytes)
+    (folder / "assets.yaml").write_text("up: +Z\n")
+    plain = convert_scene(folder / "room.glb", tmp_path / "out2", cache_dir="off")
+    assert all(s.receptacle is None and '"receptacle"' not in s.to_json() for s in plain.instances)
+    for text, key in (("receptacle: yes please\n", "receptacle"),
+                      ('nodes:\n  "Shelf_*": {receptacle: 1}\n', r"nodes\.Shelf_\*\.receptacle"),
+                      ('nodes:\n  "Shelf_*": {category: shelf}\n', r"nodes\.Shelf_\*\.category"),
+                      ('nodes: [Shelf_*]\n', "nodes")):
+        (folder / "assets.yaml").write_text(text)
+        with pytest.raises(InputError, match=rf"s/assets\.yaml.*key '{key}'"):
+            meta_for(folder / "room.glb")

@@ -75,19 +75,77 @@ def test_mp3d_round_trip_matches_clean(layouts: dict) -> None:
         np.testing.assert_allclose(got[k].bounds, r.bounds, atol=MM, err_msg=f"instance {k} ({r.label})")
     ref_rooms = layouts["clean"][1].rooms
     assert [(x.id, x.type, x.floor) for x in asset.rooms] == [(x.id, x.type, x.floor) for x in ref_rooms]
-    for a, b in zip(asset.rooms, ref_rooms):  # the default world's rooms are rectangles: the .house boxes give them
+    for a, b in zip(asset.rooms, ref_rooms):  # each region's S surface V vertices: the room polygon
         np.testing.assert_allclose(a.polygon, b.polygon, atol=MM)
 
 
 def test_mp3d_object_absent_from_house_is_named(layouts: dict, tmp_path: Path) -> None:
     d = _copy(layouts["mp3d"][0].parent, tmp_path / "m")
     house = d / "apt.house"
-    house.write_text("".join(line + "\n" for line in house.read_text().splitlines() if not line.startswith("O 5 ")))
+    lines = [line for line in house.read_text().splitlines() if not line.startswith("O 5 ")]
+    h = next(k for k, line in enumerate(lines) if line.startswith("H "))
+    house.write_text("".join(line + "\n" for line in lines))  # the H line still counts object 5: a cut file
+    with pytest.raises(InputError, match=r"apt\.house.*H line says \d+ objects, the file has \d+ O lines"):
+        convert_scene(d / "apt.glb", tmp_path / "out", cache_dir="off")
+    f = lines[h].split()
+    f[8] = str(int(f[8]) - 1)  # the header agrees: the semantic mesh names an object the house lacks
+    lines[h] = " ".join(f)
+    house.write_text("".join(line + "\n" for line in lines))
     with pytest.raises(InputError, match=r"apt_semantic\.ply.*1 object id\(s\) absent from apt\.house: 5"):
         convert_scene(d / "apt.glb", tmp_path / "out", cache_dir="off")
     house.unlink()
     with pytest.raises(InputError, match=r"apt\.house.*missing"):
         convert_scene(d / "apt.glb", tmp_path / "out", cache_dir="off")
+
+
+HOUSE = """ASCII 1.1
+H  tiny  house  0 1  10 2 1  2 2 2 1 1  0 0 0 0 0  0 0 0 4 3 2.5  0 0 0 0 0
+L  0 2 -  2 1.5 0  0 0 0 4 3 2.5  0 0 0 0 0
+R  0 0 0 0 k  1 1 0  0 0 0 3 2 2.5  2.5  0 0 0 0
+R  1 0 0 0 b  3.5 1.5 0  3 0 0 4 3 2.5  2.5  0 0 0 0
+P  0 0 1 -  3 0.5 0 3 1.5 2  0 0 0 0
+S  0 0 0 f  1 1 0  0 0 1  0 0 0 3 2 0  0 0 0 0 0
+V  0 0 f  0 0 0  0 0 1  0 0 0
+V  1 0 f  0 2 0  0 0 1  0 0 0
+V  2 0 f  1 2 0  0 0 1  0 0 0
+V  3 0 f  1 1 0  0 0 1  0 0 0
+V  4 0 f  3 1 0  0 0 1  0 0 0
+V  5 0 f  3 0 0  0 0 1  0 0 0
+S  1 1 0 f  3.5 1.5 0  0 0 1  3 0 0 4 3 0  0 0 0 0 0
+V  6 1 f  3 0 0  0 0 1  0 0 0
+V  7 1 f  4 0 0  0 0 1  0 0 0
+V  8 1 f  4 3 0  0 0 1  0 0 0
+V  9 1 f  3 3 0  0 0 1  0 0 0
+P  0a1b2c  0 0 0  1 1 1.5  0 0 0 0 0
+C  0 5 kitchen#cabinet 7 cabinet  0 0 0 0 0
+C  1 9 - 3 chair  0 0 0 0 0
+O  0 0 0  0.5 1.5 0.4  1 0 0  0 1 0  0.5 0.3 0.4  0 0 0 0 0 0 0 0
+O  1 1 1  3.5 1.5 0.4  1 0 0  0 1 0  0.2 0.2 0.4  0 0 0 0 0 0 0 0
+E  0 0 17 1.2  0.5 1.5 0.4  0 1.2 0 1 1.8 0.8  0 0 0 0 0
+"""
+
+
+def test_house_file_in_matterport_layout(tmp_path: Path) -> None:
+    """A .house in the exact layout of Matterport's data_organization.md: header counts, S/V region polygons."""
+    from assets_convert.habitat import read_house
+
+    path = tmp_path / "tiny.house"
+    path.write_text(HOUSE)
+    regions, cats, objects = read_house(path)
+    assert [(k, r["label"], r["level"]) for k, r in sorted(regions.items())] == [(0, "kitchen", 0), (1, "bedroom", 0)]
+    # region 0 is L-shaped (its box would add the 1 m x 1 m corner it lacks); its V vertices are kept in order
+    np.testing.assert_allclose(regions[0]["polygon"], [[0, 0], [0, 2], [1, 2], [1, 1], [3, 1], [3, 0]])
+    assert regions[0]["box"] == [0, 0, 0, 3, 2, 2.5]
+    # '#' joins the words of a raw category name; '-' (no raw name) falls back to the mpcat40 name
+    assert cats == {0: "kitchen cabinet", 1: "chair"}
+    assert objects == {0: {"region": 0, "category": 0}, 1: {"region": 1, "category": 1}}
+    # a file cut after its header: the counts say so, naming the file
+    path.write_text("".join(line + "\n" for line in HOUSE.splitlines() if not line.startswith("V  9 ")))
+    with pytest.raises(InputError, match=r"tiny\.house.*H line says 10 vertices, the file has 9 V lines"):
+        read_house(path)
+    path.write_text(HOUSE.replace("R  1 0 0 0 b  3.5 1.5 0  3 0 0 4 3 2.5  2.5  0 0 0 0", "R  1 0 0 0 b  3.5 1.5 0  3 0"))
+    with pytest.raises(InputError, match=r"tiny\.house.*line 5: malformed R record"):
+        read_house(path)
 
 
 def test_hm3d_scene_compiles_with_instance_geoms(layouts: dict, tmp_path: Path) -> None:
@@ -113,6 +171,26 @@ def test_habitat_layout_round_trip(layouts: dict) -> None:
     assert [(x.id, x.type, x.floor) for x in got.rooms] == [(x.id, x.type, x.floor) for x in ref.rooms]
     for a, b in zip(got.rooms, ref.rooms):
         np.testing.assert_allclose(a.polygon, b.polygon, atol=MM)
+
+
+def test_stage_origin_moves_the_stage_only(layouts: dict, tmp_path: Path) -> None:
+    """A stage config's ``origin`` (Habitat world frame) puts the stage asset there; object instances stay put."""
+    d = _copy(layouts["habitat"][0].parent.parent, tmp_path / "h")
+    stage_cfg = d / "stages" / "apt.stage_config.json"
+    cfg = json.loads(stage_cfg.read_text())
+    origin_hab = np.array([0.5, -0.25, 2.0])  # x, up, back in Habitat's frame
+    stage_cfg.write_text(json.dumps({**cfg, "origin": origin_hab.tolist()}))
+    moved = convert_scene(d / "scenes" / "apt.scene_instance.json", tmp_path / "out", cache_dir="off")
+    ref = layouts["habitat"][1]
+    assert [(i.id, i.label) for i in moved.instances] == [(i.id, i.label) for i in ref.instances]
+    shift = HAB_TO_MJ @ origin_hab  # (0.5, -2.0, -0.25) in MuJoCo's Z-up frame
+    for a, b in zip(moved.instances, ref.instances):
+        expect = b.bounds + shift if b.kind == "structure" else b.bounds  # stage nodes vs object instances
+        np.testing.assert_allclose(a.bounds, expect, atol=MM, err_msg=f"{b.id} {b.label} ({b.kind})")
+    assert any(i.kind == "structure" for i in ref.instances) and any(i.kind != "structure" for i in ref.instances)
+    stage_cfg.write_text(json.dumps({**cfg, "origin": [0, 1]}))
+    with pytest.raises(InputError, match=r"'origin' of template .* must be a 3-vector"):
+        convert_scene(d / "scenes" / "apt.scene_instance.json", tmp_path / "out2", cache_dir="off")
 
 
 def test_folder_of_habitat_dataset_lists_its_scene_instances(layouts: dict) -> None:

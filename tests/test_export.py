@@ -6,6 +6,7 @@ import gzip
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -19,12 +20,15 @@ import mujoco
 from sdovon_mj.export import ExportError, ExportOptions, RunView, run_export
 from sdovon_mj.export import export_run
 from exporters.habitat import HabitatExporter
-from exporters.mjcf_bundle import MjcfBundleExporter
+from exporters.mjcf_bundle import MjcfBundleExporter, make_standalone
 from sdovon_mj import plugins
 from sdovon_mj.cli import main
+from sdovon_mj.errors import InputError
 from sdovon_mj.config import AgentConfig, EpisodeConfig
 from sdovon_mj.testing.run_folder import MUG_POSE, build_sample_run
-from sdovon_mj.records import Episode, NavMap, load_json
+from sdovon_mj.records import Episode, RecordError, load_json, records_equal, save_json
+from sdovon_mj.store import dumps
+from sdovon_mj.suite import load_bundle, make_environment
 from sdovon_mj.sim.camera import pose_cv
 from sdovon_mj.sim.model import geom_segment_ids, object_segment_id, segment_image
 from sdovon_mj.sim.render import SceneRenderer
@@ -147,19 +151,23 @@ def test_mjcf_bundle_loads_anywhere_and_view_points_see_objects(run_dir, tmp_pat
     assert rep.variants == ["room_v000"] and "room_v001" in rep.skipped
     assert not (out / "ds/room_v001").exists()
     bdir = out / "ds/room_v000"
-    assert (bdir / "assets/mug.obj").is_file()
+    # Assets are shared per dataset under their run-relative paths; the bundle refers to them relatively.
+    assert (out / "ds/assets/objects/mug_a/mug.obj").is_file() and not (bdir / "assets").exists()
+    assert json.loads((bdir / "bundle.json").read_text())["assets"] == "../assets/"
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
     model = mujoco.MjModel.from_xml_path(str(bdir / "scene.xml"))
-    # No path in the bundle points outside it.
-    assert "../" not in (bdir / "scene.xml").read_text()
+    # No path in the bundle points outside the dataset folder.
+    xml = (bdir / "scene.xml").read_text()
+    assert 'meshdir="../assets"' in xml and str(run_dir) not in xml and "../../" not in xml
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "obj_000")
     assert data.xpos[b] == pytest.approx([1.5, 1.2, 0.75]) and data.xquat[b] == pytest.approx([math.sqrt(.5), 0, 0, math.sqrt(.5)])
-    eps = load_json(bdir / "episodes.json", Episode)
-    nm = load_json(bdir / "oracle" / "navmap_0.json", NavMap)
+    loaded = load_bundle(bdir)  # v4: goals in goals.npz, the navmap shared by the scene's variants
+    eps, nm = loaded.episodes, loaded.navmap(0)
+    assert (out / "ds/oracle/room/navmap_0.npz").is_file() and not (bdir / "oracle/navmap_0.npz").exists()
     cfg = EpisodeConfig()
     lut = geom_segment_ids(model)
     n_checked = 0
@@ -218,3 +226,117 @@ def test_third_party_exporter_package(run_dir, tmp_path, monkeypatch):
     rows = (out / "t/episodes.csv").read_text().splitlines()
     assert rows[0].startswith("variant,category") and len(rows) == 1 + 6
     assert json.loads((out / "sdovon_export.json").read_text())["exports"][0]["format"] == "csv"
+
+
+def test_mjcf_standalone_export_and_making_a_copied_bundle_self_contained(run_dir, tmp_path, monkeypatch):
+    """--standalone writes today's self-contained bundles; a shared-asset bundle copied alone loads after
+    `sdovon-mj export BUNDLE --standalone`, and the suite loads it from another working directory."""
+    assert main(["export", str(run_dir), "--format", "mjcf", "--out", str(tmp_path / "alone"), "--standalone"]) == 0
+    sb = tmp_path / "alone/sdovon/room_v000"
+    assert (sb / "assets/mug.obj").is_file() and not (tmp_path / "alone/sdovon/assets").exists()
+    assert (sb / "oracle/navmap_0.npz").is_file() and not (tmp_path / "alone/sdovon/oracle").exists()
+    assert "../" not in (sb / "scene.xml").read_text()
+    assert main(["export", str(run_dir), "--format", "mjcf", "--out", str(tmp_path / "shared")]) == 0
+    copied = tmp_path / "copy/room_v000"
+    shutil.copytree(tmp_path / "shared/sdovon/room_v000", copied)
+    with pytest.raises(ValueError):  # alone, its ../assets is missing
+        mujoco.MjModel.from_xml_path(str(copied / "scene.xml"))
+    assert main(["export", str(tmp_path / "shared/sdovon/room_v000"), "--standalone"]) == 0  # in place
+    assert main(["export", str(tmp_path / "shared/sdovon/room_v000"), "--standalone"]) == 0  # idempotent
+    shutil.rmtree(copied)
+    shutil.copytree(tmp_path / "shared/sdovon/room_v000", copied)
+    shutil.rmtree(tmp_path / "shared")  # nothing of the dataset is left but the copy
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    a = mujoco.MjModel.from_xml_path(str(copied / "scene.xml"))
+    b = mujoco.MjModel.from_xml_path(str(sb / "scene.xml"))
+    assert a.nmesh == b.nmesh == 1 and a.mesh_vertnum.tolist() == b.mesh_vertnum.tolist()
+    assert json.loads((copied / "bundle.json").read_text())["assets"] == "assets/"
+    assert records_equal(load_bundle(copied).episodes, load_bundle(sb).episodes)
+    env = make_environment(copied)
+    ts = env.reset()
+    assert ts.observation is not None
+    assert main(["export", str(tmp_path / "nope"), "--standalone"]) == 1
+    # a whole dataset folder (its index.json) at once
+    assert main(["export", str(run_dir), "--format", "mjcf", "--out", str(tmp_path / "ds2"), "--name", "d"]) == 0
+    assert main(["export", str(tmp_path / "ds2/d"), "--standalone"]) == 0
+    assert (tmp_path / "ds2/d/room_v000/assets/mug.obj").is_file()
+
+
+def _v3_copy(run: RunView, variant: str, v4: Path, dst: Path) -> None:
+    """Write a version-3 bundle (whole Episode records, every oracle file as JSON in the bundle) of a variant."""
+    var = next(v for v in run.all_variants() if v.name == variant)
+    dst.mkdir(parents=True)
+    shutil.copy(v4 / "scene.xml", dst / "scene.xml")
+    (dst / "episodes.json").write_text(dumps([e.to_dict() for e in run.episodes(var)]))
+    for nm in run.navmaps(var.scene):
+        save_json(nm, dst / f"oracle/navmap_{nm.floor}.json")
+    for rm in run.region_maps(var.scene):
+        save_json(rm, dst / f"oracle/region_map_{rm.floor}.json")
+    if run.relevance(var.scene) is not None:
+        save_json(run.relevance(var.scene), dst / "oracle/relevance.json")
+    for name in ("object_labels.json",):
+        shutil.copy(v4 / "oracle" / name, dst / "oracle" / name)
+    shutil.copy(v4 / "../oracle" / var.scene / "instance_labels.json", dst / "oracle/instance_labels.json")
+    meta = json.loads((v4 / "bundle.json").read_text())
+    meta.update(bundle_version=3, navmaps={str(nm.floor): f"oracle/navmap_{nm.floor}.json" for nm in run.navmaps(var.scene)})
+    for k in ("goals", "scene_oracle", "region_maps", "instance_labels", "relevance", "object_labels"):
+        meta.pop(k)
+    (dst / "bundle.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
+
+
+def test_mjcf_v4_goals_once_and_same_episodes_as_a_v3_bundle(tmp_path):
+    """Bundle v4 writes every goal once (goals.npz) and the scene's oracle files once per scene; the suite reads
+    from it the run's very Episode records and navmaps, the same as from a v3 bundle of the same run, and the
+    environment starts the same episodes; a bundle from a newer exporter or missing its scene files fails clearly."""
+    run_path = build_sample_run(tmp_path / "run", episodes=True, cfg=EpisodeConfig(k_e=3), seed=0)
+    run = RunView(run_path)
+    out = tmp_path / "mj"
+    rep = run_export(MjcfBundleExporter(), run, out, ExportOptions(name="ds"))
+    var = next(v for v in run.all_variants() if v.name == rep.variants[0])
+    v4 = out / "ds" / var.name
+    want = run.episodes(var)
+    assert len(want) >= 2 and len({g.object_id for e in want for g in e.goals}) < sum(len(e.goals) for e in want)
+    text = (v4 / "episodes.json").read_text()
+    assert "view_points" not in text and '"EpisodeRef"' in text
+    with np.load(v4 / "goals.npz") as z:
+        meta = json.loads(bytes(z["__meta__"]).decode())
+        assert len(z["vp_position"]) == sum(g["n_view_points"] for g in meta["goals"])
+    ids = [g["object_id"] for g in meta["goals"]]
+    assert sorted(ids) == sorted({g.object_id for e in want for g in e.goals})  # each goal object once
+    with pytest.raises(RecordError, match="expected a Episode record, found EpisodeRef"):
+        load_json(v4 / "episodes.json", Episode)  # an old reader fails loudly, never reads goal-less episodes
+    _v3_copy(run, var.name, v4, out / "ds" / "v3copy")
+    b3, b4 = load_bundle(out / "ds" / "v3copy"), load_bundle(v4)
+    assert records_equal(b4.episodes, want) and records_equal(b3.episodes, b4.episodes)
+    assert records_equal(b3.navmaps, b4.navmaps) and records_equal(b4.navmaps, run.navmaps(var.scene))
+    assert records_equal(b3.region_maps, b4.region_maps) and records_equal(b3.relevance, b4.relevance)
+    assert b3.detector_labels() == b4.detector_labels() and b4.object_labels
+    envs = [make_environment(b, width=32, height=24) for b in (out / "ds" / "v3copy", v4)]
+    for i in range(len(want)):
+        obs = []
+        for env in envs:
+            env.task.set_next_episode(i)
+            ts = env.reset()
+            obs.append((env.task.episode.episode_id, env.task.shortest, ts.observation["gps"].tolist(),
+                        ts.observation["rgb"].tobytes()))
+        assert obs[0] == obs[1]
+    # Same run, same bytes.
+    run_export(MjcfBundleExporter(), run, tmp_path / "again", ExportOptions(name="ds"))
+    for rel in ("goals.npz", "episodes.json", "bundle.json"):
+        assert (tmp_path / "again/ds" / var.name / rel).read_bytes() == (v4 / rel).read_bytes()
+    assert ((tmp_path / "again/ds/oracle" / var.scene / "navmap_0.npz").read_bytes()
+            == (out / "ds/oracle" / var.scene / "navmap_0.npz").read_bytes())
+    # A bundle from a newer exporter, and one missing its scene's shared files, fail naming the file.
+    newer = tmp_path / "newer"
+    shutil.copytree(v4, newer)
+    meta = json.loads((newer / "bundle.json").read_text())
+    (newer / "bundle.json").write_text(json.dumps({**meta, "bundle_version": 99}))
+    with pytest.raises(InputError, match="bundle.json.*newer than this reader"):
+        load_bundle(newer)
+    (newer / "bundle.json").write_text(json.dumps(meta))
+    with pytest.raises(InputError, match="navmap_0.npz.*--standalone"):
+        load_bundle(newer)  # copied alone: ../oracle/<scene>/ is not beside it
+    assert make_standalone(v4) and load_bundle(v4).navmap(0) is not None
+    assert json.loads((v4 / "bundle.json").read_text())["navmaps"] == {"0": "oracle/navmap_0.npz"}

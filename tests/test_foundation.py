@@ -201,6 +201,42 @@ def test_atomic_write_leaves_no_partial_file_when_killed(tmp_path):
     assert target.read_bytes() == b"new"
 
 
+def test_dumps_is_json_dumps_byte_for_byte():
+    """store.dumps' fast encoder writes json.dumps(sort_keys, indent=1, ensure_ascii=False) + newline exactly,
+    and leaves what it does not handle to json (same text or the same error)."""
+    import json
+
+    from sdovon_mj.store import dumps
+
+    def ref(d):
+        return json.dumps(d, sort_keys=True, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
+
+    rng = np.random.default_rng(0)
+    cases = [None, True, False, 0, -7, 2 ** 70, 0.1, -0.0, 1e-300, 1.7976931348623157e308, np.float64(0.3),
+             "", "a\"b\\c\n\t\u0001é😀", [], {}, (), [[]], {"": {}}, [1, [2, [3, []]], {"z": 1, "a": [None]}],
+             {"b": 1, "a": {"y": (1, 2.5), "x": "s"}, "é": [True, False]},
+             [R._encode(r) for r in _examples()],
+             {"k": [float(x) for x in rng.normal(size=50)], "n": [int(x) for x in rng.integers(-10**9, 10**9, 50)]},
+             {1: "int key"}, {"a": 1, 2: "mixed"}, {(1, 2): "tuple key"}, {True: 1, None: 2, 1.5: 3}]
+    for d in cases:
+        try:
+            want = ref(d)
+        except (TypeError, ValueError) as e:
+            with pytest.raises(type(e)):
+                dumps(d)
+            continue
+        assert dumps(d) == want, d
+    for bad in (float("nan"), [float("inf")], {"x": -float("inf")}, {"x": object()}, [np.int64(3)], {"x": {1, 2}}):
+        with pytest.raises((ValueError, TypeError)) as got:
+            dumps(bad)
+        with pytest.raises(got.type):
+            ref(bad)
+    loop: list = []
+    loop.append(loop)
+    with pytest.raises(ValueError, match="Circular"):
+        dumps(loop)
+
+
 def test_store_stage_markers(tmp_path):
     st = Store(tmp_path)
     fp = fingerprint({"in": 1}, {"cfg": 2})

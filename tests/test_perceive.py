@@ -140,3 +140,32 @@ def test_fusion_presets_and_weights() -> None:
     # Far apart objects with the same label never merge under the paper preset (0.4 < 0.8).
     far = _cube(c + [3.0, 0, 0], "table", 1.0, 2, rng)
     assert len(fuse_instances([a, far], PerceiveConfig())) == 2
+
+
+def test_fused_voxel_map_is_the_voxel_map_of_all_points_and_overlap_is_the_near_fraction() -> None:
+    """The fused map built chunk by chunk (sorted merge) holds exactly the voxels of all points absorbed,
+    with their point counts and sums; the overlap is the fraction of query points within the radius of
+    a point kept in the instance's trees (brute force, every tree)."""
+    from sdovon_mj.perceive.backproject import voxel_sums
+    from sdovon_mj.perceive.fusion import _Fused
+
+    rng = np.random.default_rng(3)
+    f = _Fused(voxel=0.05)
+    chunks = []
+    for k in range(12):
+        n = int(rng.integers(1, 400))
+        p = rng.normal(size=(n, 3)) * rng.uniform(0.1, 1.0) + rng.uniform(-1, 1, size=3)
+        if k == 7:
+            p = chunks[0][:30]  # voxels already in the map only
+        chunks.append(p)
+        f.absorb(Instance(id=-1, label="x", points=p.astype(np.float32), center=np.zeros(3)))
+    allp = np.concatenate([c.astype(np.float32).astype(float) for c in chunks])
+    keys, sums, counts = voxel_sums(allp, 0.05)
+    assert np.array_equal(f.keys, keys) and np.array_equal(f.counts, counts)
+    assert np.allclose(f.sums, sums, atol=1e-9)
+    assert np.all(np.diff(f.keys) > 0)
+    q = rng.normal(size=(300, 3)) + rng.uniform(-1, 1, size=3)
+    tree_pts = np.concatenate([t.data for t in f.trees])
+    d = np.sqrt(((q[:, None, :] - tree_pts[None]) ** 2).sum(-1)).min(axis=1)
+    for r in (0.02, 0.1, 0.5):
+        assert f.overlap(q, r) == pytest.approx(float(np.mean(d <= r)), abs=1e-12)

@@ -57,6 +57,33 @@ def test_category_distribution_top_k_and_temperature():
     assert category_distribution(rel, "kitchen", "counter", ["sofa"], 1.0, 0)[0] == []
 
 
+def test_category_distribution_pair_model_prefers_what_belongs_here_more_than_elsewhere():
+    """With a pair model, a pair draws the categories that fit it more than the scene's other pairs.
+
+    A popular object (0.9 everywhere) and a specific one (0.5 at the sink, 0.05 elsewhere): the share of
+    the raw scores would favour the popular one everywhere; Bayes' rule over the scene's pairs gives the
+    sink to the specific one (0.5 / 0.6 of its weight there against 0.9 / 2.7) and the shelf to the popular one.
+    """
+    objs, regs, recs = ["popular", "specific"], ["bathroom", "living room"], ["sink", "shelf"]
+    pp = np.full((2, 2, 2), 0.05)
+    pp[0] = 0.9
+    pp[1, 0, 0] = 0.5
+    rel = Relevance(objects=objs, regions=regs, receptacles=recs, p_obj_region=np.full((2, 2), 0.5),
+                    p_obj_receptacle=np.full((2, 2), 0.5), p_pair=pp, sources=["learned", "learned"])
+    scene = [("bathroom", "sink"), ("living room", "shelf"), ("bathroom", "shelf")]
+    cats, p = category_distribution(rel, "bathroom", "sink", objs, 1.0, 0, scene)
+    assert cats[0] == "specific" and np.isclose(p.sum(), 1.0)
+    assert p[0] == pytest.approx((0.5 / 0.6) / (0.5 / 0.6 + 0.9 / 2.7))  # proportional at temperature 1
+    cats, _p = category_distribution(rel, "living room", "shelf", objs, 1.0, 0, scene)
+    assert cats[0] == "popular"
+    # the paper's eq. 5 (no learned pair model: the share of the raw pair scores): the popular object everywhere
+    rel.sources = ["table", "table"]
+    assert category_distribution(rel, "bathroom", "sink", objs, 1.0, 0, scene)[0][0] == "popular"
+    eq5 = hand_relevance()  # no p_pair: `pairs` changes nothing
+    assert category_distribution(eq5, "kitchen", "counter", ["box", "mug"], 1.0, 0, [("kitchen", "counter")])[1] == \
+        pytest.approx(category_distribution(eq5, "kitchen", "counter", ["box", "mug"], 1.0, 0)[1])
+
+
 def test_variant_rests_on_intended_planes_and_passes_independent_check(flat):
     root, scene, planes, lib = flat
     rel = hand_relevance()

@@ -171,7 +171,7 @@ def test_damaged_outputs_are_reported_by_verify_and_recomputed(reference: Path, 
     eps.write_text(eps.read_text(encoding="utf-8").replace('"apt_0000_v000_0000"', '"apt_0000_v000_HAND"', 1), encoding="utf-8")
     mjcf_files = sorted(p for p in (run / "export/mjcf").rglob("*") if p.is_file())
     mjcf_files[0].write_bytes(mjcf_files[0].read_bytes() + b"\n")
-    damaged = {f"{SCENE}/observe", f"{VARIANT}/episodes", "export/mjcf.stage"}
+    damaged = {f"{SCENE}/observe", f"{VARIANT}/episodes", "export/mjcf.units/apt_0000"}  # the scene's export unit
 
     proc = cli("verify", str(run))
     assert proc.returncode == 1, proc.stdout + proc.stderr
@@ -374,7 +374,8 @@ def test_zero_byte_texture_is_named_and_the_rest_of_the_library_converts(tmp_pat
 # Every stage and exporter of the tiny run, in the order a run finishes them (the tiny config has one variant).
 ALL_STAGES = ("inputs/objects", "objects", "inputs/scenes/apt_0000", f"{SCENE}/convert", f"{SCENE}/observe",
               f"{SCENE}/perceive", f"{SCENE}/semantics", f"{VARIANT}/place", f"{VARIANT}/episodes",
-              "export/habitat.stage", "export/mjcf.stage")
+              "export/habitat.units/apt_0000", "export/habitat.units/_objects", "export/mjcf.units/apt_0000",
+              "export/habitat.stage", "export/mjcf.stage")  # export units (pipeline.ExportSchedule), then finishing
 
 
 @pytest.mark.slow

@@ -102,17 +102,19 @@ def test_resolution_without_embeddings():
 
 
 def test_unknown_labels_use_embeddings_with_floor():
-    """A label the table lacks is scored by calibrated MiniLM similarity, mixed with a floor: none is zero.
-
-    (The table backend's fallback; the learned default's receptacle head ranks by popularity, issue 15.)"""
-    b = get_backend(SemanticsConfig(offline_model="table"))
+    """The default offline model on labels outside every table: plausible best candidate, none below the floor."""
+    b = get_backend(SemanticsConfig())
     s = b.score_regions("shower gel", ["kitchen", "bathroom", "bedroom", "office"])
     assert max(s, key=s.get) == "bathroom" and min(s.values()) >= FLOOR
     s = b.score_receptacles("espresso cup", ["bed", "counter", "sofa", "bookshelf"])
     assert max(s, key=s.get) == "counter" and min(s.values()) >= FLOOR
-    # candidates the table lacks are scored by embeddings too
     s = b.score_regions("toothbrush", ["bathroom", "garage", "kitchen"])
     assert max(s, key=s.get) == "bathroom" and min(s.values()) >= FLOOR
+
+
+def test_table_embedding_temperatures_calibrated():
+    """The table backend's embedding fallback: calibrated temperatures in (0, 1)."""
+    get_backend(SemanticsConfig(offline_model="table")).score_regions("toothbrush", ["bathroom", "garage", "kitchen"])
     t = default_priors()._temps
     assert set(t) >= {"regions"} and all(0 < v < 1 for v in t.values())
 

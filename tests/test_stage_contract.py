@@ -63,11 +63,29 @@ def test_fingerprints_follow_the_declared_config(tmp_path):
     assert fp("observe", other_observe) != fp("observe", base)
     assert fp("observe", other_seed) != fp("observe", base)  # the scene seed is an input
     assert fp("place", other_place) != fp("place", base)
-    # perceive reads the semantics config only when the LLM names the receptacles
+    # perceive reads the semantics fields that decide the LLM's answers (it may ask the backend to name
+    # receptacles), never the region-map window: a new window radius does not redo perception
     other_sem = load_config(None, ["semantics.window_radius=3.0"])
     assert fp("perceive", other_sem) == fp("perceive", base)
+    assert fp("perceive", load_config(None, ["semantics.offline_model=table"])) != fp("perceive", base)
+    never = load_config(None, ["receptacles.llm_share=0"])  # prespecified labels, never asks: no semantics field
+    assert fp("perceive", load_config(None, ["receptacles.llm_share=0", "semantics.offline_model=table"])) == fp("perceive", never)
     llm = load_config(None, ["receptacles.labels=[]"])
-    assert fp("perceive", load_config(None, ["receptacles.labels=[]", "semantics.window_radius=3.0"])) != fp("perceive", llm)
+    assert fp("perceive", load_config(None, ["receptacles.labels=[]", "semantics.backend=ollama"])) != fp("perceive", llm)
+
+
+def test_semantics_fingerprint_follows_the_shipped_offline_model(tmp_path, monkeypatch):
+    """A new learned model or priors file (a package upgrade) makes a resumed run compute its relevance again."""
+    import sdovon_mj.semantics as sem
+
+    store = Store(tmp_path)
+    store.write_json("inputs.json", {"scenes": [], "objects": []})
+    ctx = stages.StageContext(store, RunConfig(), "apt_0000", 0)
+    before = stages.stage_fingerprint(stages.STAGES["semantics"], ctx)
+    observe = stages.stage_fingerprint(stages.STAGES["observe"], ctx)
+    monkeypatch.setattr(sem, "offline_data_digest", lambda: "another model")
+    assert stages.stage_fingerprint(stages.STAGES["semantics"], ctx) != before
+    assert stages.stage_fingerprint(stages.STAGES["observe"], ctx) == observe  # perception does not read it
 
 
 @pytest.mark.slow

@@ -235,3 +235,88 @@ def test_sample_run(tmp_path: Path) -> None:
     assert t["episodes"] == sum(s["frequency"]["goal_categories"].values()) > 0
     assert s["episode_count_formula"]["N"] == pytest.approx(t["episodes"])
     assert s["episodes"]["geodesic_distance_m"]["min"] > 0
+
+
+def test_llm_fallbacks_counted_per_stage_from_the_records(tmp_path):
+    """A server that only answers prose: every question falls back to the offline backend; the records say so
+    (Relevance.backend names what answered) and `stats.llm_fallbacks` sums them per stage from the run folder."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_semantics_backends import FakeLLM, cfg_for
+    from test_semantics_regions import two_rooms
+
+    from sdovon_mj.records import save_json
+    from sdovon_mj.semantics import get_backend, identify_receptacles, region_map, relevance
+    from sdovon_mj.stats import llm_fallbacks
+
+    navmap, insts = two_rooms()
+    fake = FakeLLM("ollama", "prose")
+    try:
+        cfg = cfg_for("ollama", fake.url, retries=0)
+        b_perceive = get_backend(cfg)
+        named = identify_receptacles(["bed", "pillow", "sink"], b_perceive)
+        b = get_backend(cfg)
+        rm = region_map(insts, navmap, b, cfg)
+        n_regions = len(b.fallbacks)
+        rel = relevance(["towel", "book"], ["bedroom", "bathroom"], ["bed", "sink"], b)
+    finally:
+        fake.close()
+    assert "bed" in named and len(b_perceive.fallbacks) == 1
+    assert n_regions >= 2 and len(rm.fallbacks) == n_regions  # one per distinct window label set
+    assert rel.backend == "offline" and len(rel.fallbacks) == 4 and rel.sources == ["fallback:offline"] * 2
+    sd = tmp_path / "scenes" / "s0"
+    (sd / "perceive").mkdir(parents=True)
+    (sd / "semantics").mkdir(parents=True)
+    (sd / "perceive" / "llm.json").write_text(json.dumps({"backend": b_perceive.label, "fallbacks": b_perceive.fallbacks}))
+    save_json(rm, sd / "semantics" / "regions_0.json")
+    save_json(rel, sd / "semantics" / "relevance.json")
+    (tmp_path / "scenes" / "s1").mkdir()  # a scene not yet through perceive adds nothing
+    assert llm_fallbacks(tmp_path) == {"perceive.receptacle_naming": 1, "semantics.region_proposals": n_regions,
+                                       "semantics.relevance": 4}
+
+
+def test_placement_top_pairs_exact_on_a_hand_made_run(tmp_path):
+    """Share on the top-k pairs and the uniform random baseline, checked by hand on a two-category scene.
+
+    Six planes: (kitchen, counter) x2, (bathroom, sink), (bedroom, bed) x3. Cups rank kitchen-counter,
+    then bathroom-sink; pillows bedroom-bed, then bathroom-sink. With k=1: three cups on counters (hit),
+    one pillow on a bed (hit), one pillow on the counter (miss), one cup dropped (not counted).
+    Random: a cup's top pair holds 2 of 6 planes, a pillow's 3 of 6.
+    """
+    from sdovon_mj.records import Placement, ReceptaclePlane, Relevance, SceneVariant, save_json
+    from sdovon_mj.stats import placement_top_pairs
+
+    sd = tmp_path / "scenes" / "s0"
+    sq = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    spec = [("kitchen", "counter"), ("kitchen", "counter"), ("bathroom", "sink"), ("bedroom", "bed"),
+            ("bedroom", "bed"), ("bedroom", "bed")]
+    planes = [ReceptaclePlane(id=i, instance_id=i, label=c, height=0.5, polygon=sq, normal=np.array([0, 0, 1.0]),
+                              region=r) for i, (r, c) in enumerate(spec)]
+    sd.joinpath("semantics").mkdir(parents=True)
+    save_json(planes, sd / "semantics" / "planes.json")
+    regs, recs = ["bathroom", "bedroom", "kitchen"], ["bed", "counter", "sink"]
+    pair = np.full((2, 3, 3), 0.05)
+    pair[0, 2, 1], pair[0, 0, 2] = 0.9, 0.5  # cup: kitchen-counter, then bathroom-sink
+    pair[1, 1, 0], pair[1, 0, 2] = 0.8, 0.3  # pillow: bedroom-bed, then bathroom-sink
+    rel = Relevance(objects=["cup", "pillow"], regions=regs, receptacles=recs, p_obj_region=np.full((2, 3), 0.5),
+                    p_obj_receptacle=np.full((2, 3), 0.5), backend="offline", p_pair=pair, sources=["learned"] * 2)
+    save_json(rel, sd / "semantics" / "relevance.json")
+
+    def put(k: int, cat: str, plane: int, status: str = "resting") -> Placement:
+        return Placement(object_id=f"obj_{k}", asset=cat + "_a", category=cat, plane_id=plane, receptacle_instance=plane,
+                         region=spec[plane][0], spawn_pos=np.zeros(3), spawn_quat=np.array([1.0, 0, 0, 0]), status=status)
+
+    pls = [put(0, "cup", 0), put(1, "cup", 1), put(2, "cup", 0), put(3, "pillow", 4), put(4, "pillow", 1),
+           put(5, "cup", 3, "fell")]
+    (sd / "variants" / "v0").mkdir(parents=True)
+    save_json(SceneVariant(scene="s0", index=0, seed=1, placements=pls), sd / "variants" / "v0" / "variant.json")
+    got = placement_top_pairs(tmp_path, k=1)
+    assert (got["placed"], got["on_top_k"]) == (5, 4)
+    assert got["share"] == pytest.approx(4 / 5)
+    assert got["random_share"] == pytest.approx((3 * 2 / 6 + 2 * 3 / 6) / 5)
+    assert got["ratio"] == pytest.approx(got["share"] / got["random_share"])
+    # ceiling: every counted plane drawn among the categories whose top pair it is (counters: cup, bed: pillow)
+    assert got["ceiling"] == pytest.approx(1.0 / ((4 * 2 / 6 + 3 / 6) / 5))
+    two = placement_top_pairs(tmp_path, k=2)  # the sink joins both categories' top 2
+    assert two["on_top_k"] == 4 and two["random_share"] == pytest.approx((3 * 3 / 6 + 2 * 4 / 6) / 5)

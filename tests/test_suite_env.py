@@ -49,7 +49,7 @@ def test_specs_match_observations_and_random_policy_1000_steps(fixture_root):
     """A random policy runs 1,000 steps across episode boundaries; every observation matches its spec."""
     env = _env(fixture_root, semantic=True, max_steps=120)
     spec = env.observation_spec()
-    assert env.action_spec().num_values == 6
+    assert env.action_spec().num_values == len(suite.ACTION_NAMES)
     rng = np.random.default_rng(1)
     ts = env.reset()
     episodes, lasts = 0, 0
@@ -140,3 +140,42 @@ def test_bad_bundles_name_the_file(tmp_path, fixture_root):
     (bad / "fixture_apartment_v000.xml").write_text("<mujoco><worldbody><geom type='nope'/></worldbody></mujoco>")
     with pytest.raises(InputError):
         suite.make_environment(bad)
+
+
+def test_goal_table_round_trip_and_its_fallback(tmp_path, fixture_root):
+    """Bundle v4 episodes (goals once, `suite.goals`) read back to the same records, goals shared by episodes
+    written once; a goal the float64 arrays cannot hold exactly goes to goals.json; bad refs name the file."""
+    from sdovon_mj.records import Goal, ViewPoint, load_json, records_equal
+    from sdovon_mj.suite.goals import pack_episodes, unpack_episodes
+
+    eps = load_json(fixture_root / "fixture_apartment_v000" / "episodes.json")
+    text, data, name = pack_episodes(eps)
+    assert name == "goals.npz" and "view_points" not in text
+    (tmp_path / "episodes.json").write_text(text)
+    (tmp_path / name).write_bytes(data)
+    back = unpack_episodes(tmp_path / "episodes.json", tmp_path / name)
+    assert records_equal(back, eps)
+    shared = [(a, b) for a in back[0].goals for b in back[1].goals if a.object_id == b.object_id]
+    assert shared and all(a is not b for a, b in shared)  # each episode its own Goal objects, as before
+    n_refs = sum(len(e.goals) for e in eps)
+    with np.load(tmp_path / name) as z:
+        n_table = len(json.loads(bytes(z["__meta__"]).decode())["goals"])
+    assert n_table == len({g.object_id for e in eps for g in e.goals}) < n_refs
+    assert pack_episodes(eps) == (text, data, name)  # same episodes, same bytes
+    # A float32 view point would come back float64 from the arrays: the exact JSON table is written instead.
+    odd = [e for e in load_json(fixture_root / "fixture_apartment_v000" / "episodes.json")][:1]
+    g = odd[0].goals[0]
+    odd[0].goals[0] = Goal(g.object_id, g.category, g.position,
+                           [ViewPoint(g.view_points[0].position.astype(np.float32), g.view_points[0].rotation)], g.bounds)
+    text2, data2, name2 = pack_episodes(odd)
+    assert name2 == "goals.json"
+    (tmp_path / "episodes.json").write_text(text2)
+    (tmp_path / name2).write_bytes(data2)
+    assert records_equal(unpack_episodes(tmp_path / "episodes.json", tmp_path / name2), odd)
+    rows = json.loads(text)
+    rows[0]["goal_refs"] = [10_000]
+    (tmp_path / "episodes.json").write_text(json.dumps(rows))
+    with pytest.raises(InputError, match="episodes.json.*goal_refs"):
+        unpack_episodes(tmp_path / "episodes.json", tmp_path / name)
+    with pytest.raises(InputError, match="nope.npz.*not found"):
+        unpack_episodes(tmp_path / "episodes.json", tmp_path / "nope.npz")

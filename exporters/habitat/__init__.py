@@ -6,6 +6,7 @@ Layout under the output folder (``<name>`` = dataset name, ``<split>`` = split):
     data/scene_datasets/<name>/stages/<scene>.stage_config.json + <scene>.glb      (Y-up vertices)
     data/scene_datasets/<name>/objects/<asset>.object_config.json + <asset>.glb    (Y-up, body frame)
     data/scene_datasets/<name>/scenes/<variant>.scene_instance.json                (one per variant)
+    data/scene_datasets/<name>/urdf/<scene>_<piece>/<scene>_<piece>.urdf + meshes  (articulated pieces, Z-up)
     data/datasets/objectnav/<name>/<split>/<split>.json.gz                         (category maps, no episodes)
     data/datasets/objectnav/<name>/<split>/content/<variant>.json.gz               (episodes + goals_by_category)
 
@@ -13,6 +14,13 @@ Use with habitat-lab from the output folder (CWD): ``habitat.dataset.data_path=
 'data/datasets/objectnav/<name>/{split}/{split}.json.gz'``, ``habitat.dataset.scenes_dir=data/scene_datasets``.
 Furniture is baked into the stage (it blocks habitat's rebuilt navmesh); placed objects are STATIC
 instances. Variants without episodes (no valid goals) are reported and skipped.
+
+Articulated pieces (``SceneAsset.articulated``, issue 17) stay out of the stage: their URDF (as world:scene wrote
+it, with the meshes it names) is copied under ``urdf/`` and each variant's scene instance lists them in
+``articulated_object_instances`` (habitat-sim's scene instance format): ``template_name`` (the URDF's stem, found
+through the dataset config's ``articulated_objects`` paths), ``translation`` / ``rotation`` of the URDF root
+(`frames.urdf_rotation_wxyz`), ``fixed_base``, and the variant's joint state as ``initial_joint_pose`` (one value
+per movable joint, in the URDF's joint order) and by joint name in ``user_defined.joint_states``.
 """
 
 from __future__ import annotations
@@ -20,17 +28,18 @@ from __future__ import annotations
 import gzip
 import json
 import re
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from sdovon_mj.errors import InputError
-from sdovon_mj.records import Episode, Goal, SceneVariant
+from sdovon_mj.records import ArticulatedFixture, Episode, Goal, SceneAsset, SceneVariant
 from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from sdovon_mj.sim.model import pose_settled
 from sdovon_mj.store import atomic_write_bytes
-from sdovon_mj.export import ExportOptions, ExportReport, Exporter, RunView, exportable_variants
+from sdovon_mj.export import ExportOptions, ExportReport, ExportUnit, Exporter, RunView, UnitResult, merge_unit_results
 
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
@@ -94,6 +103,91 @@ def _body_geoms(model: mujoco.MjModel, body: int, groups: tuple[int, ...]) -> li
     return out
 
 
+def _articulated_geoms(model: mujoco.MjModel) -> set[int]:
+    """Return the geoms of articulated pieces (bodies ``art_<id>/...`` and their children): not part of the stage."""
+    out = set()
+    for g in range(model.ngeom):
+        b = int(model.geom_bodyid[g])
+        while b > 0:
+            if (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or "").startswith("art_"):
+                out.add(g)
+                break
+            b = int(model.body_parentid[b])
+    return out
+
+
+def _piece_urdf(run: RunView, scene: SceneAsset, fx: ArticulatedFixture) -> Path:
+    """Return the source URDF of an articulated piece (its converted asset.json's ``source``)."""
+    asset = run.path(fx.model).parent / "asset.json"
+    try:
+        src = str(json.loads(asset.read_text(encoding="utf-8"))["source"])
+    except (OSError, json.JSONDecodeError, KeyError, TypeError) as e:
+        raise InputError(asset, f"articulated piece {fx.instance_id}: no readable source URDF ({e})") from None
+    for cand in (run.path(scene.source).parent / src, asset.parent / src, run.path(src)):
+        if cand.is_file():
+            return cand
+    raise InputError(asset, f"articulated piece {fx.instance_id}: source URDF {src} not found")
+
+
+def urdf_template_name(scene: str, urdf: Path) -> str:
+    """Return the Habitat template name (and folder / file stem) of a scene's articulated piece URDF."""
+    return f"{scene}_{urdf.stem}"
+
+
+def urdf_files(urdf: Path) -> list[str]:
+    """Return the URDF's mesh files (relative paths as written), in document order, each once."""
+    try:
+        root = ET.parse(urdf).getroot()
+    except (OSError, ET.ParseError) as e:
+        raise InputError(urdf, f"URDF does not parse ({e})") from None
+    out: list[str] = []
+    for m in root.iter("mesh"):
+        f = m.get("filename", "")
+        if f and f not in out:
+            if f.startswith(("package://", "/")) or ".." in Path(f).parts:
+                raise InputError(urdf, f"mesh {f!r}: only paths relative to the URDF's folder are exported")
+            out.append(f)
+    return out
+
+
+def urdf_movable_joints(urdf: Path) -> list[tuple[str, float, float]]:
+    """Return (name, lower, upper) of the URDF's movable joints (revolute, prismatic, continuous) in file order."""
+    root = ET.parse(urdf).getroot()
+    out = []
+    for j in root.iter("joint"):
+        if j.get("type") in ("revolute", "prismatic", "continuous"):
+            lim = j.find("limit")
+            lo = float(lim.get("lower", 0.0)) if lim is not None else 0.0
+            hi = float(lim.get("upper", 0.0)) if lim is not None else 0.0
+            out.append((str(j.get("name")), lo, hi))
+    return out
+
+
+def articulated_instance(scene: str, fx: ArticulatedFixture, urdf: Path, state: dict[str, float]) -> dict[str, Any]:
+    """Return a habitat-sim ``articulated_object_instances`` entry for a piece in a variant's joint state.
+
+    Parameters
+    ----------
+    scene : str
+        The scene name (prefix of the template name).
+    fx : ArticulatedFixture
+        The piece: root position (m, MuJoCo world) and yaw (degrees), its parts' scene joint names.
+    urdf : Path
+        Its source URDF (joint order and names).
+    state : dict of str to float
+        Scene joint name (``art_<id>/<joint>``) -> position (rad or m), e.g. ``SceneVariant.articulation``; joints
+        missing here are at 0 clamped into their limits.
+    """
+    prefix = f"art_{fx.instance_id}/"
+    joints = urdf_movable_joints(urdf)
+    pose = [float(state.get(prefix + n, min(max(0.0, lo), hi) if hi > lo else 0.0)) for n, lo, hi in joints]
+    return {"template_name": urdf_template_name(scene, urdf), "translation_origin": "asset_local", "fixed_base": True,
+            "motion_type": "DYNAMIC", "translation": frames.position(fx.position),
+            "rotation": frames.urdf_rotation_wxyz(float(fx.yaw)), "initial_joint_pose": pose,
+            "user_defined": {"joint_states": {n: v for (n, _lo, _hi), v in zip(joints, pose)},
+                             "instance_id": int(fx.instance_id), "label": fx.label}}
+
+
 def view_point_json(vp) -> dict[str, Any]:
     """Return a ViewPoint as a Habitat ObjectViewLocation."""
     return {"agent_state": {"position": frames.position(vp.position), "rotation": frames.agent_rotation_xyzw(vp.rotation)},
@@ -121,40 +215,87 @@ def episode_json(ep: Episode, index: int, scene_id: str, dataset_config: str) ->
             "goals": [], "start_room": None, "shortest_paths": None, "object_category": ep.object_category}
 
 
+OBJECTS_UNIT = "_objects"  # the object templates' unit (scene names never start with '_')
+
+
+def _dataset_paths(out_dir: Path, options: ExportOptions) -> tuple[Path, Path, str]:
+    """Return (scene dataset folder, episode dataset folder, dataset config path relative to out_dir)."""
+    sd_rel = f"data/scene_datasets/{options.name}"
+    ds_rel = f"data/datasets/objectnav/{options.name}/{options.split}"
+    return Path(out_dir) / sd_rel, Path(out_dir) / ds_rel, f"{sd_rel}/{options.name}.scene_dataset_config.json"
+
+
+def _category_maps(run: RunView) -> dict[str, dict[str, int]]:
+    """Return the category id maps over every variant's episodes (read as raw JSON: only the categories)."""
+    cats: set[str] = set()
+    for scene in run.scene_names():
+        for p in sorted((run.root / "scenes" / scene / "variants").glob("*/episodes.json")):
+            if not (p.parent / "variant.json").is_file():  # not a variant of the run (RunView.variants)
+                continue
+            try:
+                rows = json.loads(p.read_text(encoding="utf-8"))
+                cats.update(str(r["object_category"]) for r in rows)
+            except (json.JSONDecodeError, KeyError, TypeError) as e:
+                raise InputError(p, f"not a valid list of Episode records ({e})") from None
+    cat_ids = {c: i for i, c in enumerate(sorted(cats))}
+    return {"category_to_task_category_id": cat_ids, "category_to_scene_annotation_category_id": dict(cat_ids)}
+
+
+class _Writer:
+    """Writes files atomically and remembers them."""
+
+    def __init__(self) -> None:
+        self.written: list[Path] = []
+
+    def __call__(self, path: Path, data: bytes) -> None:
+        atomic_write_bytes(path, data)
+        self.written.append(path)
+
+
 class HabitatExporter(Exporter):
-    """Writes a habitat-sim scene dataset and a habitat-lab ObjectNav-v1 dataset."""
+    """Writes a habitat-sim scene dataset and a habitat-lab ObjectNav-v1 dataset.
+
+    Units: one per scene (its stage, scene instances and episode contents) and one for the object templates
+    (each asset's template from its first use in variant order, as the serial export always did); every unit
+    reads the whole run's categories, so the pipeline starts them when all variants are done.
+    """
 
     name = "habitat"
 
-    def export(self, run: RunView, out_dir: Path, options: ExportOptions) -> ExportReport:
-        """Write the run as a Habitat dataset under out_dir/data."""
-        name, split = options.name, options.split
+    def units(self, run: RunView, options: ExportOptions) -> list[ExportUnit]:
+        """Return one unit per scene and the object templates' unit."""
+        return [ExportUnit(s, None) for s in run.scene_names()] + [ExportUnit(OBJECTS_UNIT, None)]
+
+    def export_unit(self, run: RunView, out_dir: Path, options: ExportOptions, unit: ExportUnit) -> UnitResult:
+        """Write one unit: a scene's files or the object templates."""
         out_dir = Path(out_dir)
-        sd_rel = f"data/scene_datasets/{name}"
-        ds_rel = f"data/datasets/objectnav/{name}/{split}"
-        sd, ds = out_dir / sd_rel, out_dir / ds_rel
-        dataset_config = f"{sd_rel}/{name}.scene_dataset_config.json"
-        report = ExportReport(format=self.name, out_dir=str(out_dir), name=name)
-        objects = run.objects()
-        # Pass 1: which variants have episodes.
-        todo = list(exportable_variants(run, report))
-        categories = sorted({ep.object_category for _v, eps in todo for ep in eps})
-        cat_ids = {c: i for i, c in enumerate(categories)}
-        maps = {"category_to_task_category_id": cat_ids, "category_to_scene_annotation_category_id": dict(cat_ids)}
-        written: list[Path] = []
+        res = UnitResult(unit.key)
+        write = _Writer()
+        if unit.key == OBJECTS_UNIT:
+            self._templates(run, out_dir, options, write)
+        else:
+            self._scene(run, out_dir, options, unit.key, res, write)
+        res.files = sorted({p.relative_to(out_dir).as_posix() for p in write.written})
+        return res
 
-        def write(rel_path: Path, data: bytes) -> None:
-            atomic_write_bytes(rel_path, data)
-            written.append(rel_path)
-
-        stages_done: set[str] = set()
-        templates_done: set[str] = set()
-        for variant, eps in todo:
-            if variant.scene not in stages_done:
+    def _scene(self, run: RunView, out_dir: Path, options: ExportOptions, scene_name: str, res: UnitResult,
+               write: _Writer) -> None:
+        """Write a scene's stage and its variants' scene instances and episode contents."""
+        sd, ds, dataset_config = _dataset_paths(out_dir, options)
+        maps = None
+        for variant in run.variants(scene_name):
+            eps = run.episodes(variant)
+            if not eps:
+                res.skipped[variant.name] = "no valid goals (zero episodes)"
+                continue
+            if maps is None:  # first variant with episodes: the stage, once
+                maps = _category_maps(run)
                 scene = run.scene(variant.scene)
                 smodel, sdata = _compile(run.path(scene.mjcf))
                 mujoco.mj_forward(smodel, sdata)
-                geoms = [g for g in range(smodel.ngeom) if int(smodel.geom_group[g]) in (GROUP_SCENE, GROUP_CEILING)]
+                moving = _articulated_geoms(smodel)  # articulated pieces are URDF instances, not stage
+                geoms = [g for g in range(smodel.ngeom)
+                         if int(smodel.geom_group[g]) in (GROUP_SCENE, GROUP_CEILING) and g not in moving]
                 mesh = geoms_scene(smodel, sdata, geoms, np.eye(4), frames.C)  # textured where MuJoCo is
                 if mesh is None:
                     raise InputError(run.path(scene.mjcf), "scene has no visual geometry to export as a stage")
@@ -162,34 +303,33 @@ class HabitatExporter(Exporter):
                 write(sd / "stages" / f"{scene.name}.stage_config.json", _json({
                     "render_asset": f"{scene.name}.glb", "collision_asset": f"{scene.name}.glb", "up": UP, "front": FRONT,
                     "origin": [0.0, 0.0, 0.0], "units_to_meters": 1.0, "shader_type": "material"}).encode())
-                stages_done.add(variant.scene)
+                urdfs = {}
+                for fx in scene.articulated:  # each piece's URDF and meshes, once per scene
+                    src = _piece_urdf(run, scene, fx)
+                    name = urdf_template_name(scene.name, src)
+                    for f in urdf_files(src):
+                        if not (src.parent / f).is_file():
+                            raise InputError(src, f"mesh {f} not found")
+                        write(sd / "urdf" / name / f, (src.parent / f).read_bytes())
+                    write(sd / "urdf" / name / f"{name}.urdf", src.read_bytes())
+                    urdfs[fx.instance_id] = src
             model, data = _variant_model(run, variant)
             instances = []
             for p in sorted(variant.placements, key=lambda p: p.object_id):
                 b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, p.object_id)
                 if b < 0:
                     continue
-                T = np.eye(4)
-                T[:3, :3] = data.xmat[b].reshape(3, 3)
-                T[:3, 3] = data.xpos[b]
-                if p.asset not in templates_done:
-                    mesh = geoms_scene(model, data, _body_geoms(model, b, (GROUP_OBJECT_VISUAL,)), T, frames.C)
-                    if mesh is None:
-                        raise InputError(run.path(variant.mjcf), f"body {p.object_id} has no visual geoms (group 2)")
-                    mass = float(objects[p.asset].mass) if p.asset in objects else float(model.body_subtreemass[b])
-                    write(sd / "objects" / f"{p.asset}.glb", glb_bytes(mesh))
-                    write(sd / "objects" / f"{p.asset}.object_config.json", _json({
-                        "render_asset": f"{p.asset}.glb", "collision_asset": f"{p.asset}.glb", "up": UP, "front": FRONT,
-                        "scale": [1.0, 1.0, 1.0], "units_to_meters": 1.0, "mass": mass}).encode())
-                    templates_done.add(p.asset)
                 instances.append({"template_name": f"objects/{p.asset}.object_config.json", "motion_type": "STATIC",
                                   "translation_origin": "asset_local", "translation": frames.position(data.xpos[b]),
                                   "rotation": frames.body_rotation_wxyz(data.xquat[b])})
             write(sd / "scenes" / f"{variant.name}.scene_instance.json", _json({
                 "stage_instance": {"template_name": f"stages/{variant.scene}.stage_config.json",
                                    "translation": [0.0, 0.0, 0.0], "rotation": [1.0, 0.0, 0.0, 0.0]},
-                "translation_origin": "asset_local", "default_lighting": "", "object_instances": instances}).encode())
-            scene_id = f"{name}/scenes/{variant.name}.scene_instance.json"
+                "translation_origin": "asset_local", "default_lighting": "", "object_instances": instances,
+                **({"articulated_object_instances": [
+                    articulated_instance(scene.name, fx, urdfs[fx.instance_id], dict(variant.articulation or {}))
+                    for fx in scene.articulated]} if scene.articulated else {})}).encode())
+            scene_id = f"{options.name}/scenes/{variant.name}.scene_instance.json"
             basename = f"{variant.name}.scene_instance.json"
             goals_by_cat: dict[str, dict[str, Goal]] = {}
             for ep in eps:
@@ -200,13 +340,50 @@ class HabitatExporter(Exporter):
                                             for c, gs in sorted(goals_by_cat.items())}
             content["episodes"] = [episode_json(ep, i, scene_id, dataset_config) for i, ep in enumerate(eps)]
             write(ds / "content" / f"{variant.name}.json.gz", _gz(content))
-            report.variants.append(variant.name)
-            report.episodes += len(eps)
-        write(ds / f"{split}.json.gz", _gz({**maps, "episodes": []}))
-        write(sd / f"{name}.scene_dataset_config.json", _json({
+            res.variants.append(variant.name)
+            res.episodes += len(eps)
+
+    def _templates(self, run: RunView, out_dir: Path, options: ExportOptions, write: _Writer) -> None:
+        """Write each placed asset's object template from its first use (variant order, then object id)."""
+        sd, _ds, _cfg = _dataset_paths(out_dir, options)
+        objects = run.objects()
+        done: set[str] = set()
+        for variant in run.all_variants():
+            todo = sorted((p for p in variant.placements if p.asset not in done), key=lambda p: p.object_id)
+            if not todo or not run.episodes(variant):
+                continue
+            model, data = _variant_model(run, variant)
+            for p in todo:
+                b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, p.object_id)
+                if b < 0 or p.asset in done:
+                    continue
+                T = np.eye(4)
+                T[:3, :3] = data.xmat[b].reshape(3, 3)
+                T[:3, 3] = data.xpos[b]
+                mesh = geoms_scene(model, data, _body_geoms(model, b, (GROUP_OBJECT_VISUAL,)), T, frames.C)
+                if mesh is None:
+                    raise InputError(run.path(variant.mjcf), f"body {p.object_id} has no visual geoms (group 2)")
+                mass = float(objects[p.asset].mass) if p.asset in objects else float(model.body_subtreemass[b])
+                write(sd / "objects" / f"{p.asset}.glb", glb_bytes(mesh))
+                write(sd / "objects" / f"{p.asset}.object_config.json", _json({
+                    "render_asset": f"{p.asset}.glb", "collision_asset": f"{p.asset}.glb", "up": UP, "front": FRONT,
+                    "scale": [1.0, 1.0, 1.0], "units_to_meters": 1.0, "mass": mass}).encode())
+                done.add(p.asset)
+
+    def finish(self, run: RunView, out_dir: Path, options: ExportOptions, results: list[UnitResult]) -> ExportReport:
+        """Write the split file (category maps, no episodes) and the scene dataset config."""
+        out_dir = Path(out_dir)
+        sd, ds, _cfg = _dataset_paths(out_dir, options)
+        report, written = merge_unit_results(self.name, out_dir, options.name, results)
+        maps = _category_maps(run)
+        articulated = any(run.scene(n).articulated for n in run.scene_names())
+        write = _Writer()
+        write(ds / f"{options.split}.json.gz", _gz({**maps, "episodes": []}))
+        write(sd / f"{options.name}.scene_dataset_config.json", _json({
             "stages": {"default_attributes": {"up": UP, "front": FRONT, "origin": [0.0, 0.0, 0.0], "units_to_meters": 1.0},
                        "paths": {".json": ["stages"]}},
             "objects": {"default_attributes": {"up": UP, "front": FRONT, "units_to_meters": 1.0}, "paths": {".json": ["objects"]}},
+            **({"articulated_objects": {"paths": {".urdf": ["urdf/*/"]}}} if articulated else {}),  # ReplicaCAD's form
             "scene_instances": {"paths": {".json": ["scenes"]}}}).encode())
-        report.files = sorted(p.relative_to(out_dir).as_posix() for p in written)
+        report.files = sorted({p.relative_to(out_dir).as_posix() for p in written + write.written})
         return report

@@ -2,6 +2,7 @@
 
 Positions: (x, y, z)_mj -> (x, z, -y)_hab, i.e. p' = C p with C = R_x(-90 deg).
 Body rotations: R' = C R C^T (render assets are written with C applied to their vertices).
+URDF articulated objects (Z-up files, copied as they are): instance rotation C R_z(yaw), translation C p.
 Agent headings: MuJoCo yaw psi (from +X, CCW about +Z) -> Habitat yaw theta = psi - 90 deg about +Y,
 written [0, sin(theta/2), 0, cos(theta/2)] (xyzw). Scene instances use wxyz, episodes xyzw.
 """
@@ -31,3 +32,13 @@ def agent_rotation_xyzw(q_wxyz_mj: np.ndarray) -> list[float]:
     """Return a MuJoCo agent heading quaternion as a Habitat agent rotation (xyzw, yaw only)."""
     theta = math.radians(quat_yaw(q_wxyz_mj) - 90.0)
     return [0.0, math.sin(theta / 2.0), 0.0, math.cos(theta / 2.0)]
+
+
+def urdf_rotation_wxyz(yaw_deg: float) -> list[float]:
+    """Return the Habitat rotation (wxyz) of a Z-up URDF whose root frame has yaw `yaw_deg` about MuJoCo's +Z.
+
+    The URDF's own coordinates are not converted, so the instance rotation carries the frame change: C R_z(yaw).
+    """
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return [float(v) for v in mat_to_quat(C @ Rz)]

@@ -74,11 +74,17 @@ def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | 
                 dropped[p.object_id] = "below every floor"
                 continue
             vps = object_view_points(checker, nm, box, cfg, agent)
+            open_part = None
+            if not vps and p.part and variant.articulation:  # hidden in a closed door or drawer: seen once it opens
+                from .inside import view_points_with_part_open
+
+                vps = view_points_with_part_open(model, data, p.part, p.object_id, nm, cfg, agent)[0]
+                open_part = p.part if vps else None
             if not vps:
                 dropped[p.object_id] = "no view point sees it"
                 continue
             goals.append(Goal(object_id=p.object_id, category=p.category, position=box.center.copy(),
-                              view_points=vps, bounds=np.stack([box.lo, box.hi])))
+                              view_points=vps, bounds=np.stack([box.lo, box.hi]), open_part=open_part))
             floors[p.object_id] = nm.floor
     finally:
         checker.close()

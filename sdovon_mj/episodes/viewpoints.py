@@ -16,10 +16,19 @@ resolution: the ring of navigable cells next to a cell within ``success_distance
 but not themselves within it, is tested too. So every cell that sees the object lies within the success
 distance of a stored view point, up to the render resolution and the ray pre-test. View points are
 sorted by visible fraction, largest first.
+
+Short cuts that change no answer (each argued where it is made, checked in tests/test_episodes_speed.py):
+the ray pre-test hides geoms whose bounding sphere misses the box of the object and the cameras, and
+re-casts only cameras with no clear ray yet; the pixel rays are cast against the object alone first and
+only those that meet it against everything; the occluder masks of all cameras of an object come from
+one vectorised call; a pitch after the aimed one is not rendered when the object's projected box holds
+fewer than ``eta_gt`` pixels there (`VisibilityChecker._pixel_bound`). A bound on the object's angular
+size alone culls nothing at the defaults (``eta_gt`` x 160 x 120 = 2 pixels), so there is none.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass
@@ -52,6 +61,11 @@ class ObjectBox:
     def center(self) -> np.ndarray:
         """Return the box centre (3,)."""
         return (self.lo + self.hi) / 2.0
+
+    @functools.cached_property
+    def corners(self) -> np.ndarray:
+        """Return the 8 corners (8, 3), x slowest and z fastest (lo before hi on each axis); computed once."""
+        return np.stack([self.lo, self.hi]).astype(float)[_CORNER_SIDE, _CORNER_AXIS]
 
 
 def load_variant_model(variant: SceneVariant, store_root: str | Path) -> tuple[mujoco.MjModel, mujoco.MjData]:
@@ -90,6 +104,15 @@ def object_box(model: mujoco.MjModel, data: mujoco.MjData, object_id: str,
         return None
     pts = np.concatenate(corners)
     return ObjectBox(object_id, b, pts.min(axis=0), pts.max(axis=0))
+
+
+_CORNER_SIDE = np.array([[sx, sy, sz] for sx in (0, 1) for sy in (0, 1) for sz in (0, 1)])  # 0 = lo, 1 = hi
+_CORNER_AXIS = np.tile(np.arange(3), (8, 1))
+
+
+def _corners(box: ObjectBox) -> np.ndarray:
+    """Return the 8 corners (8, 3) of a box, x slowest and z fastest (lo before hi on each axis)."""
+    return box.corners
 
 
 def _descends(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
@@ -161,10 +184,18 @@ class VisibilityChecker:
         # Geoms the segmentation render draws (candidates for culling) and their bounding radii.
         self._drawn = np.nonzero(np.isin(model.geom_group, (GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL)))[0]
         self._rbound = np.asarray(model.geom_rbound)[self._drawn].copy()
+        self._always = self._rbound <= 0.0  # planes (infinite extent) are always kept
+        self._drawn_body = np.asarray(model.geom_bodyid)[self._drawn].copy()
+        # The settled pose does not change while the checker lives: the drawn geoms' centres are read once.
+        self._drawn_xpos = np.asarray(data.geom_xpos)[self._drawn].copy()
         # Where the time goes: candidates ray-tested, renders made, seconds in each.
-        self.timing: dict[str, float] = {"rays": 0, "rays_s": 0.0, "renders": 0, "render_s": 0.0,
+        self.timing: dict[str, float] = {"rays": 0, "rays_s": 0.0, "renders": 0, "render_s": 0.0, "renders_skipped": 0,
                                          "ray_confirmed": 0, "pixel_rays_s": 0.0}
         self._own_cache: dict[int, np.ndarray] = {}
+        self._seg_corners: dict[int, np.ndarray | None] = {}
+        self._others_cache: dict[int, np.ndarray] = {}  # body -> the drawn geoms not of its object
+        # Object pixels a view needs to be seen: ceil(eta_gt * width * height), at least 1.
+        self._need = max(int(math.ceil(agent.eta_gt * cfg.vis_width * cfg.vis_height - 1e-9)), 1)
 
     def close(self) -> None:
         """Free the renderer."""
@@ -185,23 +216,46 @@ class VisibilityChecker:
         own_geom = self._own_geom(box)
         half = 0.45 * (box.hi - box.lo)
         grid = np.array([[x, y, z] for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)], dtype=float)
-        geomid = np.zeros(len(cams), dtype=np.int32)
-        dist = np.zeros(len(cams), dtype=np.float64)
-        for g in grid:
-            src = box.center + g * half
-            vec = cams - src[None]
-            length = np.linalg.norm(vec, axis=1)
-            near = length < 1e-6
-            unit = np.where(near[:, None], np.array([0.0, 0.0, 1.0]), vec / np.maximum(length, 1e-12)[:, None])
-            mujoco.mj_multiRay(self.model, self.data, src, np.ascontiguousarray(unit.ravel()), self._scene_groups, 1,
-                               box.body, geomid, dist, None, len(cams), float(length.max()) + 1.0)
-            hit_own = (geomid >= 0) & own_geom[np.maximum(geomid, 0)]
-            out |= near | (dist < 0) | (dist >= length - 1e-3) | hit_own
-            if out.all():
-                break
+        # Every ray runs between a point inside the box and a camera, so it lies in the AABB of the box and
+        # the cameras: a geom whose bounding sphere misses that AABB can only be met beyond the camera,
+        # where a hit counts as clear anyway. Hiding those geoms leaves every answer as it was (cheaper).
+        hidden = self._drawn[~self._near_aabb(np.minimum(cams.min(axis=0), box.lo), np.maximum(cams.max(axis=0), box.hi),
+                                              box)]
+        groups = self.model.geom_group
+        saved = groups[hidden].copy()
+        groups[hidden] = GROUP_AGENT  # a group the rays do not see
+        try:
+            todo = np.arange(len(cams))  # cameras with no clear ray yet: only these are cast again
+            for g in grid:
+                src = box.center + g * half
+                c = cams[todo]
+                vec = c - src[None]
+                length = np.linalg.norm(vec, axis=1)
+                near = length < 1e-6
+                unit = np.where(near[:, None], np.array([0.0, 0.0, 1.0]), vec / np.maximum(length, 1e-12)[:, None])
+                geomid = np.zeros(len(c), dtype=np.int32)
+                dist = np.zeros(len(c), dtype=np.float64)
+                mujoco.mj_multiRay(self.model, self.data, src, np.ascontiguousarray(unit.ravel()), self._scene_groups, 1,
+                                   box.body, geomid, dist, None, len(c), float(length.max()) + 1.0)
+                hit_own = (geomid >= 0) & own_geom[np.maximum(geomid, 0)]
+                ok = near | (dist < 0) | (dist >= length - 1e-3) | hit_own
+                out[todo[ok]] = True
+                todo = todo[~ok]
+                if len(todo) == 0:
+                    break
+        finally:
+            groups[hidden] = saved
         self.timing["rays_s"] += time.perf_counter() - t0
         self.timing["rays"] += len(cams)
         return out
+
+    def _near_aabb(self, lo: np.ndarray, hi: np.ndarray, box: ObjectBox) -> np.ndarray:
+        """Return a mask over the drawn geoms: those whose bounding sphere meets the box [lo, hi] (planes and the object's own always)."""
+        d = np.maximum(np.maximum(lo[None] - self._drawn_xpos, 0.0), self._drawn_xpos - hi[None])
+        keep = np.einsum("ij,ij->i", d, d) <= (self._rbound + 1e-3) ** 2
+        keep |= self._always
+        keep |= self._drawn_body == box.body
+        return keep
 
     def occluder_candidates(self, camera: np.ndarray, box: ObjectBox) -> np.ndarray:
         """Return a mask over the drawn geoms: those that may cover a pixel of the object seen from `camera`.
@@ -211,23 +265,27 @@ class VisibilityChecker:
         The test uses each geom's bounding sphere (conservative), so hiding the others leaves the
         object's pixel count exactly as a render of everything gives.
         """
+        return self.occluder_masks(np.asarray(camera, dtype=float)[None], box)[0]
+
+    def occluder_masks(self, cameras: np.ndarray, box: ObjectBox) -> np.ndarray:
+        """Return `occluder_candidates` for many cameras (N, 3) at once: a (N, drawn geoms) bool mask."""
+        cams = np.atleast_2d(np.asarray(cameras, dtype=float))
         c = box.center
         R = 0.5 * float(np.linalg.norm(box.hi - box.lo))
-        D = float(np.linalg.norm(c - camera))
-        keep = np.ones(len(self._drawn), dtype=bool)
-        if D <= R + 1e-6:
-            return keep  # the camera is inside the object's bounding sphere: draw everything
-        u = (c - camera) / D
-        sin_a = R / D
-        cos_a = math.sqrt(max(1.0 - sin_a * sin_a, 0.0))
-        p = self.data.geom_xpos[self._drawn] - camera
-        t = p @ u
-        q = np.sqrt(np.maximum(np.einsum("ij,ij->i", p, p) - t * t, 0.0))
-        r = self._rbound + 1e-3
-        keep = (t + r >= 0.0) & (t - r <= D + R) & (q * cos_a - t * sin_a <= r)
-        keep |= self._rbound <= 0.0  # planes (infinite extent)
-        own = np.asarray(self.model.geom_bodyid)[self._drawn]
-        keep |= own == box.body
+        V = c[None] - cams
+        D = np.sqrt(np.einsum("ij,ij->i", V, V))
+        inside = D <= R + 1e-6  # the camera is inside the object's bounding sphere: draw everything
+        Ds = np.where(inside, 1.0, D)
+        u = V / Ds[:, None]
+        sin_a = np.where(inside, 0.0, R / Ds)
+        cos_a = np.sqrt(np.maximum(1.0 - sin_a * sin_a, 0.0))
+        p = self._drawn_xpos[None] - cams[:, None]  # (N, G, 3)
+        t = np.einsum("ngk,nk->ng", p, u)
+        q = np.sqrt(np.maximum(np.einsum("ngk,ngk->ng", p, p) - t * t, 0.0))
+        r = (self._rbound + 1e-3)[None]
+        keep = (t + r >= 0.0) & (t - r <= (D + R)[:, None]) & (q * cos_a[:, None] - t * sin_a[:, None] <= r)
+        keep[inside] = True
+        keep |= (self._always | (self._drawn_body == box.body))[None]
         return keep
 
     def ray_pixels(self, camera: np.ndarray, box: ObjectBox, yaw: float, pitch: float, max_rays: int = 64) -> float | None:
@@ -238,7 +296,8 @@ class VisibilityChecker:
         render shows). Every ray that meets the object first is a pixel of the object in the render, so
         when at least ``ceil(eta_gt * width * height)`` of them do, the render's fraction reaches ``eta_gt``:
         return the estimated fraction (hits * s^2 / pixels, at least eta_gt). Otherwise (or when the box
-        reaches behind the camera) return None and the caller renders.
+        reaches behind the camera) return None and the caller renders. The rays are cast first with only
+        the object shown, then only those that meet it with everything shown (the same hits, fewer rays).
 
         Parameters
         ----------
@@ -254,9 +313,7 @@ class VisibilityChecker:
         t0 = time.perf_counter()
         try:
             T = pose_cv(camera, yaw, pitch)
-            corners = np.array([[x, y, z] for x in (box.lo[0], box.hi[0]) for y in (box.lo[1], box.hi[1])
-                                for z in (box.lo[2], box.hi[2])])
-            pc = (corners - T[:3, 3]) @ T[:3, :3]
+            pc = (_corners(box) - T[:3, 3]) @ T[:3, :3]
             if (pc[:, 2] <= 1e-3).any():
                 return None
             K, w, h = self.renderer.K, self.renderer.width, self.renderer.height
@@ -269,23 +326,50 @@ class VisibilityChecker:
             step = max(1, int(math.ceil(math.sqrt(npix / float(max_rays)))))
             us = np.arange(u0 + step // 2, u1 + 1, step, dtype=float) + 0.5
             vs = np.arange(v0 + step // 2, v1 + 1, step, dtype=float) + 0.5
-            uu, vv = np.meshgrid(us, vs)
-            d_cam = np.stack([(uu.ravel() - K[0, 2]) / K[0, 0], (vv.ravel() - K[1, 2]) / K[1, 1], np.ones(uu.size)], 1)
+            # Pixel rays row by row (rows = vs, columns = us), camera frame, z = 1.
+            d_cam = np.empty((len(us) * len(vs), 3))
+            d_cam[:, 0].reshape(len(vs), len(us))[:] = ((us - K[0, 2]) / K[0, 0])[None, :]
+            d_cam[:, 1].reshape(len(vs), len(us))[:] = ((vs - K[1, 2]) / K[1, 1])[:, None]
+            d_cam[:, 2] = 1.0
             d = d_cam @ T[:3, :3].T
-            d /= np.linalg.norm(d, axis=1, keepdims=True)
-            n = len(d)
-            geomid = np.zeros(n, dtype=np.int32)
-            dist = np.zeros(n, dtype=np.float64)
-            mujoco.mj_multiRay(self.model, self.data, np.asarray(camera, dtype=float), np.ascontiguousarray(d.ravel()),
-                               self._scene_groups, 1, -1, geomid, dist, None, n, 1e6)
-            hits = int(np.count_nonzero((geomid >= 0) & self._own_geom(box)[np.maximum(geomid, 0)]))
-            need = int(math.ceil(self.agent.eta_gt * w * h - 1e-9))
-            if hits < max(need, 1):
+            d /= np.sqrt(np.add.reduce(d * d, axis=1, keepdims=True))  # np.linalg.norm's own sum (same bits)
+            own = self._own_geom(box)
+            cam = np.asarray(camera, dtype=float)
+            # Two casts count the same hits as one cast against everything shown: MuJoCo tests every geom on
+            # its own and keeps the nearest, so a ray whose first hit is the object also meets the object when
+            # only the object is shown. The rays that do are cast again with everything shown (exactly the
+            # one-cast answer for them); the others cannot be object pixels, and too few end it early.
+            others = self._others_cache.get(box.body)
+            if others is None:
+                others = self._others_cache[box.body] = self._drawn[~own[self._drawn]]
+            groups = self.model.geom_group
+            saved = groups[others].copy()
+            groups[others] = GROUP_AGENT
+            try:
+                gid = self._cast(cam, d)
+            finally:
+                groups[others] = saved
+            meets = (gid >= 0) & own[np.maximum(gid, 0)]
+            if int(np.count_nonzero(meets)) < self._need:
+                return None
+            gid = self._cast(cam, d[meets])
+            hits = int(np.count_nonzero((gid >= 0) & own[np.maximum(gid, 0)]))
+            if hits < self._need:
                 return None
             self.timing["ray_confirmed"] += 1
             return max(hits * step * step / float(w * h), self.agent.eta_gt)
         finally:
             self.timing["pixel_rays_s"] += time.perf_counter() - t0
+
+    def _cast(self, origin: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+        """Return the first geom id (-1: none) of rays (N, 3 unit) from one origin, among the shown scene groups."""
+        n = len(dirs)
+        geomid = np.zeros(n, dtype=np.int32)
+        dist = np.zeros(n, dtype=np.float64)
+        if n:
+            mujoco.mj_multiRay(self.model, self.data, origin, np.ascontiguousarray(dirs.ravel()), self._scene_groups, 1, -1,
+                               geomid, dist, None, n, 1e6)
+        return geomid
 
     def _own_geom(self, box: ObjectBox) -> np.ndarray:
         """Return a mask over all geoms: those of the object's body or its descendants (memoised per body)."""
@@ -297,23 +381,65 @@ class VisibilityChecker:
 
     def _in_frame(self, T_cam: np.ndarray, box: ObjectBox) -> bool:
         """Return whether all 8 corners of the box project inside the image of a camera at pose T_cam (world <- camera)."""
-        corners = np.array([[x, y, z] for x in (box.lo[0], box.hi[0]) for y in (box.lo[1], box.hi[1])
-                            for z in (box.lo[2], box.hi[2])])
-        pc = (corners - T_cam[:3, 3]) @ T_cam[:3, :3]
+        pc = (_corners(box) - T_cam[:3, 3]) @ T_cam[:3, :3]
         if (pc[:, 2] <= 1e-6).any():
             return False
         uv = (pc @ self.renderer.K.T)[:, :2] / pc[:, 2:3]
         return bool(((uv[:, 0] >= 0) & (uv[:, 0] <= self.renderer.width) & (uv[:, 1] >= 0)
                      & (uv[:, 1] <= self.renderer.height)).all())
 
-    def visible_fraction(self, camera: np.ndarray, box: ObjectBox) -> tuple[float, float, float]:
-        """Return (best pixel fraction, yaw, pitch) of the object seen from a camera position."""
+    def _pixel_bound(self, T_cam: np.ndarray, box: ObjectBox) -> float:
+        """Return an upper bound on the object's pixels in the render from pose T_cam (inf: none known).
+
+        Every drawn geom with the object's segmentation id lies in the box of their corners
+        (`_segment_corners`); with all 8 corners in front of the camera the object's projection lies in
+        the convex hull of their projections, so only pixels whose centre falls in its bounding rectangle,
+        widened by 1 pixel on each side (rasterisation snapping), clipped to the image, can show it.
+        """
+        corners = self._segment_corners(box)
+        if corners is None:
+            return 0.0
+        pc = (corners - T_cam[:3, 3]) @ T_cam[:3, :3]
+        if (pc[:, 2] <= 1e-6).any():
+            return math.inf
+        uv = (pc @ self.renderer.K.T)[:, :2] / pc[:, 2:3]
+        w, h = self.renderer.width, self.renderer.height
+        u0, u1 = max(0, int(math.floor(uv[:, 0].min())) - 1), min(w - 1, int(math.ceil(uv[:, 0].max())) + 1)
+        v0, v1 = max(0, int(math.floor(uv[:, 1].min())) - 1), min(h - 1, int(math.ceil(uv[:, 1].max())) + 1)
+        if u0 > u1 or v0 > v1:
+            return 0.0
+        return float((u1 - u0 + 1) * (v1 - v0 + 1))
+
+    def _segment_corners(self, box: ObjectBox) -> np.ndarray | None:
+        """Return the 8 corners of the world box of every drawn geom carrying the object's segmentation id (None: none)."""
+        seg_id = object_segment_id(box.object_id)
+        if seg_id not in self._seg_corners:
+            geoms = self._drawn[self.lut[self._drawn] == seg_id]
+            pts = []
+            for g in geoms:
+                c, half = self.model.geom_aabb[g, :3], self.model.geom_aabb[g, 3:]
+                local = c[None, :] + (2 * _CORNER_SIDE - 1) * half[None, :]
+                pts.append(local @ self.data.geom_xmat[g].reshape(3, 3).T + self.data.geom_xpos[g])
+            if pts:
+                allp = np.concatenate(pts)
+                self._seg_corners[seg_id] = ObjectBox(box.object_id, box.body, allp.min(axis=0), allp.max(axis=0)).corners
+            else:
+                self._seg_corners[seg_id] = None
+        return self._seg_corners[seg_id]
+
+    def visible_fraction(self, camera: np.ndarray, box: ObjectBox, keep: np.ndarray | None = None) -> tuple[float, float, float]:
+        """Return (best pixel fraction, yaw, pitch) of the object seen from a camera position.
+
+        ``keep`` is `occluder_candidates` (camera, box), when already computed. The fraction is exact when
+        it reaches ``eta_gt``; below it, it is the best of the pitches rendered (a pitch after the first is
+        not rendered when `_pixel_bound` proves the object covers fewer pixels than ``eta_gt`` there).
+        """
         yaw, pitch0 = facing(camera, box.center)
         seg_id = object_segment_id(box.object_id)
         best = (0.0, yaw, pitch0)
         pitches = [float(np.clip(pitch0, -80.0, 80.0))] + [float(p) for p in self.cfg.pitches]
         # Geoms that cannot touch the object's pixels are neither drawn nor ray-tested (same counts, cheaper).
-        hidden = self._drawn[~self.occluder_candidates(camera, box)]
+        hidden = self._drawn[~(self.occluder_candidates(camera, box) if keep is None else keep)]
         groups = self.model.geom_group
         saved = groups[hidden].copy()
         groups[hidden] = GROUP_AGENT  # a group neither the visibility renderer nor the rays see
@@ -323,13 +449,19 @@ class VisibilityChecker:
                 return quick, yaw, pitches[0]
             t0 = time.perf_counter()
             for k, pitch in enumerate(dict.fromkeys(round(p, 6) for p in pitches)):
-                frame = self.renderer.render(pose_cv(camera, yaw, pitch), rgb=False, depth=False, segmentation=True)
+                T = pose_cv(camera, yaw, pitch)
+                if k > 0 and self._pixel_bound(T, box) < self._need:
+                    # Below eta_gt here for sure: this pitch can neither make the camera see the object nor
+                    # be the best pitch of a camera that does (that one's fraction is >= eta_gt).
+                    self.timing["renders_skipped"] += 1
+                    continue
+                frame = self.renderer.render(T, rgb=False, depth=False, segmentation=True)
                 self.timing["renders"] += 1
                 seg = segment_image(frame.segmentation, self.lut)
                 frac = float(np.count_nonzero(seg == seg_id)) / seg.size
                 if frac > best[0]:
                     best = (frac, yaw, pitch)
-                if k == 0 and (frac >= self.agent.eta_gt or (frac == 0.0 and self._in_frame(pose_cv(camera, yaw, pitch), box))):
+                if k == 0 and (frac >= self.agent.eta_gt or (frac == 0.0 and self._in_frame(T, box))):
                     # The pitch aimed at the centre sees it; or it shows none of an object whose whole box is
                     # in frame, so the object is hidden from here and no other pitch of this camera shows it.
                     break
@@ -368,8 +500,9 @@ def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBo
         xy = navmap.frame.to_world(cells)
         cams = np.column_stack([xy, np.full(len(xy), navmap.height + agent.camera_height)])
         clear = checker.rays_clear(cams, box)
-        for cell, cam in zip(cells[clear], cams[clear]):
-            frac, yaw, _pitch = checker.visible_fraction(cam, box)
+        keep = checker.occluder_masks(cams[clear], box)
+        for cell, cam, kp in zip(cells[clear], cams[clear], keep):
+            frac, yaw, _pitch = checker.visible_fraction(cam, box, kp)
             if frac >= agent.eta_gt:
                 seen[(int(cell[0]), int(cell[1]))] = (frac, yaw)
 
@@ -384,8 +517,9 @@ def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBo
         ring = ~covered & (_nearest(xy, xy[covered]) <= navmap.resolution * (math.sqrt(2.0) + 1e-6))
         test(fine[ring])
     out = []
-    for (r, c), (frac, yaw) in seen.items():
-        xy = navmap.frame.to_world(np.array([[r, c]]))[0]
+    # to_world is elementwise: one call for every seen cell gives each cell's centre as one call per cell did.
+    seen_xy = navmap.frame.to_world(np.array(list(seen), dtype=np.int64).reshape(-1, 2))
+    for xy, (frac, yaw) in zip(seen_xy, seen.values()):
         out.append((frac, ViewPoint(position=np.array([xy[0], xy[1], navmap.height]), rotation=yaw_quat(yaw),
                                     visible_fraction=frac)))
     out.sort(key=lambda t: (-t[0], float(t[1].position[0]), float(t[1].position[1])))

@@ -24,6 +24,7 @@ from ..records import CoverageView, Observation, SceneAsset
 import mujoco
 
 from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from ..sim.articulation import set_parts
 from ..sim.camera import pose_cv
 from ..sim.model import geom_segment_ids
 from ..sim.render import SceneRenderer, clip_depth
@@ -63,8 +64,10 @@ def make_renderer(model: mujoco.MjModel, cfg: ObserveConfig, agent: AgentConfig 
     """Return a SceneRenderer set up for observation rendering (speed flags, the agent camera's hfov, groups)."""
     znear = min(0.05, cfg.depth_min / 2.0) if cfg.depth_min > 0 else 0.02
     zfar = max(cfg.depth_max * 2.0, 20.0)
-    return SceneRenderer(model, width=cfg.width, height=cfg.height, hfov=agent.hfov, znear=znear, zfar=zfar,
-                         shadows=cfg.shadows, groups=(GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL))
+    r = SceneRenderer(model, width=cfg.width, height=cfg.height, hfov=agent.hfov, znear=znear, zfar=zfar,
+                      shadows=cfg.shadows, groups=(GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL))
+    set_parts(model, r.data, cfg.open_parts)  # articulated pieces: doors and drawers open (none: nothing happens)
+    return r
 
 
 def segment_lut(model: mujoco.MjModel) -> np.ndarray:

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..config import PerceiveConfig
 from ..records import Detection, Instance, Observation
-from ..sim.camera import backproject
+from ..sim.camera import backproject, valid_depth
 
 
 _OFF = 1 << 20  # voxel index offset: keys cover +-2^20 voxels per axis
@@ -20,13 +20,31 @@ def voxel_keys(points: np.ndarray, voxel: float) -> np.ndarray:
 
 def voxel_sums(points: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return sorted voxel keys, per-voxel point sums (n, 3) and counts (n,)."""
+    uniq, sums, counts, _vmax = voxel_stats(points, voxel)
+    return uniq, sums, counts
+
+
+def voxel_stats(points: np.ndarray, voxel: float, values: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Return sorted voxel keys, per-voxel point sums (n, 3), counts (n,) and the per-voxel max of `values` (NaN ignored; None without values)."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     keys = voxel_keys(p, voxel)
     uniq, inv, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
     sums = np.zeros((len(uniq), 3))
     for d in range(3):
-        sums[:, d] = np.bincount(inv.reshape(-1), weights=p[:, d], minlength=len(uniq))
-    return uniq, sums, counts.astype(np.float64)
+        sums[:, d] = np.bincount(inv, weights=p[:, d], minlength=len(uniq))
+    vmax = None
+    if values is not None:
+        v = np.asarray(values, dtype=np.float64).reshape(-1)
+        if len(v) != len(p):
+            raise ValueError(f"voxel_stats: {len(v)} values for {len(p)} points")
+        vmax = np.full(len(uniq), np.nan)
+        if len(v):
+            order = np.argsort(inv, kind="stable")
+            starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+            vmax = np.fmax.reduceat(v[order], starts)
+    return uniq, sums, counts.astype(np.float64), vmax
 
 
 def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
@@ -38,8 +56,23 @@ def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
     return sums / counts[:, None]
 
 
+def voxel_downsample_heights(points: np.ndarray, voxel: float, camera_z: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return `voxel_downsample(points, voxel)` and, per voxel, the greatest height of the camera above its points (m).
+
+    ``camera_z`` is the world height of the camera centre that saw the points; a voxel's value is
+    ``camera_z - min z`` of its points (positive: seen from above). The points are the same bytes as
+    `voxel_downsample` returns.
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    h = float(camera_z) - p[:, 2]
+    if voxel <= 0 or len(p) == 0:
+        return p, h
+    _keys, sums, counts, vmax = voxel_stats(p, voxel, h)
+    return sums / counts[:, None], vmax  # type: ignore[return-value]
+
+
 def make_instance(world_points: np.ndarray, label: str, confidences: list[float], source_views: list[int],
-                  gt_id: int = -1, instance_id: int = -1) -> Instance:
+                  gt_id: int = -1, instance_id: int = -1, view_height: np.ndarray | None = None) -> Instance:
     """Decompose world points into centre and centred points (paper equation 2) as an Instance.
 
     Parameters
@@ -56,12 +89,20 @@ def make_instance(world_points: np.ndarray, label: str, confidences: list[float]
         Ground-truth instance id (-1: unknown).
     instance_id : int
         Id of the instance (-1: not yet numbered).
+    view_height : (N,) float, optional
+        Per point, the greatest height of an observing camera centre above it, metres (NaN: unknown;
+        see `Instance.view_height`); None: not recorded.
     """
     p = np.asarray(world_points, dtype=np.float64)
     c = p.mean(axis=0) if len(p) else np.zeros(3)
+    vh = None
+    if view_height is not None:
+        vh = np.asarray(view_height, dtype=np.float32).reshape(-1)
+        if len(vh) != len(p):
+            raise ValueError(f"make_instance: {len(vh)} view heights for {len(p)} points")
     return Instance(id=int(instance_id), label=label, points=(p - c).astype(np.float32), center=c,
                     confidences=[float(s) for s in confidences], source_views=[int(v) for v in source_views],
-                    gt_id=int(gt_id))
+                    gt_id=int(gt_id), view_height=vh)
 
 
 def noisy_depth(obs: Observation, sigma: float, seed: int = 0) -> np.ndarray:
@@ -77,6 +118,8 @@ def noisy_depth(obs: Observation, sigma: float, seed: int = 0) -> np.ndarray:
 def backproject_detections(obs: Observation, detections: list[Detection], cfg: PerceiveConfig,
                            seed: int = 0, depth_noise_sigma: float | None = None) -> list[Instance]:
     """Return one 3D instance per detection: masked valid depth lifted to world, voxel-downsampled.
+
+    Each instance records per point the height of the camera centre above it (``view_height``).
 
     Parameters
     ----------
@@ -96,13 +139,16 @@ def backproject_detections(obs: Observation, detections: list[Detection], cfg: P
     K = np.asarray(obs.K, dtype=np.float64)
     T = np.asarray(obs.T_cam, dtype=np.float64)
     out: list[Instance] = []
+    valid = valid_depth(depth, cfg.depth_min, cfg.depth_max) if detections else None  # once per view
     for det in detections:
         mask = np.asarray(det.mask, dtype=bool)
         if mask.shape != depth.shape:
             raise ValueError(f"detection mask {mask.shape} does not match depth {depth.shape} in view {obs.view_id}")
-        pts = backproject(depth, K, T, mask=mask, depth_min=cfg.depth_min, depth_max=cfg.depth_max)
-        pts = voxel_downsample(pts, cfg.voxel_size)
+        pts = backproject(depth, K, T, mask=mask, depth_min=cfg.depth_min, depth_max=cfg.depth_max, valid=valid)
+        # per voxel, how high the camera was above it: an up-facing surface is only seen from above
+        pts, vh = voxel_downsample_heights(pts, cfg.voxel_size, float(T[2, 3]))
         if len(pts) < max(cfg.min_points, 1):
             continue
-        out.append(make_instance(pts, det.label, [det.score], [det.view_id if det.view_id else obs.view_id], det.gt_id))
+        out.append(make_instance(pts, det.label, [det.score], [det.view_id if det.view_id else obs.view_id], det.gt_id,
+                                 view_height=vh))
     return out

@@ -27,7 +27,7 @@ import numpy as np
 from ..config import PerceiveConfig, with_fusion_preset
 from ..embeddings import embed_labels
 from ..records import Instance
-from .backproject import make_instance, voxel_sums
+from .backproject import make_instance, voxel_stats
 
 MAX_OVERLAP_QUERY = 500  # points of a new instance tested for overlap (evenly strided subset: the fraction to ~2%)
 
@@ -57,6 +57,7 @@ class _Fused:
     keys: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     sums: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     counts: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    heights: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per voxel: highest camera above it, m (NaN: unknown)
     confidences: list[float] = field(default_factory=list)
     views: list[int] = field(default_factory=list)
     label_votes: dict[str, float] = field(default_factory=dict)
@@ -71,6 +72,11 @@ class _Fused:
     def points(self) -> np.ndarray:
         """Return the voxel-mean points (world)."""
         return self.sums / self.counts[:, None]
+
+    @property
+    def view_height(self) -> np.ndarray | None:
+        """Return the per-voxel view heights (float32), or None when no constituent recorded any."""
+        return None if np.isnan(self.heights).all() else self.heights.astype(np.float32)
 
     @property
     def label(self) -> str:
@@ -89,11 +95,20 @@ class _Fused:
         if len(points) > MAX_OVERLAP_QUERY:  # an evenly strided subset estimates the fraction
             points = points[np.linspace(0, len(points) - 1, MAX_OVERLAP_QUERY).astype(np.int64)]
         todo = np.ones(len(points), dtype=bool)
+        # A point farther than the radius from a tree's box (on one axis) has no neighbour in that tree:
+        # it is not queried there (the margin keeps every point that could be within the radius).
+        margin = radius * (1.0 + 1e-6) + 1e-9
         for tree in reversed(self.trees):
             idx = np.nonzero(todo)[0]
             if len(idx) == 0:
                 break
-            d, _ = tree.query(points[idx], k=1, distance_upper_bound=radius)
+            q = points[idx]
+            inside = ((q >= tree.mins - margin) & (q <= tree.maxes + margin)).all(axis=1)
+            if not inside.all():
+                idx, q = idx[inside], q[inside]
+                if len(idx) == 0:
+                    continue
+            d, _ = tree.query(q, k=1, distance_upper_bound=radius)
             todo[idx[np.isfinite(d)]] = False
         return float(1.0 - np.count_nonzero(todo) / len(points))
 
@@ -101,7 +116,7 @@ class _Fused:
         """Absorb another fused instance (points, votes, confidences)."""
         from scipy.spatial import cKDTree
 
-        self._union(other.keys, other.sums, other.counts)
+        self._union(other.keys, other.sums, other.counts, other.heights)
         self.lo, self.hi = np.minimum(self.lo, other.lo), np.maximum(self.hi, other.hi)
         self.trees = [cKDTree(self.points)]
         self.confidences.extend(other.confidences)
@@ -111,26 +126,50 @@ class _Fused:
         for k, v in other.gt_votes.items():
             self.gt_votes[k] = self.gt_votes.get(k, 0) + v
 
-    def _union(self, k: np.ndarray, s: np.ndarray, c: np.ndarray) -> None:
-        """Add voxel sums/counts to the map."""
-        keys = np.concatenate([self.keys, k])
-        uniq, inv = np.unique(keys, return_inverse=True)
-        inv = inv.reshape(-1)
-        sums = np.zeros((len(uniq), 3))
-        allsums = np.concatenate([self.sums, s])
-        for d in range(3):
-            sums[:, d] = np.bincount(inv, weights=allsums[:, d], minlength=len(uniq))
-        self.counts = np.bincount(inv, weights=np.concatenate([self.counts, c]), minlength=len(uniq))
-        self.keys, self.sums = uniq, sums
+    def _union(self, k: np.ndarray, s: np.ndarray, c: np.ndarray, h: np.ndarray | None = None) -> None:
+        """Add voxel sums/counts and view heights `h` (sorted unique keys `k`; h None: unknown) to the map.
 
-    def absorb(self, inst: Instance) -> None:
-        """Merge a new instance's points (voxel union) and bookkeeping."""
+        Both key arrays are sorted and unique, so the union is a merge (no re-sort of the map): the new
+        voxels are inserted in place, then the new sums added. A voxel's sum is old + new, as the
+        bincount over the concatenation that this replaces gave (0 + old is old: a sum is never -0).
+        """
+        old = self.keys
+        pos = np.searchsorted(old, k)
+        hit = pos < len(old)
+        hit[hit] = old[pos[hit]] == k[hit]
+        fresh = np.nonzero(~hit)[0]
+        at = pos[fresh]  # each fresh key goes before old[at]; fresh keys ascend, so do their slots
+        # a fresh key lands after its `at` old keys and the fresh keys before it; an old key moves right
+        # by the number of fresh keys inserted at or before its index
+        new_at = np.empty(len(k), dtype=np.int64)
+        new_at[fresh] = at + np.arange(len(fresh))
+        ph = pos[hit]
+        new_at[hit] = ph + np.searchsorted(at, ph, side="right")
+        if len(fresh):
+            self.keys = np.insert(old, at, k[fresh])
+            self.sums = np.insert(self.sums, at, 0.0, axis=0)
+            self.counts = np.insert(self.counts, at, 0.0)
+            self.heights = np.insert(self.heights, at, np.nan)
+        self.sums[new_at] += s
+        self.counts[new_at] += c
+        if h is not None:  # a voxel was seen from as high as its highest observation (fmax: NaN is unknown)
+            self.heights[new_at] = np.fmax(self.heights[new_at], h)
+
+    def absorb(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+        """Merge a new instance's points (voxel union) and bookkeeping.
+
+        ``world``, when given, is the instance's (world points, their min, their max) already computed.
+        """
         from scipy.spatial import cKDTree
 
-        p = inst.world_points
-        self._union(*voxel_sums(p, self.voxel))
-        self.lo = np.minimum(self.lo, p.min(axis=0))
-        self.hi = np.maximum(self.hi, p.max(axis=0))
+        p, plo, phi = world if world is not None else _world(inst)
+        vh = inst.view_height
+        if vh is not None and len(vh) != len(p):
+            raise ValueError(f"instance {inst.id} ({inst.label}): {len(vh)} view heights for {len(p)} points")
+        k, s, c, h = voxel_stats(p, self.voxel, vh)
+        self._union(k, s, c, h)
+        self.lo = np.minimum(self.lo, plo)
+        self.hi = np.maximum(self.hi, phi)
         if len(self.trees) >= self.MAX_TREES:
             self.trees = [cKDTree(self.points)]
         self.trees.append(cKDTree(p))
@@ -139,6 +178,12 @@ class _Fused:
         w = float(sum(inst.confidences)) if inst.confidences else 1.0
         self.label_votes[inst.label] = self.label_votes.get(inst.label, 0.0) + w
         self.gt_votes[int(inst.gt_id)] = self.gt_votes.get(int(inst.gt_id), 0) + 1
+
+
+def _world(inst: Instance) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return an instance's world points (N, 3) and their per-axis min and max (3,)."""
+    p = inst.world_points
+    return p, p.min(axis=0), p.max(axis=0)
 
 
 class InstanceFuser:
@@ -155,14 +200,17 @@ class InstanceFuser:
             self._sem[key] = label_similarity(a, b, self.cfg.label_similarity)
         return self._sem[key]
 
-    def similarity(self, inst: Instance) -> np.ndarray:
-        """Return phi(inst, j) for every fused j (-inf where the boxes are too far apart to overlap)."""
+    def similarity(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """Return phi(inst, j) for every fused j (-inf where the boxes are too far apart to overlap).
+
+        ``world``, when given, is the instance's (world points, their min, their max) already computed.
+        """
         cfg = self.cfg
         phi = np.full(len(self.fused), -np.inf)
-        p = inst.world_points
         if not self.fused:
             return phi
-        lo, hi = p.min(axis=0) - cfg.overlap_radius, p.max(axis=0) + cfg.overlap_radius
+        p, p_lo, p_hi = world if world is not None else _world(inst)
+        lo, hi = p_lo - cfg.overlap_radius, p_hi + cfg.overlap_radius
         flo = np.array([f.lo for f in self.fused])
         fhi = np.array([f.hi for f in self.fused])
         near = ~(np.any(flo > hi, axis=1) | np.any(fhi < lo, axis=1))
@@ -178,16 +226,17 @@ class InstanceFuser:
         if self.cfg.label_similarity == "minilm":
             embed_labels(sorted({i.label for i in instances} | {f.label for f in self.fused}))
         matches = []
-        for inst in instances:
-            phi = self.similarity(inst)
+        worlds = [_world(inst) for inst in instances]
+        for inst, w in zip(instances, worlds):
+            phi = self.similarity(inst, w)
             j = int(np.argmax(phi)) if len(phi) else -1
             matches.append(j if j >= 0 and phi[j] >= self.cfg.phi_min else -1)
         out = []
-        for inst, j in zip(instances, matches):
+        for inst, j, w in zip(instances, matches, worlds):
             if j < 0:
                 self.fused.append(_Fused(voxel=self.cfg.voxel_size))
                 j = len(self.fused) - 1
-            self.fused[j].absorb(inst)
+            self.fused[j].absorb(inst, w)
             out.append(j)
         return out
 
@@ -223,7 +272,7 @@ class InstanceFuser:
         for f in self.fused:
             if len(f.keys) < self.cfg.min_points:
                 continue
-            out.append(make_instance(f.points, f.label, f.confidences, f.views, f.gt_id, len(out)))
+            out.append(make_instance(f.points, f.label, f.confidences, f.views, f.gt_id, len(out), view_height=f.view_height))
         return out
 
 

@@ -20,13 +20,28 @@ from ..records import Instance, NavMap, Observation, ReceptaclePlane, SceneAsset
 from ..store import atomic_write_text
 
 
-def receptacle_labels(instances: list[Instance], cfg: RunConfig, backend: Any = None) -> tuple[str, ...]:
-    """Return the receptacle labels: the configured ones, or those the LLM backend picks among the instances' (C.1)."""
-    if cfg.receptacles.labels:
-        return tuple(cfg.receptacles.labels)
+def receptacle_labels(instances: list[Instance], cfg: RunConfig, backend: Any = None,
+                      scene: SceneAsset | None = None) -> tuple[str, ...]:
+    """Return the receptacle labels (a `receptacles.identify.ReceptacleLabels`) for a scene's fused instances.
+
+    The configured labels; when they are empty, or when fewer than ``receptacles.llm_share`` of the instances
+    are receptacles by them (an artist scene named 'Countertop_Marble', 'Kitchen_Island'), the LLM backend
+    also names receptacles among the instance labels (prompt C.1). The scene's own decisions
+    (``SemanticInstance.receptacle``, from ``assets.yaml``) ride along and win over the labels.
+    """
+    from ..receptacles.identify import ReceptacleLabels, matched_share
+
+    forced = {int(s.id): bool(s.receptacle) for s in (scene.instances if scene is not None else [])
+              if s.receptacle is not None}
+    labels = ReceptacleLabels(cfg.receptacles.labels, forced)
+    share = float(cfg.receptacles.llm_share)
+    if labels and not (share > 0 and instances and matched_share(instances, labels) < share):
+        return labels
     from ..semantics import get_backend, identify_receptacles
 
-    return tuple(identify_receptacles(sorted({i.label for i in instances}), backend or get_backend(cfg.semantics)))
+    ask = sorted({i.label for i in instances if forced.get(int(i.gt_id)) is None})
+    named = identify_receptacles(ask, backend or get_backend(cfg.semantics)) if ask else []
+    return ReceptacleLabels(list(labels) + [n for n in named if n not in labels], forced)
 
 
 def view_targets(instances: list[Instance], planes: list[ReceptaclePlane], navmaps: list[NavMap],
@@ -90,7 +105,7 @@ def perceive_and_find_planes(observations: Iterable[Observation], scene: SceneAs
     poses: list[Any] = []
 
     def look_again(first: list[Instance], next_view: int) -> Any:
-        labels = receptacle_labels(first, cfg, backend)
+        labels = receptacle_labels(first, cfg, backend, scene)
         targets = view_targets(first, find_receptacle_planes(first, cfg.receptacles, labels), navmaps, labels)
         if not targets:
             return
@@ -112,7 +127,7 @@ def perceive_and_find_planes(observations: Iterable[Observation], scene: SceneAs
 
     instances = perceive_scene(observations, scene, cfg.perceive, seed=seed, agent=cfg.agent,
                                look_again=look_again if ocfg.targeted_views > 0 else None)
-    return instances, find_receptacle_planes(instances, cfg.receptacles, receptacle_labels(instances, cfg, backend)), poses
+    return instances, find_receptacle_planes(instances, cfg.receptacles, receptacle_labels(instances, cfg, backend, scene)), poses
 
 
 def save_targeted_views(poses: list[Any], path: Path) -> None:

@@ -45,8 +45,15 @@ def object_radius(asset: ObjectAsset, mode: str) -> float:
 
 
 def category_distribution(relevance: Relevance, region: str, receptacle: str, categories: list[str],
-                          temperature: float, top_k: int) -> tuple[list[str], np.ndarray]:
-    """Return the categories to draw from and their probabilities (joint relevance, top-k, temperature).
+                          temperature: float, top_k: int,
+                          pairs: list[tuple[str, str]] | None = None) -> tuple[list[str], np.ndarray]:
+    """Return the categories to draw from and their probabilities (placement direction, top-k, temperature).
+
+    The weights are `Relevance.joint`: with a pair model (the learned offline backend), which
+    categories belong at this (region, receptacle) more than elsewhere in the scene (Bayes' rule over
+    the scene's `pairs`: P(obj | pair) proportional to P(pair | obj)); without one (the table,
+    server backends), the paper's eq. 5, P(obj|rgn) * P(obj|rec). The k largest are kept and
+    sharpened by the temperature (softmax of the log weight / temperature; 1: proportional).
 
     Parameters
     ----------
@@ -62,11 +69,13 @@ def category_distribution(relevance: Relevance, region: str, receptacle: str, ca
         Softmax temperature on the log relevance (small: sharper).
     top_k : int
         Keep the k most relevant categories (0: all).
+    pairs : list of (str, str), optional
+        The (region, receptacle) pairs of the scene's planes (`Relevance.joint`); default: all of the record's.
     """
     known = [c for c in categories if c in relevance.objects]
     if not known:
         return [], np.zeros(0)
-    joint = relevance.joint(region, receptacle)
+    joint = relevance.joint(region, receptacle, pairs)
     scores = np.array([max(float(joint[relevance.objects.index(c)]), 0.0) for c in known])
     if not np.isfinite(scores).all() or scores.sum() <= 0:
         scores = np.ones(len(known))
@@ -224,6 +233,7 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
     headroom = plane_headrooms(planes, cfg.support_thickness)
     order = sorted(planes, key=lambda p: p.id)
     order = [order[i] for i in rng.permutation(len(order))]
+    scene_pairs = sorted({(p.region, p.label) for p in planes})
     n = 0
     for plane in order:
         if n >= cfg.max_objects:
@@ -232,7 +242,8 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
         if len(_inset(plane.polygon, min_r)) < 3:
             res.notes.append(f"plane {plane.id} ({plane.label}, {abs(plane.area):.3f} m^2) is smaller than every object footprint: nothing placed on it")
             continue
-        cats, p = category_distribution(relevance, plane.region, plane.label, categories, cfg.temperature, cfg.top_k)
+        cats, p = category_distribution(relevance, plane.region, plane.label, categories, cfg.temperature, cfg.top_k,
+                                        scene_pairs)
         for _ in range(cfg.m):
             if n >= cfg.max_objects:
                 break
@@ -310,7 +321,7 @@ def top_pair_share(placements: list[Placement], relevance: Relevance, planes: li
         if cat not in relevance.objects:
             continue
         i = relevance.objects.index(cat)
-        scores = [(-float(relevance.joint(rg, rc)[i]), rg, rc) for rg, rc in pairs]
+        scores = [(-float(relevance.joint(rg, rc, pairs)[i]), rg, rc) for rg, rc in pairs]
         top = {(rg, rc) for _, rg, rc in sorted(scores)[:k]}
         mine = [p for p in placements if p.category == cat]
         hits = sum(1 for p in mine if plane_pair.get(p.plane_id) in top)

@@ -49,7 +49,7 @@ def variant_paths(scene_name: str, index: int) -> tuple[str, str]:
 
 def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
                 store_root: str | Path, cfg: PlaceConfig, seed: int, index: int, write: bool = True,
-                out_root: str | Path | None = None) -> tuple[SceneVariant, VariantStats]:
+                out_root: str | Path | None = None, open_parts: float = 1.0) -> tuple[SceneVariant, VariantStats]:
     """Place and settle one variant; return it with its timing (writes model + record under out_root when `write`).
 
     Steps: sample placements; compose the scene with the objects at their spawn poses; settle, judge
@@ -78,6 +78,9 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
         Write the composed MJCF and the record.
     out_root : str or Path, optional
         Folder written into (default: `store_root`).
+    open_parts : float
+        Articulated scenes: fraction of their range the parts were open when the planes were found
+        (``observe.open_parts``); `place.inside.articulate_variant` then sets the variant's door/drawer states.
     """
     stats = VariantStats()
     c0 = time.process_time()
@@ -100,6 +103,10 @@ def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Rel
     stats.cpu_s = time.process_time() - c0
     stats.counts = _status_counts(placements)
     variant = _variant_record(scene.name, index, seed, placements, notes)
+    if scene.articulated and placements:  # doors and drawers open / closed / ajar, objects settled again
+        from .inside import articulate_variant
+
+        articulate_variant(variant, scene, planes, objects, store_root, cfg, open_parts)
     if write:
         t3 = time.perf_counter()
         out = Path(out_root) if out_root is not None else Path(store_root)
@@ -243,6 +250,8 @@ def write_variant_model(variant: SceneVariant, scene: SceneAsset, planes: list[R
     """
     kept = [p for p in variant.placements if p.status == RESTING]
     assets = {a.name: a for a in objects}
+    if scene.articulated:  # planes inside a door or drawer: the piece's own shelves hold the objects
+        planes = [p for p in planes if p.part is None]
     composed = compose(kept, assets, planes, scene, store_root, cfg, with_scene=True, visual=True)
     rel = variant_paths(scene.name, variant.index)[0]
     path = write_mjcf(composed.spec, Path(out_root if out_root is not None else store_root) / rel)
@@ -251,12 +260,12 @@ def write_variant_model(variant: SceneVariant, scene: SceneAsset, planes: list[R
 
 
 def place_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
-                  store_root: str | Path, cfg: PlaceConfig, seed: int, index: int) -> SceneVariant:
+                  store_root: str | Path, cfg: PlaceConfig, seed: int, index: int, open_parts: float = 1.0) -> SceneVariant:
     """Place and settle one scene variant; write its model and record under `store_root`.
 
     Parameters are those of `run_variant`.
     """
-    return run_variant(scene, planes, relevance, objects, store_root, cfg, seed, index)[0]
+    return run_variant(scene, planes, relevance, objects, store_root, cfg, seed, index, open_parts=open_parts)[0]
 
 
 def place_variants(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],

@@ -6,8 +6,10 @@ slab with at least rho_min points seeds an EM loop: fit a plane (SVD), collect t
 again. Each converged inlier set is split into XY-connected parts (two armrests at one height are
 two surfaces, not one polygon spanning the seat), then duplicate planes from overlapping slabs are
 merged, and planes are rejected that are tilted, too small, mostly empty inside their hull (a slab
-cutting table legs or shelf walls), or covered by the receptacle's own points right above them (the
-underside of a thick top).
+cutting table legs or shelf walls), covered by the receptacle's own points right above them (the
+underside of a thick top), or not seen from above (the underside of a closed box such as a wall cabinet:
+its inside is never seen, so nothing covers it, but an up-facing surface can only be observed by a camera
+above it; `seen_from_above` reads the instance's per-point view heights recorded by perceive).
 """
 
 from __future__ import annotations
@@ -130,6 +132,17 @@ def free_above(all_points: np.ndarray, inliers: np.ndarray, height: float, cfg: 
         return np.ones(len(inliers), dtype=bool)
     d, _ = cKDTree(above[:, :2]).query(inliers[:, :2], k=1, distance_upper_bound=cfg.clearance_radius)
     return ~np.isfinite(d)
+
+
+def seen_from_above(instance: Instance, cfg: ReceptacleConfig) -> np.ndarray | None:
+    """Return per point whether a camera more than cfg.seen_above_margin above it observed it (unknown: True); None when not recorded."""
+    vh = instance.view_height
+    if vh is None:
+        return None
+    vh = np.asarray(vh, dtype=np.float64).reshape(-1)
+    if len(vh) != len(instance.points):
+        raise ValueError(f"instance {instance.id} ({instance.label}): {len(vh)} view heights for {len(instance.points)} points")
+    return np.isnan(vh) | (vh > cfg.seen_above_margin)
 
 
 def refine_plane(points: np.ndarray, idx: np.ndarray, centroid: np.ndarray, normal: np.ndarray,
@@ -266,6 +279,7 @@ def detect_planes(instance: Instance, cfg: ReceptacleConfig, first_id: int = 0,
     if len(points) < max(cfg.rho_min, 3):
         return []
     planes: list[ReceptaclePlane] = []
+    seen = seen_from_above(instance, cfg) if cfg.min_seen_above > 0 else None
     for idx in _merge(_candidates(points, cfg), points, cfg):
         c, n = fit_plane(points[idx])
         tilt = math.degrees(math.acos(min(1.0, abs(float(n[2])))))
@@ -288,6 +302,8 @@ def detect_planes(instance: Instance, cfg: ReceptacleConfig, first_id: int = 0,
             sel = idx[comp]
             if sel.size < 3:
                 continue
+            if seen is not None and seen[sel].mean() < cfg.min_seen_above:
+                continue  # no camera saw it from above: a downward face (a closed cabinet's bottom)
             cc, nn = fit_plane(points[sel])
             poly, h = convex_projected_hull(points[sel], cc, nn)
             if len(poly) < 3 or polygon_area(poly) < cfg.min_plane_area:
@@ -303,12 +319,16 @@ def detect_planes(instance: Instance, cfg: ReceptacleConfig, first_id: int = 0,
     return planes
 
 
-def _nearby_points(instances: list[Instance], inst: Instance, margin: float) -> np.ndarray:
-    """Return the points of the other instances inside inst's box grown by margin."""
-    lo, hi = inst.bounds[0] - margin, inst.bounds[1] + margin
+def _nearby_points(instances: list[Instance], inst: Instance, margin: float,
+                   bounds: list[np.ndarray] | None = None) -> np.ndarray:
+    """Return the points of the other instances inside inst's box grown by margin (bounds: each instance's (2, 3) box, computed when not given)."""
+    if bounds is None:
+        bounds = [o.bounds for o in instances]
+    own = inst.bounds
+    lo, hi = own[0] - margin, own[1] + margin
     out = []
-    for other in instances:
-        if other.id == inst.id or np.any(other.bounds[0] > hi) or np.any(other.bounds[1] < lo):
+    for other, b in zip(instances, bounds):
+        if other.id == inst.id or np.any(b[0] > hi) or np.any(b[1] < lo):
             continue
         p = other.world_points
         out.append(p[np.all((p >= lo) & (p <= hi), axis=1)])
@@ -321,7 +341,8 @@ def find_receptacle_planes(instances: list[Instance], cfg: ReceptacleConfig, lab
 
     recs = receptacle_instances(instances, cfg.labels if labels is None else labels)
     out: list[ReceptaclePlane] = []
+    bounds = [o.bounds for o in instances]  # once per scene, not once per receptacle and instance
     for inst in sorted(recs, key=lambda i: i.id):
-        obstacles = _nearby_points(instances, inst, cfg.min_clearance)
+        obstacles = _nearby_points(instances, inst, cfg.min_clearance, bounds)
         out.extend(detect_planes(inst, cfg, first_id=len(out), obstacles=obstacles))
     return out

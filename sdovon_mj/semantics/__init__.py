@@ -32,6 +32,22 @@ def get_backend(cfg: SemanticsConfig | None = None, cache_dir: str | Path | None
     return backend
 
 
+def offline_data_digest() -> str:
+    """Return a digest of the offline backend's shipped data (the learned model, the priors table).
+
+    Part of the semantics stage's fingerprint: a new model file makes a resumed run compute its relevance again
+    (every backend falls back to the offline one, so every run depends on it).
+    """
+    import hashlib
+    from importlib import resources
+
+    h = hashlib.sha256()
+    folder = resources.files("sdovon_mj").joinpath("data/semantics")
+    for name in sorted(f.name for f in folder.iterdir() if f.name.endswith(".json")):
+        h.update(name.encode() + b"\0" + folder.joinpath(name).read_bytes())
+    return h.hexdigest()[:16]
+
+
 def identify_receptacles(labels: Sequence[str], backend: Backend) -> list[str]:
     """Return the labels that name receptacles (furniture daily objects are put on)."""
     seen: list[str] = []
@@ -41,4 +57,4 @@ def identify_receptacles(labels: Sequence[str], backend: Backend) -> list[str]:
     return backend.receptacles(seen) if seen else []
 
 
-__all__ = ["Backend", "annotate_planes", "get_backend", "identify_receptacles", "input_region_map", "region_map", "region_picture", "relevance"]
+__all__ = ["Backend", "annotate_planes", "get_backend", "identify_receptacles", "input_region_map", "offline_data_digest", "region_map", "region_picture", "relevance"]

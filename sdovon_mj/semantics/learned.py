@@ -3,17 +3,21 @@
 Three heads share one form; each predicts, for an object and a *column* (a room-receptacle pair, a
 room, or a receptacle), the fraction of people who would call that place correct for the object:
 
-    q(o, k) = clip(mean_k + e(o) . W_k + beta * cos(e('a ' + o), e(k)), 0, 1)
+    q(o, k) = clip(bias + e(o) . W . kc(k) + beta * cos(e('a ' + o), e(k)), 0, 1)
 
-``e`` is the bundled MiniLM sentence embedding (`embeddings.embed_labels`); ``W`` a ridge regression
-from the object's embedding to the residual of the training votes after the zero-shot similarity
-term (so a seen object reproduces its votes and an unseen one moves with its meaning); ``lambda``
-and ``beta`` are chosen on the validation split, never on anything else. A column outside the
-training vocabulary ("dishwasher in the garage", "wardrobe") gets the mean of the known columns'
-ridge terms weighted by a softmax of embedding similarity (temperature chosen by leave-one-column-out
-on the validation split) plus its own zero-shot term, so its score stays on the same calibrated
-scale. Targets: the pair head learns the fraction voting the pair correct; the room head the
-largest fraction over the room's receptacles; the receptacle head the largest over its rooms.
+``e`` is the bundled MiniLM sentence embedding (`embeddings.embed_labels`); ``kc(k)`` the column
+kernel exp((cos(e(k_i), e(k)) - 1) / T) against the K training columns; ``W`` (384, K) a
+Kronecker-kernel ridge regression (object kernel linear in e(o), column kernel kc) of the training
+votes' residual after the zero-shot term and one global bias. No per-column term: a column is
+scored from its embedding only, so a column outside the training vocabulary ("wardrobe", "dishwasher
+in the garage") takes the same formula, borrowing from training columns that mean the same and
+from the zero-shot term alone when none does (never the average column's popularity). ``beta`` is
+the per-column-centred least-squares slope on the train votes times a scale (the slope of a noisy
+regressor is attenuated towards 0, and unseen columns rest on this term); the scale, ``lambda`` and
+``T`` are chosen on the validation split (seen columns and each column group held out), never on
+anything else. Targets: the pair head learns the fraction voting the pair
+correct; the room head the largest fraction over the room's receptacles; the receptacle head the
+largest over its rooms.
 
 The fitted weights ship as ``sdovon_mj/data/semantics/learned.json`` (``tools/train_semantics.py``).
 """
@@ -47,25 +51,34 @@ def object_vectors(objects: list[str]) -> tuple[np.ndarray, np.ndarray]:
     return embed_labels(names), embed_labels(["a " + n for n in names])
 
 
-def _softmax(x: np.ndarray, t: float) -> np.ndarray:
-    z = (x - x.max(axis=-1, keepdims=True)) / t
-    e = np.exp(z)
-    return e / e.sum(axis=-1, keepdims=True)
+def column_kernel(a: np.ndarray, b: np.ndarray, temperature: float) -> np.ndarray:
+    """Return the column kernel exp((cos(a, b) - 1) / temperature), shape (len(a), len(b)).
+
+    1 for the same phrase, falling towards 0 for unrelated ones: an unseen column borrows from the
+    training columns that mean the same, and from nothing when none does (no popularity fallback).
+    """
+    return np.exp((np.asarray(a) @ np.asarray(b).T - 1.0) / float(temperature))
 
 
 @dataclass
 class Head:
-    """One fitted head: its training columns (phrases), the ridge terms and the zero-shot weight."""
+    """One fitted head: a bilinear object-column compatibility learned from the votes.
+
+    ``q(o, k) = clip(bias + e(o) . W . kc(k) + beta * cos(e('a ' + o), e(k)), 0, 1)`` with
+    ``kc(k) = column_kernel(columns, k)`` (K,): the compatibility of an object and a column is a
+    function of both embeddings (Kronecker-kernel ridge regression, linear in the object embedding,
+    a similarity kernel over column embeddings), one global bias, no per-column term. A column
+    outside the training vocabulary is scored by the same formula.
+    """
 
     columns: list[str]
-    mean: np.ndarray  # (K,)
-    weights: np.ndarray  # (384, K)
+    bias: float
+    weights: np.ndarray  # (384, K): F^T alpha of the kernel ridge fit
     beta: float
     lam: float
-    temperature: float  # softmax temperature over column similarity for unseen columns
+    temperature: float  # column-kernel temperature
 
     def __post_init__(self) -> None:
-        self._index = {c: i for i, c in enumerate(self.columns)}
         self._col_vecs: np.ndarray | None = None
 
     def column_vectors(self) -> np.ndarray:
@@ -76,34 +89,25 @@ class Head:
 
     def predict(self, feats: np.ndarray, zs: np.ndarray, columns: list[str]) -> np.ndarray:
         """Return calibrated scores (N, len(columns)) in [0, 1] for objects (features, zero-shot vectors)."""
-        base = self.mean[None, :] + feats @ self.weights  # (N, K) ridge terms of the known columns
-        out = np.zeros((feats.shape[0], len(columns)))
-        new = [c for c in columns if c not in self._index]
-        mix: dict[str, np.ndarray] = {}
-        if new:
-            sims = embed_labels(new) @ self.column_vectors().T  # (M, K)
-            w = _softmax(sims, self.temperature)
-            for c, row in zip(new, w):
-                mix[c] = row
+        if not columns:
+            return np.zeros((feats.shape[0], 0))
         cvec = embed_labels(list(columns))
-        zero = zs @ cvec.T  # (N, C)
-        for j, c in enumerate(columns):
-            ridge = base[:, self._index[c]] if c in self._index else base @ mix[c]
-            out[:, j] = ridge + self.beta * zero[:, j]
+        kc = column_kernel(self.column_vectors(), cvec, self.temperature)  # (K, C)
+        out = self.bias + (feats @ self.weights) @ kc + self.beta * (zs @ cvec.T)
         return np.clip(out, 0.0, 1.0)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the head as JSON-ready data (arrays as little-endian float32 base64)."""
         enc = lambda a: base64.b64encode(np.ascontiguousarray(a, dtype="<f4").tobytes()).decode("ascii")  # noqa: E731
-        return {"columns": list(self.columns), "beta": self.beta, "lambda": self.lam,
-                "temperature": self.temperature, "mean": enc(self.mean), "weights": enc(self.weights)}
+        return {"columns": list(self.columns), "beta": self.beta, "lambda": self.lam, "bias": self.bias,
+                "temperature": self.temperature, "weights": enc(self.weights)}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "Head":
         """Rebuild a head from `to_dict` data."""
         dec = lambda s: np.frombuffer(base64.b64decode(s), dtype="<f4").astype(np.float64)  # noqa: E731
         k = len(d["columns"])
-        return cls(columns=list(d["columns"]), mean=dec(d["mean"]).reshape(k), weights=dec(d["weights"]).reshape(DIM, k),
+        return cls(columns=list(d["columns"]), bias=float(d["bias"]), weights=dec(d["weights"]).reshape(DIM, k),
                    beta=float(d["beta"]), lam=float(d["lambda"]), temperature=float(d["temperature"]))
 
 
@@ -121,13 +125,13 @@ def head_targets(j: Judgements, objects: list[str], head: str) -> tuple[list[str
 
 
 def fit_head(feats: np.ndarray, zs: np.ndarray, columns: list[str], targets: np.ndarray, lam: float, beta: float,
-             temperature: float) -> Head:
-    """Fit one head by ridge regression on the residual after the zero-shot term.
+             temperature: float, col_vecs: np.ndarray | None = None) -> Head:
+    """Fit one head by Kronecker-kernel ridge regression on the residual after the zero-shot term.
 
     Parameters
     ----------
     feats : ndarray, shape (N, 384)
-        Ridge features of the training objects (`object_vectors`).
+        Ridge features of the training objects (`object_vectors`); object kernel ``feats @ feats.T``.
     zs : ndarray, shape (N, 384)
         Zero-shot vectors of the training objects.
     columns : list of str
@@ -135,17 +139,23 @@ def fit_head(feats: np.ndarray, zs: np.ndarray, columns: list[str], targets: np.
     targets : ndarray, shape (N, K)
         Fraction of annotators voting each column correct, 0-1.
     lam : float
-        Ridge penalty (on unit-norm 384-d features).
+        Ridge penalty.
     beta : float
         Weight of the zero-shot cosine similarity term.
     temperature : float
-        Softmax temperature over column similarity for columns outside `columns`.
+        Column-kernel temperature (`column_kernel`).
+    col_vecs : ndarray, shape (K, 384), optional
+        Embeddings of `columns` (computed when omitted).
     """
-    resid = targets - beta * (zs @ embed_labels(list(columns)).T)
-    mean = resid.mean(axis=0)
-    a = feats.T @ feats + lam * np.eye(feats.shape[1])
-    w = np.linalg.solve(a, feats.T @ (resid - mean))
-    return Head(columns=list(columns), mean=mean, weights=w, beta=float(beta), lam=float(lam),
+    cv = embed_labels(list(columns)) if col_vecs is None else col_vecs
+    resid = targets - beta * (zs @ cv.T)
+    bias = float(resid.mean())
+    resid = resid - bias
+    do, u = np.linalg.eigh(feats @ feats.T)
+    dc, v = np.linalg.eigh(column_kernel(cv, cv, temperature))
+    do, dc = np.clip(do, 0.0, None), np.clip(dc, 0.0, None)
+    alpha = u @ ((u.T @ resid @ v) / (do[:, None] * dc[None, :] + lam)) @ v.T
+    return Head(columns=list(columns), bias=bias, weights=feats.T @ alpha, beta=float(beta), lam=float(lam),
                 temperature=float(temperature))
 
 

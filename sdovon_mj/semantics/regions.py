@@ -8,7 +8,13 @@ mixes two rooms except through a doorway; without it, the window is the paper's 
 distinct labels of the instances with a point in the window go to the backend's region-proposal
 question (identical label sets are asked once; structure labels such as wall/floor are left out).
 The k-th proposal (0-based) of a window votes 1/(k+1)^2 for the window's cells, times
-(1 - (dist/r)^2) so that a window speaks loudest about its centre. The per-cell sum is the
+(1 - (dist/r)^2) so that a window speaks loudest about its centre. With ``region_votes = walking``
+(default) ``dist`` is the walking distance from the centre over the floor space (`gridgraph`, the one
+geodesic; 8-connected, no corner cutting) and the window is the cells within r walk: a room behind a
+doorway is reached only by the path through it, so its cells get little or no vote and its furniture
+stays out of the window's labels; with ``euclidean`` it is the straight-line distance (the window
+still cut by walls when ``window_walls``). Without ``window_walls`` (the paper's plain disc) votes are
+always euclidean. The per-cell sum is the
 ``scores`` volume; its argmax the label map. Cells no window reached are filled from the nearest
 labelled cell when they are floor (free) or within r of it.
 """
@@ -99,9 +105,12 @@ def _is_structure(label: str) -> bool:
     return key is not None and pri.labels[key].get("kind") == "structure"
 
 
-def _windows(insts: Sequence[Instance], navmap: NavMap, r: float, d: float, walls: bool
+def _windows(insts: Sequence[Instance], navmap: NavMap, r: float, d: float, walls: bool, walking: bool = False
              ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]]:
-    """Return per window: covered rows, cols, centre weights (1 - (dist/r)^2) and its distinct labels."""
+    """Return per window: covered rows, cols, centre weights (1 - (dist/r)^2) and its distinct labels.
+
+    ``walking``: dist is the walking distance over the floor space (the window: cells within r walk).
+    """
     h, w = navmap.navigable.shape
     res = float(navmap.resolution)
     pts, idx = _points_xy(insts)
@@ -116,6 +125,8 @@ def _windows(insts: Sequence[Instance], navmap: NavMap, r: float, d: float, wall
     oy, ox = np.mgrid[-rc : rc + 1, -rc : rc + 1]
     out = []
     centres = window_centres(navmap, d)
+    if walking:
+        return _walking_windows(navmap, space, centres, r, pflat, idx, labels)
     for (ci, cj), c_xy in zip(navmap.frame.to_cell(centres), centres):
         rows, cols = ci + oy, cj + ox
         cell_xy = navmap.frame.to_world(np.stack([rows.ravel(), cols.ravel()], axis=1))
@@ -134,6 +145,46 @@ def _windows(insts: Sequence[Instance], navmap: NavMap, r: float, d: float, wall
         hit = np.isin(pflat, rr * w + cc)
         labs = tuple(sorted(set(labels[idx[hit]]) - {""}))
         out.append((rr, cc, 1.0 - dist2[inside], labs))
+    return out
+
+
+def _walking_windows(navmap: NavMap, space: np.ndarray, centres: np.ndarray, r: float, pflat: np.ndarray,
+                     idx: np.ndarray, labels: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]]:
+    """Return the windows of `_windows` with walking distance: cells within r walk of the centre, weight 1 - (walk/r)^2.
+
+    Parameters
+    ----------
+    navmap : NavMap
+        The floor's map (grid frame, resolution in m per cell).
+    space : ndarray of bool, shape (H, W)
+        Floor space: free or navigable cells and the cells under instances.
+    centres : ndarray, shape (N, 2)
+        Window centres, world XY (m).
+    r : float
+        Window radius (m of walk).
+    pflat, idx : ndarray, shape (M,)
+        Flat cell index of each instance point and the index of its instance.
+    labels : ndarray of str, shape (n_instances + 1,)
+        Normalised instance labels ('' last).
+    """
+    from scipy.sparse.csgraph import dijkstra
+
+    from ..gridgraph import graph_of
+
+    h, w = space.shape
+    res = float(navmap.resolution)
+    g, index = graph_of(space)
+    nodes_rc = np.argwhere(space)  # node k is the k-th True cell in row-major order (cell_graph)
+    out = []
+    for ci, cj in navmap.frame.to_cell(centres):
+        if not (0 <= ci < h and 0 <= cj < w) or not space[ci, cj]:
+            continue  # centred on a wall or outside: no window
+        dist = dijkstra(g, directed=True, indices=int(index[ci, cj]), limit=r / res + 1e-9) * res
+        near = np.flatnonzero(np.isfinite(dist) & (dist <= r))
+        rr, cc = nodes_rc[near, 0], nodes_rc[near, 1]
+        hit = np.isin(pflat, rr * w + cc)
+        labs = tuple(sorted(set(labels[idx[hit]]) - {""}))
+        out.append((rr, cc, 1.0 - (dist[near] / r) ** 2, labs))
     return out
 
 
@@ -183,7 +234,7 @@ def region_map(instances: Sequence[Instance], navmap: NavMap, backend: Backend,
     if r <= 0 or d <= 0:
         raise ValueError(f"window radius and step must be positive (got r={r}, d={d})")
     insts = [i for i in floor_instances(instances, navmap) if not _is_structure(i.label)]
-    windows = _windows(insts, navmap, r, d, bool(cfg.window_walls))
+    windows = _windows(insts, navmap, r, d, bool(cfg.window_walls), walking=cfg.region_votes == "walking" and bool(cfg.window_walls))
     vocab = _Vocab(cfg.region_labels)
     n_fb = len(backend.fallbacks)
     answers: dict[tuple[str, ...], list[int]] = {}

@@ -31,19 +31,29 @@ def look_direction(yaw_deg: float, pitch_deg: float) -> np.ndarray:
 def pose_cv(position: np.ndarray, yaw_deg: float, pitch_deg: float) -> np.ndarray:
     """Return T_cam (world <- OpenCV camera) for a camera at `position` looking along yaw/pitch."""
     f = look_direction(yaw_deg, pitch_deg)
-    up = np.array([0.0, 0.0, 1.0])
-    right = np.cross(f, up)
-    n = np.linalg.norm(right)
+    # right = f x up and down = f x right, written out in numpy.cross's operation order (same bits, no
+    # per-call array machinery: this runs once per visibility test).
+    f0, f1, f2 = float(f[0]), float(f[1]), float(f[2])
+    right = np.array([f1 * 1.0 - f2 * 0.0, f2 * 0.0 - f0 * 1.0, f0 * 0.0 - f1 * 0.0])
+    n = math.sqrt(right.dot(right))  # np.linalg.norm of a vector: sqrt(x.dot(x)) (same bits, less machinery)
     right = right / n if n > 1e-9 else np.array([math.sin(math.radians(yaw_deg)), -math.cos(math.radians(yaw_deg)), 0.0])
-    down = np.cross(f, right)
-    T = np.eye(4)
-    T[:3, 0], T[:3, 1], T[:3, 2] = right, down, f
-    T[:3, 3] = np.asarray(position, dtype=float)
+    r0, r1, r2 = float(right[0]), float(right[1]), float(right[2])
+    T = np.zeros((4, 4))
+    T[:3, 0] = right
+    T[:3, 1] = (f1 * r2 - f2 * r1, f2 * r0 - f0 * r2, f0 * r1 - f1 * r0)
+    T[:3, 2] = f
+    T[:3, 3] = position
+    T[3, 3] = 1.0
     return T
 
 
+def valid_depth(depth: np.ndarray, depth_min: float = 0.0, depth_max: float = np.inf) -> np.ndarray:
+    """Return the (H, W) bool mask of the depth pixels inside (depth_min, depth_max) metres (finite, > 0)."""
+    return (depth > max(depth_min, 0.0)) & (depth < depth_max) & np.isfinite(depth)
+
+
 def backproject(depth: np.ndarray, K: np.ndarray, T_cam: np.ndarray, mask: np.ndarray | None = None,
-                depth_min: float = 0.0, depth_max: float = np.inf) -> np.ndarray:
+                depth_min: float = 0.0, depth_max: float = np.inf, valid: np.ndarray | None = None) -> np.ndarray:
     """Return world points (N, 3) of the valid depth pixels (optionally inside `mask`).
 
     Parameters
@@ -58,10 +68,11 @@ def backproject(depth: np.ndarray, K: np.ndarray, T_cam: np.ndarray, mask: np.nd
         Pixels to keep.
     depth_min, depth_max : float
         Valid depth range (exclusive), metres.
+    valid : (H, W) bool, optional
+        `valid_depth(depth, depth_min, depth_max)` already computed (several masks of one image).
     """
-    valid = (depth > max(depth_min, 0.0)) & (depth < depth_max) & np.isfinite(depth)
-    if mask is not None:
-        valid &= mask
+    valid = valid_depth(depth, depth_min, depth_max) if valid is None else valid
+    valid = valid & mask if mask is not None else valid
     v, u = np.nonzero(valid)
     z = depth[v, u].astype(np.float64)
     x = (u + 0.5 - K[0, 2]) * z / K[0, 0]

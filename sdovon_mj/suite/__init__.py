@@ -20,7 +20,7 @@ from typing import Any
 from dm_control.rl import control
 from dm_control.utils import containers
 
-from ..actions import ACTION_NAMES, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+from ..actions import ACTION_NAMES, CLOSE, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, OPEN, STOP, TURN_LEFT, TURN_RIGHT
 from .bundle import Bundle, find_bundles, load_bundle
 from .objectnav import ObjectNavTask, Physics, build_model, make_environment
 
@@ -28,7 +28,7 @@ SUITE = containers.TaggedTasks()
 
 __all__ = ["SUITE", "ALL_TASKS", "BENCHMARKING", "load", "make_environment", "Bundle", "find_bundles", "load_bundle",
            "ObjectNavTask", "Physics", "build_model", "ACTION_NAMES", "STOP", "MOVE_FORWARD", "TURN_LEFT",
-           "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN"]
+           "TURN_RIGHT", "LOOK_UP", "LOOK_DOWN", "OPEN", "CLOSE"]
 
 
 def _bundle_arg(bundle: Any) -> Any:

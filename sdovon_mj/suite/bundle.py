@@ -15,6 +15,12 @@ Layout read (exporters/mjcf_bundle writes it; the fixture builder in `sdovon_mj.
         region_map*.json      optional records.RegionMap
 (Bundles written before the oracle/ folder hold the same files beside episodes.json; they load too.)
 
+Bundle version 4 (``bundle.json`` with ``"bundle_version": 4``) names its files instead: ``episodes.json`` holds
+``EpisodeRef`` rows whose goals live once in ``goals.npz`` (`suite.goals`), and the scene-level oracle files
+(``navmaps``, ``region_maps`` as records.save_npz shards, ``instance_labels``, ``relevance``) may live in the
+dataset's ``../oracle/<scene>/``, shared by every variant of the scene; ``object_labels`` stays in the
+bundle's ``oracle/``. Paths in bundle.json are relative to the bundle folder.
+
 A dataset is a folder of such variant folders (or one variant folder itself).
 """
 
@@ -25,9 +31,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import InputError
-from ..records import Episode, NavMap, RecordError, RegionMap, Relevance, SceneAsset, load_json
+from ..records import Episode, NavMap, RecordError, RegionMap, Relevance, SceneAsset, load_json, load_npz
+from .goals import unpack_episodes
 
 EPISODES = "episodes.json"
+BUNDLE_VERSION = 4  # the newest bundle layout this reader knows (exporters/mjcf_bundle writes it)
 
 
 @dataclass
@@ -125,12 +133,86 @@ def _find_mjcf(root: Path) -> Path:
     return xmls[0]
 
 
+def _bundle_meta(root: Path) -> dict | None:
+    """Return a bundle's bundle.json (None without one); InputError when malformed or newer than this reader."""
+    path = root / "bundle.json"
+    if not path.is_file():
+        return None
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise InputError(path, f"not valid JSON ({e})") from None
+    if not isinstance(meta, dict):
+        raise InputError(path, "expected a JSON object")
+    version = meta.get("bundle_version", 0)
+    if not isinstance(version, int) or version > BUNDLE_VERSION:
+        raise InputError(path, f"bundle_version {version!r} is newer than this reader knows ({BUNDLE_VERSION}): "
+                               "update sdovon-mj or export the run again")
+    return meta
+
+
+def _named(root: Path, meta: dict, key: str, label: str = "") -> Path | None:
+    """Return the file a v4 bundle.json names under `key` (relative to the bundle; None when absent or empty)."""
+    rel = meta.get(key) or None
+    if rel is None:
+        return None
+    p = (root / str(rel)).resolve()
+    if not p.is_file():
+        shared = "" if p.is_relative_to(root) else (
+            " (a scene file shared by the dataset: keep the dataset folder together, or make the bundle "
+            "self-contained with `sdovon-mj export BUNDLE --standalone` before copying it alone)")
+        raise InputError(p, f"file named by {root / 'bundle.json'} ('{label or key}') not found{shared}")
+    return p
+
+
+def _load_maps(paths: list[Path], cls: type) -> list:
+    """Load NavMap / RegionMap records from JSON files or save_npz shards."""
+    out = []
+    for p in paths:
+        if p.suffix == ".npz":
+            try:
+                recs = load_npz(p)
+            except RecordError as e:
+                raise InputError(p, f"not a valid {cls.__name__} file ({e})") from None
+            if not all(isinstance(r, cls) for r in recs):
+                raise InputError(p, f"expected {cls.__name__} records")
+        else:
+            rec = _load(p, cls)
+            recs = rec if isinstance(rec, list) else [rec]
+        out.extend(recs)
+    return sorted(out, key=lambda m: m.floor)
+
+
+def _load_v4(root: Path, meta: dict) -> Bundle:
+    """Load a version-4 bundle: the files its bundle.json names (some shared per scene in the dataset)."""
+    goals = _named(root, meta, "goals")
+    episodes = unpack_episodes(root / str(meta.get("episodes") or EPISODES), goals)
+    navs = {}
+    for key in ("navmaps", "region_maps"):
+        table = meta.get(key) or {}
+        if not isinstance(table, dict):
+            raise InputError(root / "bundle.json", f"'{key}' must map floor -> file")
+        navs[key] = [p for k in sorted(table, key=str) if (p := _named(root, table, k, f"{key}.{k}")) is not None]
+    if not navs["navmaps"]:
+        raise InputError(root / "bundle.json", "names no navmaps (records.NavMap, one per floor)")
+    rel = _named(root, meta, "relevance")
+    labels_p, objects_p = _named(root, meta, "instance_labels"), _named(root, meta, "object_labels")
+    model = root / str(meta.get("model") or "")
+    return Bundle(root, model if meta.get("model") and model.is_file() else _find_mjcf(root), episodes,
+                  _load_maps(navs["navmaps"], NavMap), None,
+                  _load(rel, Relevance) if rel is not None else None, _load_maps(navs["region_maps"], RegionMap),
+                  _labels(labels_p) if labels_p else {}, _labels(objects_p) if objects_p else {})
+
+
 def load_bundle(path: str | Path) -> Bundle:
-    """Load one variant folder: MJCF path, episodes, navmaps and optional semantics."""
+    """Load one variant folder: MJCF path, episodes, navmaps and optional semantics (every bundle version)."""
     root = Path(path).resolve()
     ep_path = root / EPISODES
     if not ep_path.exists():
         raise InputError(root, f"bundle folder lacks {EPISODES}")
+    meta = _bundle_meta(root)
+    if meta is not None and meta.get("bundle_version", 0) >= 4:
+        return _load_v4(root, meta)
     episodes = _load(ep_path, Episode)
     if not isinstance(episodes, list):
         raise InputError(ep_path, "expected a list of Episode records")

@@ -105,6 +105,9 @@ def evaluate(dataset: str | Path, agent: Any, nav: NavConfig | None = None, epis
                     r = {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle,
                          "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene,
                          "category": ep.object_category, **m.to_dict(), "collisions": env.task.collisions,
+                         "inside": any(g.open_part for g in ep.goals),
+                         "must_open": bool(ep.goals) and all(g.open_part for g in ep.goals),
+                         "part_moves": [list(t) for t in env.task.part_moves],
                          "info": agent.info, "trajectory": np.round(np.array(env.task.trajectory)[:, :2], 4).tolist()}
                     results.append(r)
                     if out is not None:
@@ -131,8 +134,21 @@ def summarize(results: list[dict], bootstrap: int = 1000, seed: int = 0) -> dict
     """Return SR, SPL, Soft SPL and mean DTG over result dicts, with 95 % bootstrap intervals.
 
     The intervals resample episodes with replacement (``bootstrap`` resamples, percentile method); ``<m>_ci``
-    holds (low, high) for each metric. Non-finite distances to goal are left out of the DTG mean.
+    holds (low, high) for each metric. Non-finite distances to goal are left out of the DTG mean. When some
+    episodes are "inside" ones (a goal hidden in a closed articulated part, ``Goal.open_part``), ``inside`` holds
+    the same summary over those episodes alone (without it when there are none), ``must_open`` over the episodes
+    whose every goal is hidden (no success without opening a part).
     """
+    out = _summary(results, bootstrap, seed)
+    for key in ("inside", "must_open"):
+        sub = [r for r in results if r.get(key)]
+        if sub:
+            out[key] = _summary(sub, bootstrap, seed)
+    return out
+
+
+def _summary(results: list[dict], bootstrap: int, seed: int) -> dict[str, Any]:
+    """Return the metric means and bootstrap intervals of `summarize` over result dicts."""
     ms = [M.EpisodeMetrics(r["success"], r["spl"], r["soft_spl"], r["distance_to_goal"], r["shortest"], r["path_length"])
           for r in results]
     out: dict[str, Any] = dict(M.aggregate(ms))
@@ -159,6 +175,23 @@ def episodes_per_minute(results: list[dict], seconds: float) -> float:
 def _cell(s: dict, k: str) -> str:
     ci = s.get(f"{k}_ci")
     return f"{s[k]:.3f} [{ci[0]:.3f}, {ci[1]:.3f}]" if ci else f"{s[k]:.3f}"
+
+
+def inside_table(rows: dict[str, dict[str, Any]]) -> str:
+    """Return the markdown table of "inside" episodes per agent ('' when none).
+
+    Rows: a goal hidden in a closed part (``inside``) and every goal hidden (``must_open``: no success without OPEN).
+    """
+    shown = [(n, k, s[k]) for n, s in rows.items() for k in ("inside", "must_open") if s.get(k)]
+    if not shown:
+        return ""
+    lines = ["| Agent | Episodes | Count | Success Rate [95% CI] | SPL [95% CI] | Soft SPL [95% CI] | Dist2Goal (m) |",
+             "|---|---|---|---|---|---|---|"]
+    for name, key, s in shown:
+        what = "a goal hidden" if key == "inside" else "every goal hidden"
+        lines.append(f"| {name} | {what} | {s['episodes']} | {_cell(s, 'success')} | {_cell(s, 'spl')} | "
+                     f"{_cell(s, 'soft_spl')} | {s['distance_to_goal']:.3f} |")
+    return "\n".join(lines)
 
 
 def overall_table(rows: dict[str, dict[str, Any]], paper: bool = True) -> str:
@@ -280,6 +313,8 @@ def run(args: argparse.Namespace) -> int:
             trajectory_picture(args.dataset, r, out / "pictures" / label.replace(" ", "_") / f"{r['episode_id']}.png")
     rows = {label: {**summarize(res), "episodes_per_minute": round(speed[label], 2)} for label, res in per_agent.items()}
     md = "## Overall\n\n" + overall_table(rows) + "\n\n## Per category (top-5, >= 2 successes)\n\n" + category_table(per_agent) + "\n"
+    if inside_table(rows):
+        md += "\n## Inside articulated receptacles (goal behind a closed door or drawer)\n\n" + inside_table(rows) + "\n"
     atomic_write_text(out / "tables.md", md)
     atomic_write_text(out / "summary.json", json.dumps(_finite(rows), indent=1, sort_keys=True) + "\n")
     print(md)

@@ -14,6 +14,13 @@ Design (research/mjcf_and_dmcontrol.md section 4):
   and multisampling off), which is ~6x faster than dm_control's default ``physics.render``.
 - Metrics follow habitat-lab (``sdovon_mj.metrics``): distance to goal is the grid geodesic to the
   nearest view point; success = STOP with d < success_distance; SPL; Soft SPL.
+- Articulated parts (issue 17): ``OPEN`` / ``CLOSE`` drive the part the agent looks at (hinge/slide joints
+  ``art_<id>/...``; among the parts whose box lies within ``nav.open_reach`` of the camera and in its field of
+  view, the one nearest to the optical axis) to its upper / lower limit, Habitat-style "magic": the joint's
+  qpos is set and kinematics forwarded; objects resting in a drawer move with it. A goal's view points may have
+  been computed with a part open (``Goal.open_part``), so when an episode has such a goal or a part moved, the
+  success check also needs the goal object seen (>= ``agent.eta_gt`` of the pixels of a render aimed at it
+  from where the agent stopped, as view points are defined).
 """
 
 from __future__ import annotations
@@ -32,12 +39,13 @@ from dm_control.rl import control
 from dm_env import specs
 
 from .. import metrics as M
-from ..actions import ACTION_NAMES, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+from ..actions import ACTION_NAMES, CLOSE, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, OPEN, STOP, TURN_LEFT, TURN_RIGHT
 from ..config import AgentConfig, NavConfig
 from ..errors import InputError
 from ..geometry import axis_quat, quat_mul, quat_yaw, yaw_quat
 from ..records import Episode
 from ..sim import GROUP_AGENT
+from ..sim.articulation import part_joints
 from ..sim.camera import intrinsics, pose_cv, vfov_from_hfov
 from ..sim.model import geom_segment_ids, object_segment_id, segment_image
 from ..sim.render import SceneRenderer
@@ -76,6 +84,67 @@ class Physics(dm_mujoco.Physics):
 
 
 @dataclass
+class Part:
+    """An articulated part of the bundle's model: its joint, body and box in the body frame (m)."""
+
+    joint: int
+    name: str
+    body: int
+    qpos: int
+    lower: float
+    upper: float
+    slide: bool
+    lo: np.ndarray  # (3,) box of the body's geoms, body frame
+    hi: np.ndarray  # (3,)
+
+
+def model_parts(model: mujoco.MjModel) -> list[Part]:
+    """Return the model's articulated parts (joints ``art_<id>/...``) with the box of each part body's geoms."""
+    out = []
+    for j in part_joints(model):
+        b = int(model.jnt_bodyid[j])
+        corners = []
+        for g in range(int(model.body_geomadr[b]), int(model.body_geomadr[b]) + int(model.body_geomnum[b])):
+            c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+            sgn = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+            local = c + sgn * h
+            R = np.empty(9)
+            mujoco.mju_quat2Mat(R, model.geom_quat[g])
+            corners.append(local @ R.reshape(3, 3).T + model.geom_pos[g])
+        if not corners:
+            continue
+        pts = np.concatenate(corners)
+        lower, upper = (float(v) for v in model.jnt_range[j]) if model.jnt_limited[j] else (0.0, 0.0)
+        out.append(Part(j, mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j), b, int(model.jnt_qposadr[j]),
+                        lower, upper, int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_SLIDE),
+                        pts.min(axis=0), pts.max(axis=0)))
+    return out
+
+
+def _box_distance_at(pos: np.ndarray, mat: np.ndarray, part: Part, points: np.ndarray) -> np.ndarray:
+    """Return the distances (m) of world points (N, 3) to a part's box with its body at `pos` (3,), `mat` (9,)."""
+    q = (np.asarray(points, float) - pos) @ np.asarray(mat, float).reshape(3, 3)
+    return np.linalg.norm(np.maximum(np.maximum(part.lo - q, 0.0), q - part.hi), axis=1)
+
+
+def _box_distance(data: mujoco.MjData, part: Part, points: np.ndarray) -> np.ndarray:
+    """Return the distances (m) of world points (N, 3) to a part's box in its current pose."""
+    return _box_distance_at(data.xpos[part.body], data.xmat[part.body], part, points)
+
+
+def _closed_poses(model: mujoco.MjModel, data: mujoco.MjData, parts: list[Part]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Return each part body's world (pos, mat) with every part at its lower limit; `data` is left as it was."""
+    saved = data.qpos.copy()
+    for p in parts:
+        data.qpos[p.qpos] = p.lower
+    mujoco.mj_kinematics(model, data)
+    out = [(data.xpos[p.body].copy(), data.xmat[p.body].copy()) for p in parts]
+    data.qpos[:] = saved
+    mujoco.mj_kinematics(model, data)
+    return out
+
+
+@dataclass
 class AgentState:
     """The agent's base position (on the floor), heading and camera pitch (deg)."""
 
@@ -110,6 +179,8 @@ class ObjectNavTask(control.Task):
         self.episode: Episode = bundle.episodes[0]
         self.state = AgentState(np.zeros(3), 0.0)
         self.frame_mask: np.ndarray | None = None
+        self._parts: tuple[Any, list[Part]] | None = None
+        self.part_moves: list[tuple[str, str]] = []
 
     # -- episodes --------------------------------------------------------------------------------
 
@@ -143,6 +214,16 @@ class ObjectNavTask(control.Task):
         self.state = AgentState(np.asarray(ep.start_position, dtype=float).copy(), quat_yaw(ep.start_rotation), 0.0)
         self.start = AgentState(self.state.position.copy(), self.state.yaw, 0.0)
         self.goal_segment_ids = np.array(sorted(object_segment_id(g.object_id) for g in ep.goals), dtype=np.int64)
+        self.part_moves = []  # (action name, joint name) of every OPEN/CLOSE that moved a part
+        self.goal_seen: bool | None = None  # visibility at STOP, where the success check needs it (else None)
+        self._goal_fields: dict[int, GeodesicField] = {}
+        self._goal_aim: dict[int, tuple[int, np.ndarray]] = {}
+        mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
+        for i, g in enumerate(ep.goals):  # goal box centre relative to its body (the body may ride in a drawer)
+            b = mujoco.mj_name2id(physics.model.ptr, mujoco.mjtObj.mjOBJ_BODY, g.object_id)
+            if b >= 0:
+                centre = np.asarray(g.bounds, float).mean(axis=0) if g.bounds is not None else np.asarray(g.position, float)
+                self._goal_aim[i] = (b, centre - physics.data.ptr.xpos[b])
         self.stop_called = False
         self.steps = 0
         self.collisions = 0
@@ -177,6 +258,8 @@ class ObjectNavTask(control.Task):
         s = self.state
         if a == STOP:
             self.stop_called = True
+        elif a in (OPEN, CLOSE):
+            self.move_part(physics, opening=a == OPEN)
         elif a == MOVE_FORWARD:
             yaw = math.radians(s.yaw)
             new = s.position + self.nav.forward_step * np.array([math.cos(yaw), math.sin(yaw), 0.0])
@@ -193,6 +276,118 @@ class ObjectNavTask(control.Task):
         elif a == LOOK_DOWN:
             s.pitch = max(-self.nav.max_tilt, s.pitch - self.nav.tilt_angle)
         self._apply_agent(physics)
+        if a == STOP and self.distance < self.nav.success_distance and self.needs_sight():
+            self.goal_seen = self.sees_goal(physics)
+
+    # -- articulated parts -----------------------------------------------------------------------
+
+    def parts(self, physics: Physics) -> list[Part]:
+        """Return the articulated parts of the physics' model (cached per model)."""
+        if self._parts is None or self._parts[0] is not physics.model.ptr:
+            self._parts = (physics.model.ptr, model_parts(physics.model.ptr))
+        return self._parts[1]
+
+    def part_in_reach(self, physics: Physics, opening: bool = True) -> Part | None:
+        """Return the part OPEN (or CLOSE) would move now: in reach and view, nearest the optical axis; else None.
+
+        A part qualifies when the nearest point of its box (where it is now or closed, whichever is nearer) is within
+        ``nav.open_reach`` of the camera, the centre of its closed box (the opening it covers, where the agent looks
+        to open or close it) lies within the camera's field of view and it is not already at the limit the action
+        drives it to; the one whose closed box is nearest the optical axis is chosen.
+        """
+        d = physics.data.ptr
+        cam = self.state.position + np.array([0.0, 0.0, self.agent.camera_height])
+        yaw, pitch = math.radians(self.state.yaw), math.radians(self.state.pitch)
+        axis = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
+        half_h = math.radians(self.agent.hfov) / 2.0
+        half_v = math.atan(math.tan(half_h) * self.agent.sensor_height / self.agent.sensor_width)
+        reach = float(self.nav.open_reach)
+        ray = cam + np.linspace(0.0, reach, max(2, int(math.ceil(reach / 0.01)) + 1))[:, None] * axis
+        best: tuple[float, float, int] | None = None
+        parts = self.parts(physics)
+        mujoco.mj_kinematics(physics.model.ptr, d)
+        closed = _closed_poses(physics.model.ptr, d, parts)
+        for i, p in enumerate(parts):
+            target = p.upper if opening else p.lower
+            if abs(float(d.qpos[p.qpos]) - target) < 1e-6:
+                continue
+            cpos, cmat = closed[i]
+            near = min(float(_box_distance(d, p, cam[None])[0]), float(_box_distance_at(cpos, cmat, p, cam[None])[0]))
+            if near > reach:
+                continue
+            centre = cpos + cmat.reshape(3, 3) @ ((p.lo + p.hi) / 2.0)
+            rel = pose_cv(cam, self.state.yaw, self.state.pitch)[:3, :3].T @ (centre - cam)  # OpenCV camera frame
+            if rel[2] <= 0 or abs(math.atan2(rel[0], rel[2])) > half_h or abs(math.atan2(rel[1], rel[2])) > half_v:
+                continue
+            key = (float(_box_distance_at(cpos, cmat, p, ray).min()), near, i)
+            if best is None or key < best:
+                best = key
+        return None if best is None else parts[best[2]]
+
+    def move_part(self, physics: Physics, opening: bool) -> str | None:
+        """OPEN / CLOSE: drive the part in reach (`part_in_reach`) to its upper / lower limit; return its joint name.
+
+        Habitat-style "magic" interaction: the joint's qpos is set and kinematics forwarded (the suite's physics is
+        kinematic). Free bodies whose centre lies in a sliding part's box (objects in a drawer) move with it.
+        Nothing happens (None) when no part qualifies.
+        """
+        p = self.part_in_reach(physics, opening)
+        if p is None:
+            return None
+        m, d = physics.model.ptr, physics.data.ptr
+        mujoco.mj_kinematics(m, d)
+        riders = []
+        if p.slide:
+            for j in range(m.njnt):
+                if int(m.jnt_type[j]) != int(mujoco.mjtJoint.mjJNT_FREE):
+                    continue
+                b = int(m.jnt_bodyid[j])
+                if _box_distance(d, p, d.xpos[b][None])[0] <= 1e-3:
+                    riders.append(int(m.jnt_qposadr[j]))
+        before = d.xpos[p.body].copy()
+        d.qpos[p.qpos] = p.upper if opening else p.lower
+        mujoco.mj_kinematics(m, d)
+        shift = d.xpos[p.body] - before
+        for a in riders:
+            d.qpos[a:a + 3] += shift
+        self.part_moves.append(("OPEN" if opening else "CLOSE", p.name))
+        return p.name
+
+    def needs_sight(self) -> bool:
+        """Return whether success needs the goal seen: a goal's view points had a part open, or a part moved."""
+        return bool(self.part_moves) or any(g.open_part for g in self.episode.goals)
+
+    def sees_goal(self, physics: Physics) -> bool:
+        """Return whether a goal within success distance of its own view points is seen from where the agent stands.
+
+        Seen: its segment covers at least ``agent.eta_gt`` of a render from the agent camera aimed at the goal's
+        box centre (pitch clipped to +-80 deg), the way episode view points are defined.
+        """
+        pos = self.state.position
+        cam = pos + np.array([0.0, 0.0, self.agent.camera_height])
+        mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
+        for i, g in enumerate(self.episode.goals):
+            if i not in self._goal_aim or not g.view_points:
+                continue
+            vps = np.array([vp.position for vp in g.view_points], float).reshape(-1, 3)
+            if np.min(np.linalg.norm(vps[:, :2] - pos[:2], axis=1)) > self.nav.success_distance:
+                continue
+            if i not in self._goal_fields:
+                self._goal_fields[i] = GeodesicField(self.navmap.navigable, self.frame, vps[:, :2], self._graphs[self.episode.floor])
+            if not self._goal_fields[i].distance(pos) < self.nav.success_distance:
+                continue
+            b, off = self._goal_aim[i]
+            target = physics.data.ptr.xpos[b] + off
+            dv = target - cam
+            yaw = math.degrees(math.atan2(dv[1], dv[0]))
+            pitch = float(np.clip(math.degrees(math.atan2(dv[2], math.hypot(dv[0], dv[1]))), -80.0, 80.0))
+            r = self.renderer(physics)
+            f = r.render(pose_cv(cam, yaw, pitch), rgb=False, depth=False, segmentation=True)
+            ids = segment_image(f.segmentation, self._lut)
+            need = max(int(math.ceil(self.agent.eta_gt * ids.size - 1e-9)), 1)  # as the episodes' VisibilityChecker
+            if np.count_nonzero(ids == object_segment_id(g.object_id)) >= need:
+                return True
+        return False
 
     def after_step(self, physics: Physics) -> None:
         """Update the trajectory, step count and distance to goal."""
@@ -205,7 +400,7 @@ class ObjectNavTask(control.Task):
     # -- specs and observations -------------------------------------------------------------------
 
     def action_spec(self, physics: Physics) -> specs.DiscreteArray:
-        """Return the discrete action spec: STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN."""
+        """Return the discrete action spec: STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT, LOOK_UP, LOOK_DOWN, OPEN, CLOSE."""
         return specs.DiscreteArray(num_values=len(ACTION_NAMES), dtype=np.int64, name="action")
 
     def observation_spec(self, physics: Physics) -> dict:
@@ -303,6 +498,8 @@ class ObjectNavTask(control.Task):
         """Return the episode's habitat metrics so far (final after the last step)."""
         p = M.path_length(np.array(self.trajectory))
         s = M.success(self.stop_called, self.distance, self.nav.success_distance)
+        if s and self.goal_seen is False:  # a part hid the goal (see `needs_sight`)
+            s = 0.0
         return M.EpisodeMetrics(success=s, spl=M.spl(s, self.shortest, p), soft_spl=M.soft_spl(self.distance, self.shortest, p),
                                 distance_to_goal=float(self.distance), shortest=float(self.shortest), path_length=p,
                                 steps=self.steps, stop_called=self.stop_called)

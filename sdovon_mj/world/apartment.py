@@ -19,6 +19,7 @@ from ..config import AgentConfig
 from . import furniture as FU
 from . import layout as LA
 from . import shapes as S
+from .artplace import ArticulatedInstance, is_proxy, proxy
 from .furniture import Model, u
 
 if TYPE_CHECKING:
@@ -118,6 +119,7 @@ class Apartment:
     mesh: WorldMesh
     ceilings: bool = True
     notes: tuple[str, ...] = ()
+    articulated: tuple[ArticulatedInstance, ...] = ()  # world.articulated: pieces written as URDF (world/artplace.py)
 
     def instance(self, instance_id: int) -> InstanceSpec:
         """Return the instance with this id."""
@@ -437,9 +439,9 @@ def _desk_group(rng: np.random.Generator, level: int) -> Group:
     return Group([(d, 0.0, 0.0, 0), (c, knee, d.depth - 0.12 + c.depth, 180)], 0.3)
 
 
-def _kitchen_run(rng: np.random.Generator, level: int, wall: float) -> Group:
-    """A counter run with a recessed sink and the fridge at one end."""
-    f = FU.fridge(rng)
+def _kitchen_run(rng: np.random.Generator, level: int, wall: float, art: bool = False) -> Group:
+    """A counter run with a recessed sink and the fridge at one end (`art`: an articulated fridge)."""
+    f = proxy("fridge", rng) if art else FU.fridge(rng)
     maxlen = wall - f.width - 0.1
     if level > 0:
         maxlen = min(maxlen, 1.6)
@@ -521,16 +523,32 @@ def _table_leg_span(t: Model, axis: int = 0) -> float:
     return inner
 
 
-def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height_max: float) -> list[tuple[Factory, str, bool, float]]:
-    """Return the room's furniture groups: (factory, mode, required, probability if optional)."""
+def _cabinet_group(rng: np.random.Generator, level: int) -> Group:
+    """An articulated kitchen base cabinet with an articulated microwave on its top (world.articulated)."""
+    cab = proxy("cabinet", rng)
+    return Group([(cab, 0.0, 0.0, 0), (proxy("microwave", rng, lift=cab.height), 0.0, 0.02, 0)], 0.8)
+
+
+def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height_max: float,
+             art: bool = False) -> list[tuple[Factory, str, bool, float]]:
+    """Return the room's furniture groups: (factory, mode, required, probability if optional).
+
+    `art` (``world.articulated``): dressers, wardrobes and fridges are articulated pieces and kitchens get an
+    articulated base cabinet with a microwave (`artplace.proxy`).
+    """
     longest = max(iw, idp)
     shortest = min(iw, idp)
     bs = lambda r: FU.bookshelf(r, height_max)  # noqa: E731
+    if art:
+        dresser = lambda r, w=None: proxy("dresser", r)  # noqa: E731
+    else:
+        dresser = FU.dresser
     if rtype == "bedroom":
         return [
             (lambda r, lv: _bed_group(r, lv, shortest), "wall", True, 1.0),
-            (lambda r, lv: Group([(FU.dresser(r, None if lv == 0 else 0.8), 0.0, 0.0, 0)], 0.6), "wall", True, 1.0),
-            (lambda r, lv: Group([(FU.wardrobe(r, height_max, lv > 0), 0.0, 0.0, 0)], 0.7), "corner", True, 1.0),
+            (lambda r, lv: Group([(dresser(r, None if lv == 0 else 0.8), 0.0, 0.0, 0)], 0.6), "wall", True, 1.0),
+            (lambda r, lv: Group([(proxy("wardrobe", r) if art else FU.wardrobe(r, height_max, lv > 0), 0.0, 0.0, 0)],
+                                 0.7), "corner", True, 1.0),
             (_single(FU.wall_shelf), "high", False, 0.5),
             (_desk_group, "wall", False, 0.3),
             (_single(FU.floor_lamp), "corner", False, 0.3),
@@ -539,9 +557,10 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
         ]
     if rtype == "kitchen":
         return [
-            (lambda r, lv: _kitchen_run(r, lv, longest), "corner", True, 1.0),
+            (lambda r, lv: _kitchen_run(r, lv, longest, art), "corner", True, 1.0),
             (lambda r, lv: _dining_group(r, lv, False, iw, idp), "centre", True, 1.0),
             (lambda r, lv: _dining_group(r, lv, False, iw, idp, against_wall=True), "fallback", False, 1.0),
+            *([(_cabinet_group, "wall", False, 0.9)] if art else []),
             (_single(lambda r: FU.counter(r, u(r, 0.8, 1.4), u(r, 0.88, 0.92))[0], 0.8), "corner", False, 0.5),
             (_single(FU.wall_shelf), "high", False, 0.5),
         ]
@@ -552,7 +571,7 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
             (_single(FU.wall_shelf), "high", True, 1.0),
             (_tv_group, "wall", False, 0.7),
             (_single(FU.chair, 0.3), "wall", False, 0.3),
-            (_single(FU.dresser, 0.6), "wall", False, 0.25),
+            (_single(dresser, 0.6), "wall", False, 0.25),
             (_single(FU.wall_shelf), "high", False, 0.25),
             (_single(FU.floor_lamp), "corner", False, 0.5),
             (_single(FU.picture), "high", False, 0.7),
@@ -570,7 +589,7 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
             (_desk_group, "wall", True, 1.0),
             (_single(bs, 0.5), "corner", True, 1.0),
             (_single(FU.wall_shelf), "high", False, 0.6),
-            (_single(FU.dresser, 0.6), "wall", False, 0.3),
+            (_single(dresser, 0.6), "wall", False, 0.3),
             (_single(bs, 0.5), "wall", False, 0.3),
             (_single(FU.floor_lamp), "corner", False, 0.3),
             (_single(FU.picture), "high", False, 0.4),
@@ -579,7 +598,7 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
         return [
             (lambda r, lv: _dining_group(r, lv, True, iw, idp), "centre", True, 1.0),
             (lambda r, lv: _dining_group(r, lv, True, iw, idp, against_wall=True), "fallback", False, 1.0),
-            (_single(FU.dresser, 0.5), "wall", True, 1.0),
+            (_single(dresser, 0.5), "wall", True, 1.0),
             (_single(FU.wall_shelf), "high", False, 0.6),
             (_single(bs, 0.5), "corner", False, 0.3),
             (_single(FU.picture), "high", False, 0.7),
@@ -650,8 +669,8 @@ def _window_zones(interior: np.ndarray, windows: dict[str, list[tuple]]) -> list
 
 
 def _furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generator, wall_h: float,
-             windows: dict[str, list[tuple]]) -> tuple[list[tuple[Model, float, float, int]], list[str]]:
-    """Place the room's furniture; retries with fewer optional pieces and smaller sizes on failure.
+             windows: dict[str, list[tuple]], art: bool = False) -> tuple[list[tuple[Model, float, float, int]], list[str]]:
+    """Place the room's furniture (`art`: with articulated pieces); retries with fewer optional pieces and smaller sizes.
 
     Returns the placed items (model, x, y, yaw in degrees; storey-relative metres) and the notes on what
     could not be placed.
@@ -668,7 +687,7 @@ def _furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generat
         level = 0 if attempt < 10 else 1
         keep_opt = 1.0 if attempt < 20 else 0.0
         tolerate = attempt >= 28  # late attempts may skip a required piece that does not fit
-        prog = _program(room.type, iw, idp, rng, height_max)
+        prog = _program(room.type, iw, idp, rng, height_max, art)
         state = _RoomState(interior, keep, windows=list(wzones))
         ok = True
         skipped: list[str] = []
@@ -719,6 +738,7 @@ class _Piece:
     kind: str
     parts: tuple[_MeshPart, ...]
     supports: tuple[SurfaceSpec, ...] = ()
+    art: tuple | None = None  # an articulated piece: (kind, seed, (x, y, z), yaw); no mesh parts
 
 
 class _MeshBuilder:
@@ -956,6 +976,10 @@ def _furniture(r: LA.PlanRoom, placed: list[tuple[Model, float, float, int]], fl
     """Return the placed furniture as pieces: parts and support surfaces moved to world coordinates."""
     out = []
     for m, ox, oy, yaw in placed:
+        if is_proxy(m):
+            kind, seed, lift = m.articulated  # type: ignore[attr-defined]
+            out.append(_Piece(m.label, r.id, fl, "receptacle", (), (), (kind, seed, (ox, oy, z0 + lift), yaw)))
+            continue
         rot2 = _rot(yaw)
         rot3 = np.eye(3)
         rot3[:2, :2] = rot2
@@ -968,13 +992,13 @@ def _furniture(r: LA.PlanRoom, placed: list[tuple[Model, float, float, int]], fl
 
 
 def _room(seed: int, r: LA.PlanRoom, plan: _Plan, storey_doors: list[LA.PlanDoor],
-          ceilings: bool) -> tuple[list[_Piece], list[str]]:
+          ceilings: bool, art: bool = False) -> tuple[list[_Piece], list[str]]:
     """Build one room (its own seeded generator): floor, ceiling, four walls, windows, furniture; and notes."""
     rng = np.random.default_rng([int(seed), 1, r.id])
     fl, z0, wall_h = r.floor, plan.floor_z[r.floor], plan.wall_h
     ext = _exterior(r, plan.width, plan.depth)
     finish = _room_finish(r, ext, wall_h, rng)
-    placed, notes = _furnish(r, storey_doors, rng, wall_h, finish.windows)
+    placed, notes = _furnish(r, storey_doors, rng, wall_h, finish.windows, art)
     doors = _room_doors(r, storey_doors)
     pieces = [_floor_slab(r, ext, fl, z0, wall_h, finish)]
     pieces += [_ceiling(r, fl, z0, wall_h)] if ceilings else []
@@ -1012,8 +1036,11 @@ def _door(d: LA.PlanDoor, z0: float) -> Door:
     return Door(d.floor, (d.room_a, d.room_b), centre, normal, round(d.width - 0.1, 6), round(d.height - 0.05, 6))
 
 
-def generate_apartment(seed: int, floors: int | None = None, ceilings: bool = True) -> Apartment:
+def generate_apartment(seed: int, floors: int | None = None, ceilings: bool = True, articulated: bool = False) -> Apartment:
     """Generate the apartment for `seed` (floors: 1, 2 or None for the seeded choice, ~30% two storeys).
+
+    `articulated` (``world.articulated``): dressers, wardrobes, fridges, kitchen cabinets and microwaves are
+    articulated pieces (``Apartment.articulated``, written as URDF by `write_apartment`) instead of static meshes.
 
     Steps: draw the plan; per storey, build each room (own generator: finish, furniture, then its
     structure and furniture pieces) and then the door frames; number the pieces and join one mesh.
@@ -1026,7 +1053,7 @@ def generate_apartment(seed: int, floors: int | None = None, ceilings: bool = Tr
     for fl in range(plan.storeys):
         storey_doors = [d for d in plan.doors if d.floor == fl]
         for r in (r for r in plan.rooms if r.floor == fl):
-            room_pieces, room_notes = _room(seed, r, plan, storey_doors, ceilings)
+            room_pieces, room_notes = _room(seed, r, plan, storey_doors, ceilings, articulated)
             pieces += room_pieces
             notes += room_notes
         colour = _door_frame_colour(seed, fl)
@@ -1042,4 +1069,6 @@ def generate_apartment(seed: int, floors: int | None = None, ceilings: bool = Tr
         mesh=mesh,
         ceilings=ceilings,
         notes=tuple(notes),
+        articulated=tuple(ArticulatedInstance(k, p.art[0], p.art[1], tuple(float(c) for c in p.art[2]), int(p.art[3]),
+                                              p.room, p.floor) for k, p in enumerate(pieces) if p.art is not None),
     )

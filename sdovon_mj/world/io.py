@@ -266,6 +266,11 @@ def write_apartment(apartment: Apartment, out_dir: str | os.PathLike[str], mode:
         up = "+Z"
     sidecar = apartment.semantics(name, mode, mesh_path.name, up)
     _write_bytes(out / f"{name}.semantics.json", dumps_json(sidecar).encode())
+    from .artplace import remove_articulated, write_articulated
+
+    remove_articulated(out, name)  # an earlier write's pieces must not outlive a switch to rigid furniture
+    if apartment.articulated:  # world.articulated: URDF pieces + <name>.articulated.json (world/artplace.py)
+        write_articulated(apartment.articulated, out, name, {i.id: i.label for i in apartment.instances})
     return mesh_path
 
 
@@ -317,9 +322,12 @@ def write_mp3d(apartment: Apartment, out_dir: str | os.PathLike[str], name: str)
 
     Files: ``<name>.glb`` (visual mesh, **Z up**, no semantics in its nodes), ``<name>_semantic.ply`` (the same
     triangles; per-face ``object_id``, ``category_id`` and ``segment_id``) and ``<name>.house`` (ASCII: ``H`` header,
-    ``L`` levels, ``R`` regions with their one-letter label code and bounding box, ``C`` categories, ``O`` objects
+    ``L`` levels, ``R`` regions with their one-letter label code and bounding box, ``S``/``V`` region surfaces,
+    ``C`` categories, ``O`` objects
     with their region and category). Category names are written with underscores for spaces (the file is
     whitespace-separated); region codes follow Matterport's table (``MP3D_REGION_CODES``; others ``z``, other room).
+    Each region has one floor surface (``S``) whose ``V`` vertices are the room's counter-clockwise polygon, as
+    Matterport's data_organization.md defines a region's extent; the ``H`` line's counts match the lines written.
     """
     out = Path(out_dir)
     mesh_path = out / f"{name}.glb"
@@ -344,8 +352,9 @@ def write_mp3d(apartment: Apartment, out_dir: str | os.PathLike[str], name: str)
     _write_bytes(out / f"{name}_semantic.ply", ("\n".join(header) + "\n").encode("ascii") + vd.tobytes() + fd.tobytes())
     z = lambda *xs: " ".join(f"{_num6(x):g}" for x in xs)  # noqa: E731
     lo, hi = m.vertices.min(axis=0), m.vertices.max(axis=0)
-    lines = ["ASCII 1.1", f"H {name} house 0 0 0 0 0 {len(insts)} {len(cats)} {len(apartment.rooms)} 0 "
-                          f"{len(apartment.floors)} 0 0 0 0 0 {z(*lo, *hi)} 0 0 0 0 0"]
+    n_vertices = sum(len(r.polygon) for r in apartment.rooms)
+    lines = ["ASCII 1.1", f"H {name} house 0 0 {n_vertices} {len(apartment.rooms)} 0 {len(insts)} {len(cats)} "
+                          f"{len(apartment.rooms)} 0 {len(apartment.floors)} 0 0 0 0 0 {z(*lo, *hi)} 0 0 0 0 0"]
     heights = {f.index: f.height for f in apartment.floors}
     for f in apartment.floors:
         lines.append(f"L {f.index} {sum(r.floor == f.index for r in apartment.rooms)} - 0 0 {z(heights[f.index])} "
@@ -357,6 +366,17 @@ def write_mp3d(apartment: Apartment, out_dir: str | os.PathLike[str], name: str)
         code = MP3D_REGION_CODES.get(r.type, "z")
         lines.append(f"R {r.id} {r.floor} 0 0 {code} {z((x0 + x1) / 2, (y0 + y1) / 2, h0)} "
                      f"{z(x0, y0, h0, x1, y1, h0 + apartment.wall_height)} {z(apartment.wall_height)} 0 0 0 0")
+    vk = 0
+    for r in apartment.rooms:  # one floor surface per region: its counter-clockwise polygon as V lines
+        poly = np.asarray(r.polygon, dtype=float)
+        h0 = float(heights.get(r.floor, 0.0))
+        (x0, y0), (x1, y1) = poly.min(axis=0), poly.max(axis=0)
+        code = MP3D_REGION_CODES.get(r.type, "z")
+        lines.append(f"S {r.id} {r.id} 0 {code} {z((x0 + x1) / 2, (y0 + y1) / 2, h0)} 0 0 1 "
+                     f"{z(x0, y0, h0, x1, y1, h0)} 0 0 0 0 0")
+        for x, y in poly:
+            lines.append(f"V {vk} {r.id} {code} {z(x, y, h0)} 0 0 1 0 0 0")
+            vk += 1
     for k, c in enumerate(cats):
         token = c.replace(" ", "_")
         lines.append(f"C {k} {k} {token} {k} {token} 0 0 0 0 0")
