@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import base64
 import dataclasses
+import functools
 import io
 import json
 import types
@@ -41,6 +42,18 @@ _REGISTRY: dict[str, type["Record"]] = {}
 class RecordError(SdovonError, ValueError):
     """A record file that cannot be read back (wrong kind, missing field, corrupt)."""
 
+
+@functools.lru_cache(maxsize=None)
+def _record_fields(cls: type) -> tuple[dict[str, Any], tuple[dataclasses.Field, ...]]:
+    """Return a record class's resolved type hints and dataclass fields (resolved once per class: decoding a run
+    folder's records evaluated the string annotations again for every record)."""
+    return get_type_hints(cls), dataclasses.fields(cls)
+
+
+@functools.lru_cache(maxsize=None)
+def _field_names(cls: type) -> tuple[str, ...]:
+    """Return a record class's field names in declaration order (once per class)."""
+    return tuple(f.name for f in dataclasses.fields(cls))
 
 def _encode(value: Any) -> Any:
     """Encode a field value as JSON-able data, arrays exactly."""
@@ -132,8 +145,8 @@ class Record:
     def to_dict(self) -> dict[str, Any]:
         """Return the record as JSON-able data (arrays encoded exactly)."""
         out: dict[str, Any] = {TAG: self.record_type()}
-        for f in dataclasses.fields(self):  # type: ignore[arg-type]
-            out[f.name] = _encode(getattr(self, f.name))
+        for name in _field_names(type(self)):
+            out[name] = _encode(getattr(self, name))
         return out
 
     @classmethod
@@ -144,9 +157,9 @@ class Record:
         kind = data.get(TAG, cls.record_type())
         if kind != cls.record_type():
             raise RecordError(f"expected a {cls.record_type()} record, found {kind}")
-        hints = get_type_hints(cls)
+        hints, fields = _record_fields(cls)
         kwargs = {}
-        for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+        for f in fields:
             if f.name in data:
                 kwargs[f.name] = _decode(data[f.name], hints[f.name])
             elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:  # type: ignore[misc]

@@ -38,7 +38,7 @@ from sdovon_mj.errors import InputError
 from sdovon_mj.records import ArticulatedFixture, Episode, Goal, SceneAsset, SceneVariant
 from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from sdovon_mj.sim.model import pose_settled
-from sdovon_mj.store import atomic_write_bytes
+from sdovon_mj.store import atomic_write_bytes, dumps
 from sdovon_mj.export import ExportOptions, ExportReport, ExportUnit, Exporter, RunView, UnitResult, merge_unit_results
 
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
@@ -62,7 +62,13 @@ def _r(v: Any, nd: int = 6) -> Any:
 
 
 def _json(data: Any) -> str:
-    return json.dumps(_r(data), indent=1, sort_keys=True, ensure_ascii=False) + "\n"
+    """Return ``json.dumps(_r(data), indent=1, sort_keys=True, ensure_ascii=False)`` + newline (the store's faster
+    encoder gives exactly that text for finite data; json itself writes what it alone accepts: NaN, infinities)."""
+    r = _r(data)
+    try:
+        return dumps(r)
+    except ValueError:
+        return json.dumps(r, indent=1, sort_keys=True, ensure_ascii=False) + "\n"
 
 
 def _gz(data: Any) -> bytes:
@@ -225,6 +231,26 @@ def _dataset_paths(out_dir: Path, options: ExportOptions) -> tuple[Path, Path, s
     return Path(out_dir) / sd_rel, Path(out_dir) / ds_rel, f"{sd_rel}/{options.name}.scene_dataset_config.json"
 
 
+# An episode's category in an episodes.json as the store writes it (`store.dumps`: a list of records, indent 1, so an
+# episode's own keys sit two spaces in); nested records and dicts sit deeper.
+_CATEGORY_LINE = re.compile(r'\n  "object_category": ("(?:[^"\\\n]|\\.)*")')
+
+
+def _episode_categories(text: str) -> list[str] | None:
+    """Return the categories of an episodes.json text written by the store, without parsing it whole; None when the
+    text is not in that layout (the caller parses it then).
+
+    A file of the store's layout holds one category line per episode record: every ``"object_category"`` key of the
+    text is one of them (the key appears nowhere else in an Episode), and the list has that many records.
+    """
+    if not (text.startswith("[\n {") or text.strip() == "[]"):
+        return None
+    found = _CATEGORY_LINE.findall(text)
+    if len(found) != text.count('"object_category"') or len(found) != text.count('\n {\n  "__record__": "Episode"'):
+        return None
+    return [str(json.loads(q)) for q in found]
+
+
 def _category_maps(run: RunView) -> dict[str, dict[str, int]]:
     """Return the category id maps over every variant's episodes (read as raw JSON: only the categories)."""
     cats: set[str] = set()
@@ -232,8 +258,13 @@ def _category_maps(run: RunView) -> dict[str, dict[str, int]]:
         for p in sorted((run.root / "scenes" / scene / "variants").glob("*/episodes.json")):
             if not (p.parent / "variant.json").is_file():  # not a variant of the run (RunView.variants)
                 continue
+            text = p.read_text(encoding="utf-8")
+            found = _episode_categories(text)
+            if found is not None:
+                cats.update(found)
+                continue
             try:
-                rows = json.loads(p.read_text(encoding="utf-8"))
+                rows = json.loads(text)
                 cats.update(str(r["object_category"]) for r in rows)
             except (json.JSONDecodeError, KeyError, TypeError) as e:
                 raise InputError(p, f"not a valid list of Episode records ({e})") from None

@@ -118,10 +118,14 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
     spec_dir = path.parent
     used: dict[str, Path] = {}
     copied: list[Path] = []
+    taken: dict[tuple[str, str], str] = {}  # (file, subdir) -> name: a mesh used by many geoms is resolved once
+    in_copied: set[Path] = set()
 
     def take(file: str, subdir: str) -> str:
         if not file:
             return file
+        if (file, subdir) in taken:
+            return taken[(file, subdir)]
         src = _resolve(spec_dir, subdir, file)
         if not src.exists():
             raise InputError(src, f"asset referenced by {path} not found")
@@ -131,7 +135,7 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
         else:
             name = _bundle_name(src, used, run.root)
             dst = bundle_dir / "assets" / name
-        if dst not in copied:
+        if dst not in in_copied:
             if seen is None or dst not in seen:
                 if not (shared is not None and dst.is_file() and dst.stat().st_size == src.stat().st_size
                         and file_hash(dst) == file_hash(src)):  # shared: another unit wrote it already
@@ -139,6 +143,8 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
                 if seen is not None:
                     seen.add(dst)
             copied.append(dst)
+            in_copied.add(dst)
+        taken[(file, subdir)] = name
         return name
 
     retarget_assets(spec, take)
