@@ -18,7 +18,7 @@ from sdovon_mj.store import Store
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
-from run_digests import run_digests  # noqa: E402
+from run_digests import environment, run_digests  # noqa: E402
 
 # A small default-world run: one apartment, two cheap object categories, small images, one variant.
 SMALL = {
@@ -120,6 +120,7 @@ def test_stage_command_errors_name_the_input(tmp_path, capsys):
 
 
 GOLDEN = ROOT / "tests" / "data" / "golden" / "demo_generate_digests.json"
+GOLDEN_ENV = GOLDEN.with_name("demo_generate_environment.json")
 # The digests of every output of the demo-config `generate` (tools/run_digests.py: timings and the installed
 # package versions aside). First recorded before the one-shape redesign (issue 19), which kept every data output
 # byte-identical (only the config-shaped files config.yaml, manifest.json and the stage markers changed, with the
@@ -137,4 +138,8 @@ def test_generate_outputs_match_the_recorded_digests(tmp_path):
     got = run_digests(tmp_path / "run")
     want = json.loads(GOLDEN.read_text())
     differ = sorted(k for k in want.keys() | got.keys() if want.get(k) != got.get(k))
-    assert not differ, f"{len(differ)} outputs differ from the recorded digests: {differ[:20]}"
+    env = json.loads(GOLDEN_ENV.read_text()) if GOLDEN_ENV.is_file() else {}
+    now = environment()
+    changed = {k: f"{env.get(k)} -> {v}" for k, v in now.items() if env and env.get(k) != v}
+    assert not differ, (f"{len(differ)} outputs differ from the recorded digests: {differ[:20]}; byte-shaping "
+                        f"libraries changed since the recording: {changed or 'none'} (tests/data/golden/README)")

@@ -16,6 +16,23 @@ import sys
 from pathlib import Path
 
 SKIP_NAMES = {"timings.json", ".timing.json"}
+# Libraries whose versions shape the bytes of a run (geometry, ray casts, rasterisation, rendering, physics,
+# numerics): recorded beside golden digests so a mismatch names what changed (`environment`, `--env`).
+BYTE_SHAPING = ("numpy", "scipy", "trimesh", "embreex", "mujoco", "opencv-python-headless", "opencv-python",
+                "open3d", "shapely", "manifold3d", "coacd", "torch", "pillow", "rtree", "networkx")
+
+
+def environment() -> dict[str, str]:
+    """Return {distribution: version} of the installed `BYTE_SHAPING` libraries ('-' when absent)."""
+    from importlib import metadata
+
+    out = {}
+    for name in BYTE_SHAPING:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "-"
+    return out
 
 
 def run_digests(root: str | Path) -> dict[str, str]:
@@ -42,8 +59,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("run_dir")
     ap.add_argument("--out", default=None, help="write the JSON here (default: stdout)")
+    ap.add_argument("--env", default=None, help="also write the byte-shaping library versions (`environment`) here")
     a = ap.parse_args(argv)
     text = json.dumps(run_digests(a.run_dir), indent=1, sort_keys=True) + "\n"
+    if a.env:
+        Path(a.env).write_text(json.dumps(environment(), indent=1, sort_keys=True) + "\n", encoding="utf-8")
     if a.out:
         Path(a.out).write_text(text, encoding="utf-8")
     else:
