@@ -12,6 +12,11 @@ for perception, seeded open / closed / ajar per variant) and prints, over all va
 
     python bench/bench_articulated.py                         # apartments 2 and 4, 5 variants each
     python bench/bench_articulated.py --scenes 0 1 --variants 2 --out /tmp/art_bench
+    python bench/bench_articulated.py --eval          # then export MJCF bundles and run the A* baselines on them
+
+With ``--eval`` the run is exported as MJCF bundles and Semantic A*, Random A* (both opening furniture with doors or
+drawers where they do not see the goal) and Semantic A* that never opens are evaluated; the tables show every
+episode and, apart, the "inside" episodes (a goal hidden in a closed part) and those whose every goal is hidden.
 """
 
 from __future__ import annotations
@@ -45,6 +50,8 @@ def main() -> int:
     ap.add_argument("--variants", type=int, default=5, help="variants per apartment")
     ap.add_argument("--categories", nargs="*", default=[], help="object categories (default: all)")
     ap.add_argument("--out", type=Path, default=None, help="run folder (default: a temporary one)")
+    ap.add_argument("--eval", action="store_true", help="export MJCF bundles and evaluate the A* baselines on them")
+    ap.add_argument("--width", type=int, default=320, help="agent camera width for --eval (height 3/4 of it)")
     args = ap.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="bench_articulated_")) / "run"
     cfg_path = out.parent / "articulated.yaml"
@@ -57,7 +64,38 @@ def main() -> int:
         print(proc.stdout[-3000:], proc.stderr[-3000:])
         return 1
     print(f"pipeline to episodes: {time.perf_counter() - t0:.0f} s ({len(args.scenes)} apartments x {args.variants} variants)")
-    return report(out)
+    rc = report(out)
+    if rc == 0 and args.eval:
+        rc = evaluate_agents(out, args.width)
+    return rc
+
+
+def evaluate_agents(out: Path, width: int) -> int:
+    """Export the run as MJCF bundles and print the A* baselines' tables (all episodes, then the inside ones)."""
+    from sdovon_mj.config import AgentConfig, NavConfig
+    from sdovon_mj.nav.agents import RandomAStar, SemanticAStar
+    from sdovon_mj.suite.evaluate import evaluate, inside_table, overall_table, summarize
+
+    mjcf = out.parent / "mjcf"
+    if not mjcf.exists():
+        proc = subprocess.run([sys.executable, "-m", "sdovon_mj.cli", "export", str(out), "--format", "mjcf", "--out",
+                               str(mjcf)], cwd=REPO, capture_output=True, text=True)
+        if proc.returncode != 0:
+            print(proc.stdout[-3000:], proc.stderr[-3000:])
+            return 1
+    body, nav = AgentConfig(sensor_width=width, sensor_height=width * 3 // 4), NavConfig()
+    rows = {}
+    for label, agent in (("semantic-astar", SemanticAStar(nav, agent=body)),
+                         ("random-astar", RandomAStar(nav, agent=body)),
+                         ("semantic-astar never opens", SemanticAStar(nav, agent=body, open_tries=0))):
+        t0 = time.perf_counter()
+        res = evaluate(mjcf, agent, nav, progress=False)
+        rows[label] = summarize(res)
+        opened = sum(1 for r in res if r["info"].get("opened", 0) > 0)
+        print(f"{label}: {len(res)} episodes in {time.perf_counter() - t0:.0f} s; opened a part in {opened}", flush=True)
+    print(overall_table(rows, paper=False))
+    print("\nInside articulated receptacles:\n" + (inside_table(rows) or "(no inside episode)"))
+    return 0
 
 
 def report(out: Path) -> int:

@@ -2,6 +2,8 @@
 
     python bench/bench_baselines.py --dataset RUN/export/mjcf [--episodes N] [--width 320] [--quick]
     python bench/bench_baselines.py --generate /tmp/nav300 [--scenes 0 1 2 3] [--variants 3] [--k-e 3]
+    python bench/bench_baselines.py --dataset D --per-scene 5 --rows semantic-astar random-astar --json a.json
+    python bench/bench_baselines.py --merge a.json b.json        # one table from rows run in separate processes
 
 Rows: Semantic A*, Random A* (own exploration + ExtractPlanes, GT detector, localized), the no-prior Semantic
 Frontier agent (GPS+compass only), each with the paper's FN, without FN and with our lattice FN; then Semantic
@@ -21,7 +23,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from sdovon_mj.config import AgentConfig, NavConfig, load_config  # noqa: E402
 from sdovon_mj.nav.agents import RandomAStar, SemanticAStar, SemanticFrontierAgent  # noqa: E402
-from sdovon_mj.suite.evaluate import episodes_per_minute, evaluate, overall_table, summarize  # noqa: E402
+from sdovon_mj.suite.evaluate import (episodes_per_minute, evaluate, inside_table, overall_table,  # noqa: E402
+                                      select_bundles, summarize)
 
 
 def generate_dataset(root: Path, scenes: list[int], variants: int, k_e: int) -> Path:
@@ -49,7 +52,23 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="the three agents with the paper's FN only")
     ap.add_argument("--no-ablation", action="store_true",
                     help="the three agents with the paper's FN and both A* agents without FN (no lattice/ORACLE rows)")
+    ap.add_argument("--per-scene", type=int, default=None,
+                    help="evaluate the first N variants of every scene (a balanced subset of a large dataset)")
+    ap.add_argument("--rows", nargs="*", default=None, help="run only the rows with these labels (as printed, e.g. 'semantic-astar no-FN')")
+    ap.add_argument("--json", default=None, help="write the rows' summaries (and per-episode results) to this file")
+    ap.add_argument("--merge", nargs="*", default=None, help="print one table from --json files of earlier runs")
     a = ap.parse_args()
+    if a.merge:
+        import json
+
+        rows = {}
+        for f in a.merge:
+            rows.update(json.loads(Path(f).read_text())["rows"])
+        print(overall_table(rows, paper=False))
+        inside = inside_table(rows)
+        if inside:
+            print("\nInside articulated receptacles:\n" + inside)
+        return
     root = Path(a.dataset) if a.dataset else generate_dataset(Path(a.generate), a.scenes, a.variants, a.k_e)
     body = AgentConfig(sensor_width=a.width, sensor_height=a.width * 3 // 4)
     nav, lattice = NavConfig(), replace(NavConfig(), fn_mode="lattice")
@@ -63,15 +82,29 @@ def main() -> None:
                  ("random-astar lattice-FN", RandomAStar(nav=lattice, agent=body))]
         for parts in (("relevance",), ("region_map",), ("navmap",), ("relevance", "region_map", "navmap")):
             runs.append((f"ORACLE semantic-astar + {'+'.join(parts)}", SemanticAStar(agent=body, oracle_parts=parts)))
-    rows = {}
+    if a.rows is not None:
+        runs = [(label, agent) for label, agent in runs if label in a.rows]
+    data = select_bundles(root, a.per_scene) if a.per_scene else root
+    rows, per_episode = {}, {}
     for label, agent in runs:
         t0 = time.perf_counter()
-        res = evaluate(root, agent, nav if "lattice" not in label else lattice, a.episodes, progress=False)
-        rows[label] = {**summarize(res), "episodes_per_minute": episodes_per_minute(res, time.perf_counter() - t0)}
+        res = evaluate(data, agent, nav if "lattice" not in label else lattice, a.episodes, progress=False)
+        rows[label] = {**summarize(res), "knowledge": res[0]["knowledge"] if res else "",
+                       "episodes_per_minute": episodes_per_minute(res, time.perf_counter() - t0)}
+        per_episode[label] = [{k: r[k] for k in ("episode_id", "scene", "success", "spl", "soft_spl", "inside",
+                                                 "must_open")} for r in res]
         print(f"{label}: {len(res)} episodes, SR {rows[label]['success']:.3f}, SPL {rows[label]['spl']:.3f}, "
               f"{rows[label]['episodes_per_minute']:.1f} episodes/min", flush=True)
+    if a.json:
+        import json
+
+        Path(a.json).write_text(json.dumps({"dataset": str(root), "per_scene": a.per_scene, "rows": rows,
+                                            "episodes": per_episode}, default=float, indent=1), encoding="utf-8")
     print()
     print(overall_table(rows, paper=False))
+    inside = inside_table(rows)
+    if inside:
+        print("\nInside articulated receptacles:\n" + inside)
 
 
 if __name__ == "__main__":

@@ -201,7 +201,7 @@ def main() -> None:
     n_var, n_eps = episodes_in(out)
     objects_wall = sum(sum(t["seconds"].values()) for t in timings["tasks"] if t["task"] == "objects")
     wall_ex = wall - objects_wall  # the objects task runs alone, before the others
-    print(f"\nvariants {n_var}, episodes {n_eps} ({n_eps / max(n_var, 1):.1f} per variant; SD-OVON-3k: "
+    print(f"\nvariants {n_var}, episodes {n_eps} ({n_eps / max(n_var, 1):.1f} per variant; {FULL['name']}: "
           f"{FULL['episodes'] / FULL['variants']:.1f})")
     print(f"wall {wall:.0f} s, of which object library + conversion {objects_wall:.0f} s (cached objects: fast)")
     print(f"episodes per hour (wall, objects excluded): {3600 * n_eps / max(wall_ex, 1e-9):.0f}")

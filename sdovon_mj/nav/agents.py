@@ -31,7 +31,7 @@ from typing import Callable, Generator
 
 import numpy as np
 
-from ..actions import LOOK_DOWN, LOOK_UP, STOP, TURN_LEFT
+from ..actions import LOOK_DOWN, LOOK_UP, OPEN, STOP, TURN_LEFT
 from ..config import AgentConfig, NavConfig, PerceiveConfig, ReceptacleConfig, SemanticsConfig
 from ..errors import InputError
 from ..grid import segment_free
@@ -42,7 +42,12 @@ from ..sim.camera import pose_cv
 from .control import Navigator, blocked_cells, lattice_approach, segment_checker
 from .frontier import OccupancyMap, agent_frame, explore, scan_actions
 from .goal import approach_point, goal_points, infer_view_points, object_centre
-from .memory import SceneMemory, build_memory, extract_planes
+from .memory import SceneMemory, build_memory, container_planes, extract_planes
+
+# Receptacles the A* agents try to open (OPEN) when they do not see the goal at them: furniture with doors or
+# drawers, named by the labels their detector gives (what a robot that knows such furniture opens would try).
+OPENABLE_LABELS = ("cabinet", "kitchen cabinet", "wall cabinet", "cupboard", "dresser", "chest of drawers", "drawer",
+                   "wardrobe", "closet", "fridge", "refrigerator", "microwave", "nightstand", "oven", "dishwasher")
 
 # Scene memories built by exploration, shared by every A* agent of a process (eval runs four agents
 # over the same scenes); keyed by scene, navmap, labels and exploration settings.
@@ -168,7 +173,8 @@ class ReceptacleAStar(Agent):
                  receptacle_labels: tuple[str, ...] | None = None, explore_steps: int = 3000,
                  explore_size: tuple[int, int] = (160, 120), semantics: SemanticsConfig | None = None,
                  perceive: PerceiveConfig | None = None, oracle_parts: tuple[str, ...] = (),
-                 agent: AgentConfig | None = None) -> None:
+                 agent: AgentConfig | None = None, open_labels: tuple[str, ...] = OPENABLE_LABELS,
+                 open_tries: int = 3) -> None:
         """Build the agent.
 
         Parameters
@@ -195,8 +201,17 @@ class ReceptacleAStar(Agent):
             map), ``region_map``, ``relevance`` (the table that drove placement), ``instance_labels``.
         agent
             The agent's body, camera and ``eta_gt`` (default `AgentConfig()`).
+        open_labels
+            Receptacle labels the agent treats as furniture with doors or drawers (default `OPENABLE_LABELS`): it
+            keeps such pieces in its memory even when exploration found no plane on them (a closed fridge), and at
+            each of their navigation points where it does not see the goal it tries OPEN (issue 17). Empty: never.
+        open_tries
+            OPEN actions tried at one navigation point at most; it stops trying when an OPEN changes nothing it
+            sees (no part was in reach).
         """
         super().__init__(nav, seed, agent)
+        self.open_labels = tuple(l.lower() for l in open_labels)
+        self.open_tries = int(open_tries)
         self.final_nav = self.nav.final_nav if final_nav is None else bool(final_nav)
         self.receptacle_labels = ReceptacleConfig().labels if receptacle_labels is None else tuple(receptacle_labels)
         self.explore_steps = explore_steps
@@ -228,7 +243,7 @@ class ReceptacleAStar(Agent):
         scene = bundle.scene
         if scene in self.memories:
             return
-        key = (scene, tuple(self.receptacle_labels), self.explore_steps, tuple(self.explore_size), self.oracle_parts,
+        key = (scene, tuple(self.receptacle_labels), self.open_labels, self.explore_steps, tuple(self.explore_size), self.oracle_parts,
                dataclasses.replace(self.nav, final_nav=True, fn_mode="paper"), self.agent_config, self.semantics,
                self.perceive, tuple(sorted(getattr(self.detector, "labels", {}).items())))
         if key in _MEMORY_CACHE:
@@ -247,6 +262,8 @@ class ReceptacleAStar(Agent):
             labels = tuple(identify_receptacles(seen, self.backend()))
         instances, planes, rm, navmap = extract_planes(frames, self.detector, labels, occ, self.backend(),
                                                        self.perceive, ReceptacleConfig(), self.semantics)
+        if self.open_labels:  # furniture with doors or drawers but no plane seen (a closed fridge): keep it too
+            planes = planes + container_planes(instances, planes, self.open_labels, navmap, rm)
         trav, frame = occ.traversable(), occ.frame
         if "navmap" in self.oracle_parts:  # ORACLE: plan on the generator's map
             nm = bundle.oracle.navmap(0)
@@ -318,6 +335,28 @@ class ReceptacleAStar(Agent):
         for a in seq:
             yield from self._rendered(a)
             mask = self._detect()
+            if mask is not None:
+                return mask
+        return None
+
+    def _open_and_look(self) -> Generator[int, object, np.ndarray | None]:
+        """Try OPEN (up to ``open_tries`` times) at the piece in front and look after each; return a goal mask or None.
+
+        The agent sees what an OPEN did: when its depth image does not change, nothing was in reach and it stops
+        trying. Parts it opened stay open (``info['opened']`` counts them).
+        """
+        for _ in range(self.open_tries):
+            if self.env.steps >= self.nav.max_steps - 20:
+                return None
+            before = np.asarray(self.ts.observation["depth"], float).copy()
+            yield from self._rendered(OPEN)
+            after = np.asarray(self.ts.observation["depth"], float)
+            if not np.any(np.abs(after - before) > 0.02):
+                return None
+            self.opened += 1
+            mask = self._detect()
+            if mask is None:
+                mask = yield from self._observe()
             if mask is not None:
                 return mask
         return None
@@ -431,7 +470,7 @@ class ReceptacleAStar(Agent):
         goal = self._reconstruct(mask)
         self.info = {"detected": True, "goal": object_centre(goal).tolist() if len(goal) else None,
                      "nav_points": visited, "receptacle": entry.plane.label if entry else "",
-                     "region": entry.region if entry else ""}
+                     "region": entry.region if entry else "", "opened": int(getattr(self, "opened", 0))}
         if self.final_nav and len(goal):
             self.info.update((yield from self._final_nav(memory, nv, goal)))
         yield STOP
@@ -444,6 +483,7 @@ class ReceptacleAStar(Agent):
         rng = np.random.default_rng([self.seed, int(env.episode_index)])
         nv = self._navigator(memory)
         visited = 0
+        self.opened = 0
         mask = self._detect()  # the goal may be in view where the episode starts
         if mask is not None:
             yield from self._found(memory, nv, mask, None, visited)
@@ -459,12 +499,14 @@ class ReceptacleAStar(Agent):
                 yield from self._face(nv, entry.centre)
                 visited += 1
                 mask = yield from self._observe()
+                if mask is None and entry.plane.label.lower() in self.open_labels:
+                    mask = yield from self._open_and_look()
                 if mask is not None:
                     yield from self._found(memory, nv, mask, entry, visited)
                     return
                 pos = np.asarray(self.ts.observation["position"], float)[:2]
                 pts = [p for p in pts if np.linalg.norm(p - pos) >= self.nav.d_next]
-        self.info = {"detected": False, "nav_points": visited}
+        self.info = {"detected": False, "nav_points": visited, "opened": self.opened}
         yield STOP
 
 

@@ -117,6 +117,30 @@ def planes_from_instances(instances: Sequence[Instance], receptacle_labels: Sequ
     return out
 
 
+def container_planes(instances: Sequence[Instance], planes: Sequence[ReceptaclePlane], labels: Sequence[str],
+                     navmap: Any, regions: Any) -> list[ReceptaclePlane]:
+    """Return a footprint plane for each instance of an openable label that has no plane yet (a closed fridge).
+
+    Exploration with doors and drawers as they are finds no plane inside a closed piece and often none on it; an
+    agent that opens furniture still has to remember where the piece stands. Its plane is the top slab of the
+    points seen (`top_plane`), annotated with its region on the agent's own region map (`semantics.annotate_planes`);
+    ids follow the given planes'. Empty `labels`: none.
+    """
+    from ..semantics import annotate_planes
+
+    want = {str(l).lower() for l in labels}
+    have = {int(p.instance_id) for p in planes}
+    next_id = max((int(p.id) for p in planes), default=-1) + 1
+    out = []
+    for inst in instances:
+        if inst.label.lower() not in want or int(inst.id) in have:
+            continue
+        pl = top_plane(inst, next_id + len(out))
+        if pl is not None:
+            out.append(pl)
+    return annotate_planes(out, {0: (navmap, regions)}) if out else []
+
+
 def sample_nav_points(plane: ReceptaclePlane, traversable: np.ndarray, frame: GridFrame, near: float = 0.25,
                       far: float = 1.0, spacing: float = 0.5) -> np.ndarray:
     """Return navigation points (K, 2): traversable cells `near`..`far` m from the plane, `spacing` apart."""

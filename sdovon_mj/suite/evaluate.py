@@ -44,14 +44,15 @@ def make_agent(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True,
     return factory(nav=replace(nav, final_nav=bool(final_nav)), agent=agent or AgentConfig(), seed=seed)
 
 
-def evaluate(dataset: str | Path, agent: Any, nav: NavConfig | None = None, episodes: int | None = None,
+def evaluate(dataset: str | Path | list[Path], agent: Any, nav: NavConfig | None = None, episodes: int | None = None,
              out: Path | None = None, label: str | None = None, progress: bool = True) -> list[dict]:
     """Run an agent over a dataset's episodes; return (and optionally write) one result dict per episode.
 
     Parameters
     ----------
     dataset
-        MJCF bundle dataset folder (variant folders with episodes.json), or one variant folder.
+        MJCF bundle dataset folder (variant folders with episodes.json), one variant folder, or a list of variant
+        folders (a subset of a dataset, e.g. `select_bundles`).
     agent
         An agent following the protocol of `nav.agents` (prepare, reset, act, wants_frame); its
         ``agent_config`` (`AgentConfig`, default `AgentConfig()`) builds the environments.
@@ -70,7 +71,8 @@ def evaluate(dataset: str | Path, agent: Any, nav: NavConfig | None = None, epis
     body = getattr(agent, "agent_config", None) or AgentConfig()
     know = knowledge_of(agent)
     gt = know.detector == "gt"
-    bundles = [load_bundle(p) for p in find_bundles(dataset)]
+    paths = find_bundles(dataset) if isinstance(dataset, (str, Path)) else [Path(p) for p in dataset]
+    bundles = [load_bundle(p) for p in paths]
     total = sum(len(b.episodes) for b in bundles)
     limit = total if episodes is None else min(int(episodes), total)
     label = label or agent.name
@@ -117,6 +119,19 @@ def evaluate(dataset: str | Path, agent: Any, nav: NavConfig | None = None, epis
             finally:
                 env.task.close()
     return results
+
+
+def select_bundles(dataset: str | Path, per_scene: int) -> list[Path]:
+    """Return the first `per_scene` variant folders of every scene of a dataset (scenes and variants sorted).
+
+    A balanced subset for evaluating on many scenes at once (`evaluate` takes the list): the first N episodes of
+    a dataset all come from its first scene.
+    """
+    by_scene: dict[str, list[Path]] = {}
+    for p in find_bundles(dataset):
+        eps = load_bundle(p).episodes
+        by_scene.setdefault(str(eps[0].scene) if eps else p.name, []).append(p)
+    return [p for scene in sorted(by_scene) for p in sorted(by_scene[scene])[:per_scene]]
 
 
 def _finite(x: Any) -> Any:
