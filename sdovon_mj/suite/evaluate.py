@@ -27,7 +27,7 @@ from ..store import atomic_write_bytes, atomic_write_text
 from ..knowledge import knowledge_of
 from ..perceive.gt_detector import GroundTruthDetector
 from .boundary import AgentBundle, AgentEnv
-from .bundle import find_bundles, load_bundle
+from .bundle import Bundle, find_bundles, load_bundle
 from .objectnav import make_environment
 
 PAPER = {  # SD-OVON tables 4 and 5 (ground-truth detector), for the closing comparison
@@ -44,7 +44,7 @@ def make_agent(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True,
     return factory(nav=replace(nav, final_nav=bool(final_nav)), agent=agent or AgentConfig(), seed=seed)
 
 
-def evaluate(dataset: str | Path | list[Path], agent: Any, nav: NavConfig | None = None, episodes: int | None = None,
+def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConfig | None = None, episodes: int | None = None,
              out: Path | None = None, label: str | None = None, progress: bool = True) -> list[dict]:
     """Run an agent over a dataset's episodes; return (and optionally write) one result dict per episode.
 
@@ -52,7 +52,7 @@ def evaluate(dataset: str | Path | list[Path], agent: Any, nav: NavConfig | None
     ----------
     dataset
         MJCF bundle dataset folder (variant folders with episodes.json), one variant folder, or a list of variant
-        folders (a subset of a dataset, e.g. `select_bundles`).
+        folders (a subset of a dataset, e.g. `select_bundles`) or loaded `Bundle`s.
     agent
         An agent following the protocol of `nav.agents` (prepare, reset, act, wants_frame); its
         ``agent_config`` (`AgentConfig`, default `AgentConfig()`) builds the environments.
@@ -71,8 +71,8 @@ def evaluate(dataset: str | Path | list[Path], agent: Any, nav: NavConfig | None
     body = getattr(agent, "agent_config", None) or AgentConfig()
     know = knowledge_of(agent)
     gt = know.detector == "gt"
-    paths = find_bundles(dataset) if isinstance(dataset, (str, Path)) else [Path(p) for p in dataset]
-    bundles = [load_bundle(p) for p in paths]
+    paths = find_bundles(dataset) if isinstance(dataset, (str, Path)) else list(dataset)
+    bundles = [p if isinstance(p, Bundle) else load_bundle(p) for p in paths]
     total = sum(len(b.episodes) for b in bundles)
     limit = total if episodes is None else min(int(episodes), total)
     label = label or agent.name
