@@ -39,6 +39,14 @@ def generate_dataset(root: Path, scenes: list[int], variants: int, k_e: int) -> 
     return root / "export" / "mjcf"
 
 
+def print_tables(rows: dict) -> None:
+    """Print the overall table and, when some episodes hide a goal in a closed part, the inside table."""
+    print(overall_table(rows, paper=False))
+    inside = inside_table(rows)
+    if inside:
+        print("\nInside articulated receptacles:\n" + inside)
+
+
 def main() -> None:
     """Run the agents and print the tables."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -64,10 +72,7 @@ def main() -> None:
         rows = {}
         for f in a.merge:
             rows.update(json.loads(Path(f).read_text())["rows"])
-        print(overall_table(rows, paper=False))
-        inside = inside_table(rows)
-        if inside:
-            print("\nInside articulated receptacles:\n" + inside)
+        print_tables(rows)
         return
     root = Path(a.dataset) if a.dataset else generate_dataset(Path(a.generate), a.scenes, a.variants, a.k_e)
     body = AgentConfig(sensor_width=a.width, sensor_height=a.width * 3 // 4)
@@ -101,10 +106,7 @@ def main() -> None:
         Path(a.json).write_text(json.dumps({"dataset": str(root), "per_scene": a.per_scene, "rows": rows,
                                             "episodes": per_episode}, default=float, indent=1), encoding="utf-8")
     print()
-    print(overall_table(rows, paper=False))
-    inside = inside_table(rows)
-    if inside:
-        print("\nInside articulated receptacles:\n" + inside)
+    print_tables(rows)
 
 
 if __name__ == "__main__":

@@ -44,16 +44,17 @@ class RecordError(SdovonError, ValueError):
 
 
 @functools.lru_cache(maxsize=None)
-def _record_fields(cls: type) -> tuple[dict[str, Any], tuple[dataclasses.Field, ...]]:
-    """Return a record class's resolved type hints and dataclass fields (resolved once per class: decoding a run
-    folder's records evaluated the string annotations again for every record)."""
-    return get_type_hints(cls), dataclasses.fields(cls)
+def _fields(cls: type) -> tuple[dataclasses.Field, ...]:
+    """Return a record class's dataclass fields in declaration order (once per class)."""
+    return dataclasses.fields(cls)
 
 
 @functools.lru_cache(maxsize=None)
-def _field_names(cls: type) -> tuple[str, ...]:
-    """Return a record class's field names in declaration order (once per class)."""
-    return tuple(f.name for f in dataclasses.fields(cls))
+def _hints(cls: type) -> dict[str, Any]:
+    """Return a record class's resolved type hints (once per class: decoding a run folder's records evaluated the
+    string annotations again for every record). Callers read it, never change it."""
+    return get_type_hints(cls)
+
 
 def _encode(value: Any) -> Any:
     """Encode a field value as JSON-able data, arrays exactly."""
@@ -145,8 +146,8 @@ class Record:
     def to_dict(self) -> dict[str, Any]:
         """Return the record as JSON-able data (arrays encoded exactly)."""
         out: dict[str, Any] = {TAG: self.record_type()}
-        for name in _field_names(type(self)):
-            out[name] = _encode(getattr(self, name))
+        for f in _fields(type(self)):
+            out[f.name] = _encode(getattr(self, f.name))
         return out
 
     @classmethod
@@ -157,9 +158,9 @@ class Record:
         kind = data.get(TAG, cls.record_type())
         if kind != cls.record_type():
             raise RecordError(f"expected a {cls.record_type()} record, found {kind}")
-        hints, fields = _record_fields(cls)
+        hints = _hints(cls)
         kwargs = {}
-        for f in fields:
+        for f in _fields(cls):
             if f.name in data:
                 kwargs[f.name] = _decode(data[f.name], hints[f.name])
             elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:  # type: ignore[misc]

@@ -117,9 +117,8 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
     pose_settled(model, data, variant.qpos, path)
     spec_dir = path.parent
     used: dict[str, Path] = {}
-    copied: list[Path] = []
+    copied: dict[Path, None] = {}  # files this variant uses, in first-use order
     taken: dict[tuple[str, str], str] = {}  # (file, subdir) -> name: a mesh used by many geoms is resolved once
-    in_copied: set[Path] = set()
 
     def take(file: str, subdir: str) -> str:
         if not file:
@@ -135,15 +134,14 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
         else:
             name = _bundle_name(src, used, run.root)
             dst = bundle_dir / "assets" / name
-        if dst not in in_copied:
+        if dst not in copied:
             if seen is None or dst not in seen:
                 if not (shared is not None and dst.is_file() and dst.stat().st_size == src.stat().st_size
                         and file_hash(dst) == file_hash(src)):  # shared: another unit wrote it already
                     atomic_copy(src, dst)
                 if seen is not None:
                     seen.add(dst)
-            copied.append(dst)
-            in_copied.add(dst)
+            copied[dst] = None
         taken[(file, subdir)] = name
         return name
 
@@ -165,7 +163,7 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
     if variant.qpos is not None and not any(k.name == "settled" for k in spec.keys):
         spec.add_key(name="settled", qpos=np.asarray(data.qpos, dtype=float).copy())
     spec.modelfiledir = str(bundle_dir.resolve()) + os.sep  # to_xml recompiles: resolve assets in the bundle
-    return spec.to_xml(), copied
+    return spec.to_xml(), list(copied)
 
 
 def write_scene_oracle(run: RunView, scene: str, odir: Path, navmaps: list[NavMap]) -> dict[str, object]:

@@ -212,6 +212,7 @@ class ReceptacleAStar(Agent):
         super().__init__(nav, seed, agent)
         self.open_labels = tuple(l.lower() for l in open_labels)
         self.open_tries = int(open_tries)
+        self.opened = 0  # parts opened in the current episode (info['opened'])
         self.final_nav = self.nav.final_nav if final_nav is None else bool(final_nav)
         self.receptacle_labels = ReceptacleConfig().labels if receptacle_labels is None else tuple(receptacle_labels)
         self.explore_steps = explore_steps
@@ -470,7 +471,7 @@ class ReceptacleAStar(Agent):
         goal = self._reconstruct(mask)
         self.info = {"detected": True, "goal": object_centre(goal).tolist() if len(goal) else None,
                      "nav_points": visited, "receptacle": entry.plane.label if entry else "",
-                     "region": entry.region if entry else "", "opened": int(getattr(self, "opened", 0))}
+                     "region": entry.region if entry else "", "opened": self.opened}
         if self.final_nav and len(goal):
             self.info.update((yield from self._final_nav(memory, nv, goal)))
         yield STOP

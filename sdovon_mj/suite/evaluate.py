@@ -121,17 +121,19 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     return results
 
 
-def select_bundles(dataset: str | Path, per_scene: int) -> list[Path]:
-    """Return the first `per_scene` variant folders of every scene of a dataset (scenes and variants sorted).
+def select_bundles(dataset: str | Path, per_scene: int) -> list[Bundle]:
+    """Return the first `per_scene` variants of every scene of a dataset, loaded (scenes and variant folders sorted).
 
-    A balanced subset for evaluating on many scenes at once (`evaluate` takes the list): the first N episodes of
-    a dataset all come from its first scene.
+    A balanced subset for evaluating on many scenes at once (`evaluate` takes the list, and every run over it reuses
+    the loaded bundles): the first N episodes of a dataset all come from its first scene.
     """
-    by_scene: dict[str, list[Path]] = {}
+    by_scene: dict[str, list[Bundle]] = {}
     for p in find_bundles(dataset):
-        eps = load_bundle(p).episodes
-        by_scene.setdefault(str(eps[0].scene) if eps else p.name, []).append(p)
-    return [p for scene in sorted(by_scene) for p in sorted(by_scene[scene])[:per_scene]]
+        b = load_bundle(p)
+        kept = by_scene.setdefault(str(b.episodes[0].scene) if b.episodes else p.name, [])
+        if len(kept) < per_scene:
+            kept.append(b)
+    return [b for scene in sorted(by_scene) for b in by_scene[scene]]
 
 
 def _finite(x: Any) -> Any:
