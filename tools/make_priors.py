@@ -283,7 +283,7 @@ SYN = {
  "microwave oven": "microwave", "range hood fan": "range hood", "extractor hood": "range hood", "tv monitor": "tv",
  "speakers": "speaker", "sound bar": "speaker", "soundbar": "speaker", "bookshelves": "bookshelf", "grand piano": "piano",
  "keyboard piano": "piano", "office desk": "desk", "filing cabinets": "filing cabinet", "file cabinet": "filing cabinet",
- "staircase": "stairs", "stair": "stairs", "doorway": "door", "lamp shade": "lamp", "chandelier": "ceiling light",
+ "staircase": "stairs", "stair": "stairs", "doorway": "door", "door frame": "door", "lamp shade": "lamp", "chandelier": "ceiling light",
  "pendant light": "ceiling light", "light fixture": "ceiling light", "ceiling lamp": "ceiling light", "wall lamp": "lamp",
  "floorlamp": "floor lamp", "plant": "plant",
 }
