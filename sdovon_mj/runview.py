@@ -46,6 +46,13 @@ class RunView:
         """Return the absolute path of a run-relative path."""
         return self.root / Path(rel)
 
+    def config(self) -> Any:
+        """Return the run's resolved `RunConfig` (``config.yaml``; the defaults where a run folder has none)."""
+        from .config import load_config
+
+        path = self.root / "config.yaml"
+        return load_config(path if path.is_file() else None)
+
     def scene_names(self) -> list[str]:
         """Return the scene names (sorted)."""
         return sorted(p.parent.name for p in (self.root / "scenes").glob("*/scene.json"))

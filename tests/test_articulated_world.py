@@ -21,7 +21,7 @@ from sdovon_mj.world import generate_apartment, write_apartment
 from sdovon_mj.world.articulated import SIZES
 
 SEEDS = (0, 1, 2, 3)
-ROOMS_OF = {"fridge": {"kitchen"}, "cabinet": {"kitchen"}, "microwave": {"kitchen"},
+ROOMS_OF = {"fridge": {"kitchen"}, "cabinet": {"kitchen", "bathroom"}, "microwave": {"kitchen"},
             "wardrobe": {"bedroom"}, "dresser": {"bedroom", "living room", "dining room", "office"}}
 
 

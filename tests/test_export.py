@@ -153,7 +153,12 @@ def test_mjcf_bundle_loads_anywhere_and_view_points_see_objects(run_dir, tmp_pat
     bdir = out / "ds/room_v000"
     # Assets are shared per dataset under their run-relative paths; the bundle refers to them relatively.
     assert (out / "ds/assets/objects/mug_a/mug.obj").is_file() and not (bdir / "assets").exists()
-    assert json.loads((bdir / "bundle.json").read_text())["assets"] == "../assets/"
+    meta = json.loads((bdir / "bundle.json").read_text())
+    assert meta["assets"] == "../assets/"
+    # the view points' visibility definition travels with the bundle (the suite's "goal seen" check renders so)
+    ecfg, acfg = RunView(run_dir).config().episodes, RunView(run_dir).config().agent
+    assert meta["visibility"] == {"width": ecfg.vis_width, "height": ecfg.vis_height, "eta_gt": acfg.eta_gt}
+    assert load_bundle(bdir).visibility == meta["visibility"]
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
@@ -191,6 +196,18 @@ def test_mjcf_bundle_loads_anywhere_and_view_points_see_objects(run_dir, tmp_pat
                     assert best >= AgentConfig().eta_gt, (g.object_id, vp.position)
                     n_checked += 1
     assert n_checked >= 20
+
+
+def test_bundle_with_a_bad_visibility_record_names_the_file(tmp_path):
+    from sdovon_mj.errors import InputError
+    from sdovon_mj.suite.bundle import _visibility
+
+    assert _visibility(tmp_path, {}) == {}
+    assert _visibility(tmp_path, {"visibility": {"width": 160, "height": 120, "eta_gt": 1e-4}})["width"] == 160
+    with pytest.raises(InputError, match="bundle.json.*visibility"):
+        _visibility(tmp_path, {"visibility": {"width": 160, "eta_gt": 1e-4}})
+    with pytest.raises(InputError, match="eta_gt <= 1"):
+        _visibility(tmp_path, {"visibility": {"width": 160, "height": 120, "eta_gt": 5}})
 
 
 def test_output_policy_refuse_merge(run_dir, tmp_path):

@@ -328,6 +328,9 @@ class MjcfBundleExporter(Exporter):
         scratch = ExportReport(format=self.name, out_dir=str(out_dir), name=options.name)
         written: list[Path] = []
         seen: set[Path] = set()
+        cfg = run.config()
+        # The episodes' visibility definition: the suite's "goal seen" check renders the same way.
+        visibility = {"width": cfg.episodes.vis_width, "height": cfg.episodes.vis_height, "eta_gt": cfg.agent.eta_gt}
         for scene in unit.scenes or ():
             navmaps = None
             scene_oracle: dict[str, object] | None = None
@@ -358,6 +361,7 @@ class MjcfBundleExporter(Exporter):
                         "oracle": "oracle/", "object_labels": "oracle/object_labels.json",
                         **_oracle_meta(scene_oracle, odir, bdir),
                         "keyframe": "settled" if variant.qpos is not None else "",
+                        "visibility": visibility,
                         "categories": sorted({e.object_category for e in eps}), "n_episodes": len(eps),
                         "frame": "mujoco: metres, Z up, quaternions wxyz; positions are the agent base on the floor"}
                 atomic_write_text(bdir / "bundle.json", json.dumps(meta, indent=1, sort_keys=True) + "\n")

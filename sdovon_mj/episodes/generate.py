@@ -73,7 +73,8 @@ def build_goals(variant: SceneVariant, navmaps: list[NavMap], store_root: str | 
             if nm is None:
                 dropped[p.object_id] = "below every floor"
                 continue
-            vps = object_view_points(checker, nm, box, cfg, agent)
+            # inside an articulated piece every navigable cell is rendered (short cuts miss slivers past a part)
+            vps = object_view_points(checker, nm, box, cfg, agent, exhaustive=bool(p.part))
             open_part = None
             if not vps and p.part and variant.articulation:  # hidden in a closed door or drawer: seen once it opens
                 from .inside import view_points_with_part_open

@@ -50,10 +50,13 @@ def part_opened(model: mujoco.MjModel, data: mujoco.MjData, part: str, object_id
         mujoco.mj_forward(model, data)
 
 
-def seen_fraction(model: mujoco.MjModel, data: mujoco.MjData, goal: Goal, view: ViewPoint, agent: AgentConfig) -> float:
-    """Return the goal object's pixel fraction in a full agent-camera render from a view point (aimed at the object).
+def seen_fraction(model: mujoco.MjModel, data: mujoco.MjData, goal: Goal, view: ViewPoint, agent: AgentConfig,
+                  size: tuple[int, int] | None = None) -> float:
+    """Return the goal object's pixel fraction in a render of everything from a view point (aimed at the object).
 
-    Every scene, ceiling and object geom is drawn (no culling): an independent check of the stored view points.
+    Every scene, ceiling and object geom is drawn (no culling, no ray shortcut): an independent check of the stored
+    view points. Pass the episodes' visibility size (``episodes.vis_width``, ``vis_height``) to check them by their
+    own definition (the suite's "goal seen" check renders so); the agent's sensor size otherwise.
 
     Parameters
     ----------
@@ -65,6 +68,8 @@ def seen_fraction(model: mujoco.MjModel, data: mujoco.MjData, goal: Goal, view: 
         Agent base position on the floor (m); the camera sits `agent.camera_height` above it, aimed at the object.
     agent : AgentConfig
         Camera height (m), HFOV (degrees) and sensor size (px).
+    size : (int, int), optional
+        Render width and height (px); default the agent's sensor size.
     """
     from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
     from ..sim.camera import pose_cv
@@ -76,7 +81,8 @@ def seen_fraction(model: mujoco.MjModel, data: mujoco.MjData, goal: Goal, view: 
         return 0.0
     cam = np.asarray(view.position, float) + np.array([0.0, 0.0, agent.camera_height])
     yaw, pitch = facing(cam, box.center)
-    with SceneRenderer(model, data, width=agent.sensor_width, height=agent.sensor_height, hfov=agent.hfov,
+    width, height = size if size is not None else (agent.sensor_width, agent.sensor_height)
+    with SceneRenderer(model, data, width=width, height=height, hfov=agent.hfov,
                        groups=(GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL)) as r:
         frame = r.render(pose_cv(cam, yaw, float(np.clip(pitch, -80.0, 80.0))), rgb=False, depth=False, segmentation=True)
     seg = segment_image(frame.segmentation, geom_segment_ids(model))
@@ -108,7 +114,7 @@ def view_points_with_part_open(model: mujoco.MjModel, data: mujoco.MjData, part:
         checker = VisibilityChecker(model, data, cfg, agent)
         try:
             box = object_box(model, data, object_id)
-            vps = object_view_points(checker, nm, box, cfg, agent) if box is not None else []
+            vps = object_view_points(checker, nm, box, cfg, agent, exhaustive=True) if box is not None else []
         finally:
             checker.close()
     return vps, box

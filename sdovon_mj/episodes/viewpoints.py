@@ -5,7 +5,9 @@ Dense, as Habitat's ObjectNav datasets: a candidate is a navigable cell on a lat
 a lattice point: 0.15 m on a 0.05 m map for 0.1 m, `lattice_stride`) whose centre lies within
 ``viewpoint_radius`` of the object's XY bounding box, with no cap that thins them. Cheap test first: MuJoCo rays, cast in one vectorised call
 per target point from a 3x3x3 grid of points inside the object's box towards every candidate camera; a
-candidate whose every ray is blocked by scene geometry is dropped without rendering. The kept test is the
+candidate whose every ray is blocked by scene geometry is dropped without rendering (a heuristic: an object that
+shows only a sliver past an enclosure can be seen with every such ray blocked, so objects inside articulated
+pieces skip it and test every cell, ``object_view_points(..., exhaustive=True)``). The kept test is the
 object's pixel fraction in a low-resolution segmentation image (``vis_width`` x ``vis_height``) of the
 agent camera (at agent height, yaw facing the object), which must reach ``eta_gt`` at one of a few
 pitches. Most candidates are confirmed without a render: rays through a subsample of the pixel centres
@@ -427,24 +429,28 @@ class VisibilityChecker:
                 self._seg_corners[seg_id] = None
         return self._seg_corners[seg_id]
 
-    def visible_fraction(self, camera: np.ndarray, box: ObjectBox, keep: np.ndarray | None = None) -> tuple[float, float, float]:
+    def visible_fraction(self, camera: np.ndarray, box: ObjectBox, keep: np.ndarray | None = None,
+                         aimed_only: bool = False) -> tuple[float, float, float]:
         """Return (best pixel fraction, yaw, pitch) of the object seen from a camera position.
 
         ``keep`` is `occluder_candidates` (camera, box), when already computed. The fraction is exact when
         it reaches ``eta_gt``; below it, it is the best of the pitches rendered (a pitch after the first is
         not rendered when `_pixel_bound` proves the object covers fewer pixels than ``eta_gt`` there).
+        ``aimed_only``: only the pitch aimed at the box centre, always rendered (no pixel-ray confirmation,
+        whose ray casts and the rasteriser can disagree on the pixel or two an object shows through a gap):
+        exactly the render the suite's "goal seen" check makes.
         """
         yaw, pitch0 = facing(camera, box.center)
         seg_id = object_segment_id(box.object_id)
         best = (0.0, yaw, pitch0)
-        pitches = [float(np.clip(pitch0, -80.0, 80.0))] + [float(p) for p in self.cfg.pitches]
+        pitches = [float(np.clip(pitch0, -80.0, 80.0))] + ([] if aimed_only else [float(p) for p in self.cfg.pitches])
         # Geoms that cannot touch the object's pixels are neither drawn nor ray-tested (same counts, cheaper).
         hidden = self._drawn[~(self.occluder_candidates(camera, box) if keep is None else keep)]
         groups = self.model.geom_group
         saved = groups[hidden].copy()
         groups[hidden] = GROUP_AGENT  # a group neither the visibility renderer nor the rays see
         try:
-            quick = self.ray_pixels(camera, box, yaw, pitches[0])
+            quick = None if aimed_only else self.ray_pixels(camera, box, yaw, pitches[0])
             if quick is not None:
                 return quick, yaw, pitches[0]
             t0 = time.perf_counter()
@@ -472,8 +478,16 @@ class VisibilityChecker:
 
 
 def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBox, cfg: EpisodeConfig,
-                       agent: AgentConfig = AgentConfig()) -> list[ViewPoint]:
+                       agent: AgentConfig = AgentConfig(), exhaustive: bool = False) -> list[ViewPoint]:
     """Return the valid view points of one object on one floor, best visible fraction first.
+
+    Two short cuts can miss an object that shows only a sliver past an enclosure (a shoe in an ajar drawer, seen
+    from above, from a few cells right in front of the piece): the ray pre-test (`VisibilityChecker.rays_clear`)
+    samples 27 points of the object's box, and the first pass tests only the lattice (the edge ring is refined
+    only around cells that saw it); and a pixel or two past a door's gap can be counted by the pixel rays and
+    not by the rasteriser. ``exhaustive=True`` (objects inside articulated pieces) renders every navigable cell
+    within the radius at the pitch aimed at the object (`VisibilityChecker.visible_fraction` ``aimed_only``),
+    the render the suite's "goal seen" check makes.
 
     Parameters
     ----------
@@ -487,6 +501,9 @@ def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBo
         View-point radius, lattice step, success distance and cap (metres; cap 0 = none).
     agent : AgentConfig
         The agent's body (radius, height) and camera (height, HFOV), metres and degrees.
+    exhaustive : bool
+        Test every navigable cell within the radius (stride 1) and render each at the aimed pitch (no ray
+        pre-test, no pixel rays); default: the lattice, the ray pre-test and the edge ring.
     """
     seen: dict[tuple[int, int], tuple[float, float]] = {}  # cell -> (fraction, yaw) of the cells that see it
     tested: set[tuple[int, int]] = set()
@@ -499,14 +516,14 @@ def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBo
             return
         xy = navmap.frame.to_world(cells)
         cams = np.column_stack([xy, np.full(len(xy), navmap.height + agent.camera_height)])
-        clear = checker.rays_clear(cams, box)
+        clear = np.ones(len(cams), dtype=bool) if exhaustive else checker.rays_clear(cams, box)
         keep = checker.occluder_masks(cams[clear], box)
         for cell, cam, kp in zip(cells[clear], cams[clear], keep):
-            frac, yaw, _pitch = checker.visible_fraction(cam, box, kp)
+            frac, yaw, _pitch = checker.visible_fraction(cam, box, kp, aimed_only=exhaustive)
             if frac >= agent.eta_gt:
                 seen[(int(cell[0]), int(cell[1]))] = (frac, yaw)
 
-    stride = lattice_stride(navmap.resolution, cfg.viewpoint_step, cfg.success_distance)
+    stride = 1 if exhaustive else lattice_stride(navmap.resolution, cfg.viewpoint_step, cfg.success_distance)
     test(candidate_cells(navmap, box, cfg.viewpoint_radius, stride))
     if seen and stride > 1:
         # Refine the edge of the covered area at the grid resolution: the ring of cells not within the

@@ -51,6 +51,9 @@ class Bundle:
     region_maps: list[RegionMap] = field(default_factory=list)
     labels: dict[int, str] = field(default_factory=dict)
     object_labels: dict[int, str] = field(default_factory=dict)
+    # The episodes' visibility definition (bundle.json "visibility": segmentation width, height in px, eta_gt);
+    # empty for bundles written before it was recorded (the suite then uses the episodes config's defaults).
+    visibility: dict[str, float] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -183,6 +186,17 @@ def _load_maps(paths: list[Path], cls: type) -> list:
     return sorted(out, key=lambda m: m.floor)
 
 
+def _visibility(root: Path, meta: dict) -> dict[str, float]:
+    """Return bundle.json's visibility definition (width, height, eta_gt), checked; empty when absent."""
+    vis = meta.get("visibility")
+    if vis is None:
+        return {}
+    ok = isinstance(vis, dict) and all(isinstance(vis.get(k), (int, float)) and vis[k] > 0 for k in ("width", "height", "eta_gt"))
+    if not ok or vis["eta_gt"] > 1:
+        raise InputError(root / "bundle.json", f"'visibility' must hold positive width, height (px) and eta_gt <= 1, got {vis!r}")
+    return {"width": int(vis["width"]), "height": int(vis["height"]), "eta_gt": float(vis["eta_gt"])}
+
+
 def _load_v4(root: Path, meta: dict) -> Bundle:
     """Load a version-4 bundle: the files its bundle.json names (some shared per scene in the dataset)."""
     goals = _named(root, meta, "goals")
@@ -201,7 +215,8 @@ def _load_v4(root: Path, meta: dict) -> Bundle:
     return Bundle(root, model if meta.get("model") and model.is_file() else _find_mjcf(root), episodes,
                   _load_maps(navs["navmaps"], NavMap), None,
                   _load(rel, Relevance) if rel is not None else None, _load_maps(navs["region_maps"], RegionMap),
-                  _labels(labels_p) if labels_p else {}, _labels(objects_p) if objects_p else {})
+                  _labels(labels_p) if labels_p else {}, _labels(objects_p) if objects_p else {},
+                  _visibility(root, meta))
 
 
 def load_bundle(path: str | Path) -> Bundle:

@@ -40,7 +40,7 @@ from dm_env import specs
 
 from .. import metrics as M
 from ..actions import ACTION_NAMES, CLOSE, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, OPEN, STOP, TURN_LEFT, TURN_RIGHT
-from ..config import AgentConfig, NavConfig
+from ..config import AgentConfig, EpisodeConfig, NavConfig
 from ..errors import InputError
 from ..geometry import axis_quat, quat_mul, quat_yaw, yaw_quat
 from ..records import Episode
@@ -172,6 +172,7 @@ class ObjectNavTask(control.Task):
         self.categories = sorted(categories or bundle.categories())
         self.K = intrinsics(agent.sensor_width, agent.sensor_height, agent.hfov)
         self._renderer: SceneRenderer | None = None
+        self._sight: SceneRenderer | None = None
         self._lut: np.ndarray | None = None
         self._graphs: dict[int, tuple] = {}
         self._next_index = 0
@@ -360,8 +361,11 @@ class ObjectNavTask(control.Task):
     def sees_goal(self, physics: Physics) -> bool:
         """Return whether a goal within success distance of its own view points is seen from where the agent stands.
 
-        Seen: its segment covers at least ``agent.eta_gt`` of a render from the agent camera aimed at the goal's
-        box centre (pitch clipped to +-80 deg), the way episode view points are defined.
+        Seen: its segment covers at least ``eta_gt`` of a segmentation render from the agent camera aimed at the
+        goal's box centre (pitch clipped to +-80 deg), the way episode view points are defined: at the episodes'
+        visibility resolution and ``eta_gt`` (the bundle's ``visibility``; the episodes config's defaults and
+        ``agent.eta_gt`` for bundles that do not record it), not at the agent's sensor size, where a small object's
+        pixel share differs by rasterisation.
         """
         pos = self.state.position
         cam = pos + np.array([0.0, 0.0, self.agent.camera_height])
@@ -381,10 +385,11 @@ class ObjectNavTask(control.Task):
             dv = target - cam
             yaw = math.degrees(math.atan2(dv[1], dv[0]))
             pitch = float(np.clip(math.degrees(math.atan2(dv[2], math.hypot(dv[0], dv[1]))), -80.0, 80.0))
-            r = self.renderer(physics)
+            r = self.sight_renderer(physics)
             f = r.render(pose_cv(cam, yaw, pitch), rgb=False, depth=False, segmentation=True)
             ids = segment_image(f.segmentation, self._lut)
-            need = max(int(math.ceil(self.agent.eta_gt * ids.size - 1e-9)), 1)  # as the episodes' VisibilityChecker
+            eta = float(self.bundle.visibility.get("eta_gt", self.agent.eta_gt))
+            need = max(int(math.ceil(eta * ids.size - 1e-9)), 1)  # as the episodes' VisibilityChecker
             if np.count_nonzero(ids == object_segment_id(g.object_id)) >= need:
                 return True
         return False
@@ -431,6 +436,18 @@ class ObjectNavTask(control.Task):
                                            self.agent.sensor_height, self.agent.hfov, znear=0.05, zfar=50.0)
             self._lut = geom_segment_ids(physics.model.ptr)
         return self._renderer
+
+    def sight_renderer(self, physics: Physics) -> SceneRenderer:
+        """Return the (lazily built) segmentation renderer of the "goal seen" check (the episodes' visibility size)."""
+        self.renderer(physics)  # the segment lookup table, bound to this physics
+        if self._sight is None or self._sight.model is not physics.model.ptr:
+            if self._sight is not None:
+                self._sight.close()
+            defaults = EpisodeConfig()
+            w = int(self.bundle.visibility.get("width", defaults.vis_width))
+            h = int(self.bundle.visibility.get("height", defaults.vis_height))
+            self._sight = SceneRenderer(physics.model.ptr, physics.data.ptr, w, h, self.agent.hfov, znear=0.05, zfar=50.0)
+        return self._sight
 
     def camera_pose(self) -> np.ndarray:
         """Return T_cam (world <- OpenCV camera) of the agent camera now."""
@@ -506,9 +523,10 @@ class ObjectNavTask(control.Task):
 
     def close(self) -> None:
         """Free the renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        for r in (self._renderer, self._sight):
+            if r is not None:
+                r.close()
+        self._renderer = self._sight = None
 
 
 def make_physics(bundle: Bundle, agent: AgentConfig = AgentConfig()) -> Physics:

@@ -533,8 +533,9 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
              art: bool = False) -> list[tuple[Factory, str, bool, float]]:
     """Return the room's furniture groups: (factory, mode, required, probability if optional).
 
-    `art` (``world.articulated``): dressers, wardrobes and fridges are articulated pieces and kitchens get an
-    articulated base cabinet with a microwave (`artplace.proxy`).
+    `art` (``world.articulated``): dressers, wardrobes and fridges are articulated pieces, kitchens get an
+    articulated base cabinet with a microwave and bathrooms often a base cabinet (`artplace.proxy`), and living
+    rooms and offices get a dresser more often (homes keep small things in closed storage in every room).
     """
     longest = max(iw, idp)
     shortest = min(iw, idp)
@@ -571,7 +572,7 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
             (_single(FU.wall_shelf), "high", True, 1.0),
             (_tv_group, "wall", False, 0.7),
             (_single(FU.chair, 0.3), "wall", False, 0.3),
-            (_single(dresser, 0.6), "wall", False, 0.25),
+            (_single(dresser, 0.6), "wall", False, 0.5 if art else 0.25),
             (_single(FU.wall_shelf), "high", False, 0.25),
             (_single(FU.floor_lamp), "corner", False, 0.5),
             (_single(FU.picture), "high", False, 0.7),
@@ -583,13 +584,14 @@ def _program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height
             (_vanity, "wall", True, 1.0),
             (_single(FU.wall_shelf), "high", True, 1.0),
             (_single(FU.bathtub, 0.5), "corner", False, 0.6),
+            *([(_single(lambda r: proxy("cabinet", r), 0.6), "wall", False, 0.6)] if art else []),
         ]
     if rtype == "office":
         return [
             (_desk_group, "wall", True, 1.0),
             (_single(bs, 0.5), "corner", True, 1.0),
             (_single(FU.wall_shelf), "high", False, 0.6),
-            (_single(dresser, 0.6), "wall", False, 0.3),
+            (_single(dresser, 0.6), "wall", False, 0.5 if art else 0.3),
             (_single(bs, 0.5), "wall", False, 0.3),
             (_single(FU.floor_lamp), "corner", False, 0.3),
             (_single(FU.picture), "high", False, 0.4),

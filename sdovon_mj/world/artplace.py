@@ -2,7 +2,7 @@
 
 With the switch on, the room programs (``world/apartment.py``) draw some pieces as articulated ones: kitchens get a
 base cabinet with hinged doors (a microwave on its top) and an articulated fridge, bedrooms an articulated dresser
-and wardrobe, living/dining rooms and offices articulated dressers. During layout an articulated piece is a
+and wardrobe, living/dining rooms and offices articulated dressers, bathrooms often a base cabinet. During layout an articulated piece is a
 :func:`proxy` (a furniture `Model` with the piece's bounding box and no visible parts) that the room placement
 treats like any other piece; it adds no triangles to the apartment mesh. Its instance id, pose and seed are kept
 as an :class:`ArticulatedInstance` in ``Apartment.articulated``.
