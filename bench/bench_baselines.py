@@ -19,10 +19,13 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from sdovon_mj.config import AgentConfig, NavConfig, load_config  # noqa: E402
 from sdovon_mj.nav.agents import RandomAStar, SemanticAStar, SemanticFrontierAgent  # noqa: E402
+from sdovon_mj.suite import find_bundles, load_bundle  # noqa: E402
 from sdovon_mj.suite.evaluate import (episodes_per_minute, evaluate, inside_table, overall_table,  # noqa: E402
                                       select_bundles, summarize)
 
@@ -64,21 +67,35 @@ def main() -> None:
                     help="evaluate the first N variants of every scene (a balanced subset of a large dataset)")
     ap.add_argument("--rows", nargs="*", default=None, help="run only the rows with these labels (as printed, e.g. 'semantic-astar no-FN')")
     ap.add_argument("--json", default=None, help="write the rows' summaries (and per-episode results) to this file")
-    ap.add_argument("--merge", nargs="*", default=None, help="print one table from --json files of earlier runs")
+    ap.add_argument("--merge", nargs="*", default=None,
+                    help="print one table from --json files of earlier runs (parts of one row are pooled by episode)")
+    ap.add_argument("--part", default=None, metavar="K/N",
+                    help="evaluate only the scenes whose sorted index is K modulo N (rows split over processes; "
+                         "--merge pools the parts)")
     a = ap.parse_args()
     if a.merge:
         import json
 
-        rows = {}
+        rows, pooled, speed = {}, {}, {}
         for f in a.merge:
-            rows.update(json.loads(Path(f).read_text())["rows"])
+            data = json.loads(Path(f).read_text())
+            for label, eps in (data.get("episodes") or {}).items():
+                pooled.setdefault(label, []).extend(eps)
+                speed.setdefault(label, []).append(data["rows"][label])
+            for label, row in data["rows"].items():
+                rows.setdefault(label, row)
+        for label, eps in pooled.items():
+            if len(speed[label]) > 1:  # parts of one row: the summary over every episode, the mean speed
+                rows[label] = {**summarize(eps), "knowledge": speed[label][0].get("knowledge", ""),
+                               "episodes_per_minute": float(np.mean([r["episodes_per_minute"] for r in speed[label]]))}
         print_tables(rows)
         return
     root = Path(a.dataset) if a.dataset else generate_dataset(Path(a.generate), a.scenes, a.variants, a.k_e)
     body = AgentConfig(sensor_width=a.width, sensor_height=a.width * 3 // 4)
     nav, lattice = NavConfig(), replace(NavConfig(), fn_mode="lattice")
     runs = [("semantic-astar", SemanticAStar(agent=body)), ("random-astar", RandomAStar(agent=body)),
-            ("semantic-frontier (no prior)", SemanticFrontierAgent(agent=body))]
+            ("semantic-frontier (no prior)", SemanticFrontierAgent(agent=body)),
+            ("semantic-astar search-ranking", SemanticAStar(agent=body, ranking="search"))]
     if not a.quick:
         runs += [("semantic-astar no-FN", SemanticAStar(agent=body, final_nav=False)),
                  ("random-astar no-FN", RandomAStar(agent=body, final_nav=False))]
@@ -90,6 +107,13 @@ def main() -> None:
     if a.rows is not None:
         runs = [(label, agent) for label, agent in runs if label in a.rows]
     data = select_bundles(root, a.per_scene) if a.per_scene else root
+    if a.part:
+        k, n = (int(x) for x in a.part.split("/"))
+        bundles = data if isinstance(data, list) else [load_bundle(p) for p in find_bundles(root)]
+        scenes = sorted({b.episodes[0].scene for b in bundles if b.episodes})
+        mine = {sc for i, sc in enumerate(scenes) if i % n == k}
+        data = [b for b in bundles if b.episodes and b.episodes[0].scene in mine]
+        print(f"part {k}/{n}: scenes {', '.join(sorted(mine))} ({sum(len(b.episodes) for b in data)} episodes)")
     rows, per_episode = {}, {}
     for label, agent in runs:
         t0 = time.perf_counter()
@@ -97,7 +121,8 @@ def main() -> None:
         rows[label] = {**summarize(res), "knowledge": res[0]["knowledge"] if res else "",
                        "episodes_per_minute": episodes_per_minute(res, time.perf_counter() - t0)}
         per_episode[label] = [{k: r[k] for k in ("episode_id", "scene", "success", "spl", "soft_spl", "inside",
-                                                 "must_open")} for r in res]
+                                                 "must_open", "distance_to_goal", "shortest", "path_length")}
+                              for r in res]
         print(f"{label}: {len(res)} episodes, SR {rows[label]['success']:.3f}, SPL {rows[label]['spl']:.3f}, "
               f"{rows[label]['episodes_per_minute']:.1f} episodes/min", flush=True)
     if a.json:

@@ -225,6 +225,7 @@ class PlaceConfig:
     max_objects: int = _p(30, "-", "cap on objects per variant", ge=1)
     temperature: float = _p(1.0, "-", "softmax temperature over joint relevance", gt=0)
     top_k: int = _p(8, "-", "sample among the top-k categories of each (region, receptacle)", ge=1)
+    top_pairs: int = _p(3, "-", "each category goes only to the k (region, receptacle) pairs of the scene where it belongs most (Relevance.top_pairs; a pair no category counts among its k takes any); 0: anywhere", ge=0)
     min_distance: float = _p(0.05, "m", "minimum gap between object footprints", ge=0)
     h_spawn: float = _p(0.3, "m", "spawn height above the plane", "h_spawn", ge=0)
     spawn_mode: str = _p("paper", "-", "paper (random X/Y/Z rotation from h_spawn) or stable (stable pose, random yaw, small drop)", choices=("paper","stable"))

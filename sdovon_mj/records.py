@@ -611,6 +611,19 @@ class Relevance(Record):
         out = [(r, c, self.pair_score(obj, r, c)) for r in self.regions for c in self.receptacles]
         return sorted(out, key=lambda t: (-t[2], t[0], t[1]))
 
+    def top_pairs(self, pairs: list[tuple[str, str]], k: int) -> dict[str, set[tuple[str, str]]]:
+        """Return, per object, the k of a scene's (region, receptacle) pairs where it belongs most.
+
+        "Most" in the placement direction: the k pairs where the object takes the largest share of `joint`
+        over the scene's `pairs` (ties by region, then receptacle name). Placement keeps a category to these
+        pairs (``place.top_pairs``) and the placement statistics count a placed object on them as a hit
+        (`sdovon_mj.stats.placement_top_pairs`): one definition for both.
+        """
+        pairs = sorted(set(pairs))
+        joints = {q: self.joint(q[0], q[1], pairs) for q in pairs}
+        return {o: {(r, c) for _s, r, c in sorted((-float(joints[(r, c)][i]), r, c) for r, c in pairs)[:k]}
+                for i, o in enumerate(self.objects)}
+
 
 # ----------------------------------------------------------------------------------------------
 # Placement

@@ -612,8 +612,8 @@ def placement_top_pairs(run_root: Path, k: int = 3) -> dict[str, Any]:
 
     Per scene, the available pairs are the (region, receptacle label) of its annotated planes
     (``semantics/planes.json``); an object category's top-k pairs are the k available pairs where it
-    takes the largest share of the placement direction (``Relevance.joint`` over the scene's pairs, what
-    placement samples from; the definition of `place.sample.top_pair_share`, ties by name). A placed object
+    takes the largest share of the placement direction (`Relevance.top_pairs`: ``Relevance.joint`` over the
+    scene's pairs, what placement samples from and keeps each category to with ``place.top_pairs``). A placed object
     (status resting or resting_elsewhere) counts when its intended plane's pair is one of them. The
     random baseline places each of the same objects on one of the same planes uniformly: its expected
     share is the fraction of the scene's planes whose pair is in the category's top k (exact, no sampling).
@@ -633,10 +633,7 @@ def placement_top_pairs(run_root: Path, k: int = 3) -> dict[str, Any]:
         rel = _read(rel_path, Relevance)
         pair_of = {int(p.id): (str(p.region), str(p.label)) for p in planes}
         available = set(pair_of.values())
-        scene_pairs = sorted(available)
-        joints = {q: rel.joint(q[0], q[1], scene_pairs) for q in scene_pairs}
-        top = {o: {(r, c) for _s, r, c in sorted((-float(joints[(r, c)][i]), r, c) for r, c in available)[:k]}
-               for i, o in enumerate(rel.objects)}
+        top = rel.top_pairs(sorted(available), k)
         cover = {o: sum(1 for q in pair_of.values() if q in best) / len(pair_of) for o, best in top.items()}
         for v in _scene_variants(sd, {}, {}):
             for pl in v["placements"]:

@@ -288,3 +288,32 @@ def test_the_suite_keeps_generator_data_out_of_an_honest_agents_reach(easy_bundl
     res = evaluate(easy_bundle, HalfOracle(agent=AgentConfig(sensor_width=32, sensor_height=24)), episodes=1,
                    progress=False)
     assert res[0]["oracle"] and "ORACLE: relevance" in res[0]["knowledge"]
+
+
+def test_semantic_ranking_directions_on_a_popular_and_a_specific_object():
+    """Placement ranking (the paper's joint relevance over the pairs the agent found) sends the agent for an object
+    that fits one place to that place; the search ranking sends it to wherever people put anything first."""
+    from sdovon_mj.nav.memory import MemoryEntry, SceneMemory
+    from sdovon_mj.records import ReceptaclePlane, Relevance
+
+    objs, regs, recs = ["popular", "specific"], ["bathroom", "living room"], ["sink", "shelf"]
+    pp = np.full((2, 2, 2), 0.05)
+    pp[0] = 0.9
+    pp[0, 0, 0] = 0.1  # nobody keeps the popular object in a sink
+    pp[1, 0, 0] = 0.3  # the specific object: the bathroom sink ...
+    pp[1, :, 1] = 0.35  # ... but people call any shelf a little more right for it
+    rel = Relevance(objects=objs, regions=regs, receptacles=recs, p_obj_region=np.full((2, 2), 0.5),
+                    p_obj_receptacle=np.full((2, 2), 0.5), p_pair=pp, sources=["learned", "learned"])
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    entries = [MemoryEntry(ReceptaclePlane(i, i, lab, 0.8, square + 2 * i, np.array([0, 0, 1.0]), region=reg),
+                           reg, np.zeros((1, 2)))
+               for i, (reg, lab) in enumerate([("living room", "shelf"), ("bathroom", "sink"), ("bathroom", "shelf")])]
+    mem = SceneMemory("s", GridFrame(np.zeros(2), 0.1, (10, 10)), np.ones((10, 10), bool), entries)
+    rng = np.random.default_rng(0)
+    first = lambda d: mem.ranked("specific", rel, rng, d)[0]  # noqa: E731
+    assert (first("placement").region, first("placement").plane.label) == ("bathroom", "sink")
+    assert first("search").plane.label == "shelf"
+    with pytest.raises(ValueError, match="direction"):
+        mem.ranked("specific", rel, rng, "sideways")
+    with pytest.raises(ValueError, match="ranking"):
+        SemanticAStar(ranking="sideways")

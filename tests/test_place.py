@@ -57,6 +57,18 @@ def test_category_distribution_top_k_and_temperature():
     assert category_distribution(rel, "kitchen", "counter", ["sofa"], 1.0, 0)[0] == []
 
 
+def _popular_and_specific() -> tuple[Relevance, list[tuple[str, str]]]:
+    """A learned pair model of a popular object (0.9 everywhere) and a specific one (0.5 at the bathroom sink, 0.05
+    elsewhere), and a scene of three pairs."""
+    objs, regs, recs = ["popular", "specific"], ["bathroom", "living room"], ["sink", "shelf"]
+    pp = np.full((2, 2, 2), 0.05)
+    pp[0] = 0.9
+    pp[1, 0, 0] = 0.5
+    rel = Relevance(objects=objs, regions=regs, receptacles=recs, p_obj_region=np.full((2, 2), 0.5),
+                    p_obj_receptacle=np.full((2, 2), 0.5), p_pair=pp, sources=["learned", "learned"])
+    return rel, [("bathroom", "sink"), ("living room", "shelf"), ("bathroom", "shelf")]
+
+
 def test_category_distribution_pair_model_prefers_what_belongs_here_more_than_elsewhere():
     """With a pair model, a pair draws the categories that fit it more than the scene's other pairs.
 
@@ -64,13 +76,8 @@ def test_category_distribution_pair_model_prefers_what_belongs_here_more_than_el
     the raw scores would favour the popular one everywhere; Bayes' rule over the scene's pairs gives the
     sink to the specific one (0.5 / 0.6 of its weight there against 0.9 / 2.7) and the shelf to the popular one.
     """
-    objs, regs, recs = ["popular", "specific"], ["bathroom", "living room"], ["sink", "shelf"]
-    pp = np.full((2, 2, 2), 0.05)
-    pp[0] = 0.9
-    pp[1, 0, 0] = 0.5
-    rel = Relevance(objects=objs, regions=regs, receptacles=recs, p_obj_region=np.full((2, 2), 0.5),
-                    p_obj_receptacle=np.full((2, 2), 0.5), p_pair=pp, sources=["learned", "learned"])
-    scene = [("bathroom", "sink"), ("living room", "shelf"), ("bathroom", "shelf")]
+    rel, scene = _popular_and_specific()
+    objs = rel.objects
     cats, p = category_distribution(rel, "bathroom", "sink", objs, 1.0, 0, scene)
     assert cats[0] == "specific" and np.isclose(p.sum(), 1.0)
     assert p[0] == pytest.approx((0.5 / 0.6) / (0.5 / 0.6 + 0.9 / 2.7))  # proportional at temperature 1
@@ -82,6 +89,21 @@ def test_category_distribution_pair_model_prefers_what_belongs_here_more_than_el
     eq5 = hand_relevance()  # no p_pair: `pairs` changes nothing
     assert category_distribution(eq5, "kitchen", "counter", ["box", "mug"], 1.0, 0, [("kitchen", "counter")])[1] == \
         pytest.approx(category_distribution(eq5, "kitchen", "counter", ["box", "mug"], 1.0, 0)[1])
+
+
+def test_top_pairs_keep_each_category_where_it_belongs_most():
+    """`Relevance.top_pairs` is the one definition of a category's best pairs in a scene; placement keeps each
+    category to them (``place.top_pairs``) and a pair that is nobody's best takes any category."""
+    rel, scene = _popular_and_specific()
+    objs = rel.objects
+    top1 = rel.top_pairs(scene, 1)
+    assert top1["specific"] == {("bathroom", "sink")}
+    assert len(top1["popular"]) == 1 and top1["popular"] != top1["specific"]
+    assert rel.top_pairs(scene, 3) == {o: set(scene) for o in objs}
+    cats, p = category_distribution(rel, "bathroom", "sink", objs, 1.0, 0, scene, allowed={"specific"})
+    assert cats == ["specific"] and p.tolist() == [1.0]
+    # nothing allowed is known: every category stays drawable
+    assert category_distribution(rel, "bathroom", "sink", objs, 1.0, 0, scene, allowed={"sofa"})[0] == ["specific", "popular"]
 
 
 def test_variant_rests_on_intended_planes_and_passes_independent_check(flat):

@@ -27,7 +27,7 @@ import copy
 import dataclasses
 import hashlib
 import math
-from typing import Callable, Generator
+from typing import Any, Callable, Generator
 
 import numpy as np
 
@@ -522,13 +522,24 @@ class RandomAStar(ReceptacleAStar):
 
 
 class SemanticAStar(ReceptacleAStar):
-    """Semantic A*: receptacles by decreasing joint relevance P(g|region) * P(g|receptacle) (algorithm 4)."""
+    """Semantic A*: receptacles by decreasing joint relevance of the goal to their region-receptacle pair (algorithm 4).
+
+    ``ranking`` (keyword, default ``placement``): the paper's joint relevance, the goal's share of the placement
+    direction at each pair among the pairs it found (`SceneMemory.ranked`); ``search``: the search direction
+    (`Relevance.pair_score`, where people would put the goal, whatever else the home keeps there).
+    """
 
     name = "semantic-astar"
 
+    def __init__(self, *args: Any, ranking: str = "placement", **kwargs: Any) -> None:
+        if ranking not in ("placement", "search"):
+            raise ValueError(f"unknown ranking {ranking!r} (placement or search)")
+        super().__init__(*args, **kwargs)
+        self.ranking = ranking
+
     def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
-        """Return the entries ranked by joint relevance (random among ties)."""
-        return memory.ranked(category, self.relevance_for(memory, category), rng)
+        """Return the entries ranked by relevance to the goal (random among ties)."""
+        return memory.ranked(category, self.relevance_for(memory, category), rng, self.ranking)
 
 
 

@@ -45,16 +45,28 @@ class SceneMemory:
     entries: list[MemoryEntry] = field(default_factory=list)
     instances: list[Instance] = field(default_factory=list)
 
-    def ranked(self, category: str, relevance: Relevance | None, rng: np.random.Generator) -> list[MemoryEntry]:
-        """Return entries by decreasing search-direction relevance of (region, receptacle) for the goal (ties random).
+    def ranked(self, category: str, relevance: Relevance | None, rng: np.random.Generator,
+               direction: str = "placement") -> list[MemoryEntry]:
+        """Return entries by decreasing relevance of their (region, receptacle) for the goal (ties random).
 
-        `Relevance.pair_score`: with a pair model, how likely people would put the goal there, comparable
-        across pairs of one object; else the paper's P(g|rgn) * P(g|rec).
+        ``direction="placement"`` (the paper's algorithm 4, eq. 5): the goal's share of `Relevance.joint` at
+        the pair among the pairs this memory holds: which categories a home keeps at that pair rather than
+        elsewhere (with a learned pair model, Bayes' rule over these pairs and the relevance's objects).
+        ``"search"``: `Relevance.pair_score`, how likely people would put the goal there, comparable across
+        pairs of one object (a receptacle that suits everything, such as a shelf, ranks high for every goal).
         """
+        if direction not in ("placement", "search"):
+            raise ValueError(f"unknown ranking direction {direction!r} (placement or search)")
         tiebreak = rng.permutation(len(self.entries))
         if relevance is None or category not in relevance.objects:
             return [self.entries[i] for i in tiebreak]
-        scores = np.array([relevance.pair_score(category, e.region, e.plane.label) for e in self.entries])
+        if direction == "placement":
+            pairs = sorted({(e.region, e.plane.label) for e in self.entries})
+            i = relevance.objects.index(category)
+            share = {q: float(relevance.joint(q[0], q[1], pairs)[i]) for q in pairs}
+            scores = np.array([share[(e.region, e.plane.label)] for e in self.entries])
+        else:
+            scores = np.array([relevance.pair_score(category, e.region, e.plane.label) for e in self.entries])
         order = sorted(range(len(self.entries)), key=lambda i: (-scores[i], tiebreak[i]))
         return [self.entries[i] for i in order]
 

@@ -46,14 +46,17 @@ def object_radius(asset: ObjectAsset, mode: str) -> float:
 
 def category_distribution(relevance: Relevance, region: str, receptacle: str, categories: list[str],
                           temperature: float, top_k: int,
-                          pairs: list[tuple[str, str]] | None = None) -> tuple[list[str], np.ndarray]:
+                          pairs: list[tuple[str, str]] | None = None,
+                          allowed: set[str] | None = None) -> tuple[list[str], np.ndarray]:
     """Return the categories to draw from and their probabilities (placement direction, top-k, temperature).
 
     The weights are `Relevance.joint`: with a pair model (the learned offline backend), which
     categories belong at this (region, receptacle) more than elsewhere in the scene (Bayes' rule over
     the scene's `pairs`: P(obj | pair) proportional to P(pair | obj)); without one (the table,
-    server backends), the paper's eq. 5, P(obj|rgn) * P(obj|rec). The k largest are kept and
-    sharpened by the temperature (softmax of the log weight / temperature; 1: proportional).
+    server backends), the paper's eq. 5, P(obj|rgn) * P(obj|rec). Only the `allowed` categories are
+    drawn when any of them is known (those that belong here most in this scene, ``place.top_pairs``);
+    the k largest are kept and sharpened by the temperature (softmax of the log weight / temperature;
+    1: proportional).
 
     Parameters
     ----------
@@ -71,8 +74,12 @@ def category_distribution(relevance: Relevance, region: str, receptacle: str, ca
         Keep the k most relevant categories (0: all).
     pairs : list of (str, str), optional
         The (region, receptacle) pairs of the scene's planes (`Relevance.joint`); default: all of the record's.
+    allowed : set of str, optional
+        Categories this pair may take (`Relevance.top_pairs` holds it); None, or none of them known: every one.
     """
     known = [c for c in categories if c in relevance.objects]
+    if allowed is not None and any(c in allowed for c in known):
+        known = [c for c in known if c in allowed]
     if not known:
         return [], np.zeros(0)
     joint = relevance.joint(region, receptacle, pairs)
@@ -234,6 +241,16 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
     order = sorted(planes, key=lambda p: p.id)
     order = [order[i] for i in rng.permutation(len(order))]
     scene_pairs = sorted({(p.region, p.label) for p in planes})
+    allowed: dict[tuple[str, str], set[str]] = {}
+    if cfg.top_pairs > 0:  # each category only on the pairs of this scene where it belongs most
+        for cat, best in relevance.top_pairs(scene_pairs, cfg.top_pairs).items():
+            for q in best:
+                allowed.setdefault(q, set()).add(cat)
+        open_to_all = [q for q in scene_pairs if not allowed.get(q, set()) & set(categories)]
+        if open_to_all:
+            res.notes.append(f"no category counts {len(open_to_all)} pair(s) among its top {cfg.top_pairs} "
+                             f"(place.top_pairs): every category may go there: "
+                             + ", ".join(f"{r}/{c}" for r, c in open_to_all))
     n = 0
     for plane in order:
         if n >= cfg.max_objects:
@@ -243,7 +260,7 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
             res.notes.append(f"plane {plane.id} ({plane.label}, {abs(plane.area):.3f} m^2) is smaller than every object footprint: nothing placed on it")
             continue
         cats, p = category_distribution(relevance, plane.region, plane.label, categories, cfg.temperature, cfg.top_k,
-                                        scene_pairs)
+                                        scene_pairs, allowed.get((plane.region, plane.label)) if cfg.top_pairs > 0 else None)
         for _ in range(cfg.m):
             if n >= cfg.max_objects:
                 break
@@ -314,15 +331,13 @@ def resample_pose(asset: ObjectAsset, plane: ReceptaclePlane, others: list[tuple
 def top_pair_share(placements: list[Placement], relevance: Relevance, planes: list[ReceptaclePlane],
                    k: int = 3) -> dict[str, tuple[float, int]]:
     """Return per category the share of its placements on its k most relevant (region, receptacle) pairs present."""
-    pairs = sorted({(p.region, p.label) for p in planes})
     plane_pair = {p.id: (p.region, p.label) for p in planes}
+    tops = relevance.top_pairs(sorted(set(plane_pair.values())), k)
     out: dict[str, tuple[float, int]] = {}
     for cat in sorted({p.category for p in placements}):
         if cat not in relevance.objects:
             continue
-        i = relevance.objects.index(cat)
-        scores = [(-float(relevance.joint(rg, rc, pairs)[i]), rg, rc) for rg, rc in pairs]
-        top = {(rg, rc) for _, rg, rc in sorted(scores)[:k]}
+        top = tops[cat]
         mine = [p for p in placements if p.category == cat]
         hits = sum(1 for p in mine if plane_pair.get(p.plane_id) in top)
         out[cat] = (hits / len(mine), len(mine))
