@@ -115,10 +115,45 @@ def store(root: Path | None, key: str, src: Path) -> None:
             shutil.rmtree(tmp, ignore_errors=True)
 
 
+def scratch_dir(dst: Path) -> Path:
+    """Return a new empty scratch folder beside `dst` (``.<name>.tmp.<pid>.<random>``), for `replace_dir`.
+
+    The pid in its name lets a later `replace_dir` of the same target remove it if this process is killed first.
+    """
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    return Path(tempfile.mkdtemp(prefix=f".{dst.name}.tmp.{os.getpid()}.", dir=dst.parent))
+
+
+def _alive(pid: int) -> bool:
+    """Return whether a process with this id exists (another user's counts as alive)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+def remove_stale(dst: Path) -> list[Path]:
+    """Remove what killed processes left beside `dst`: ``.<name>.old.<pid>`` and ``.<name>.tmp.<pid>.*`` folders
+    of processes that no longer exist (a SIGKILL between the renames of `replace_dir`, or during a build into a
+    `scratch_dir`). Returns the folders removed. Dot-folders are never read as scenes or objects, but they would
+    stay in the run folder forever.
+    """
+    removed = []
+    for p in dst.parent.glob(f".{dst.name}.*"):
+        rest = p.name[len(dst.name) + 2:].split(".")
+        if len(rest) >= 2 and rest[0] in ("old", "tmp") and rest[1].isdigit() and int(rest[1]) != os.getpid() \
+                and not _alive(int(rest[1])) and p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)
+            removed.append(p)
+    return removed
+
+
 def link_tree(src: Path, dst: Path) -> None:
     """Replace folder `dst` with a hard-linked (else copied) copy of `src`, atomically by rename."""
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{dst.name}.", dir=dst.parent))
+    tmp = scratch_dir(dst)
 
     def _link(s: str, d: str) -> None:
         try:
@@ -131,7 +166,8 @@ def link_tree(src: Path, dst: Path) -> None:
 
 
 def replace_dir(tmp: Path, dst: Path) -> None:
-    """Move a finished folder over `dst` (old contents removed)."""
+    """Move a finished folder over `dst` (old contents removed; what killed processes left beside it too)."""
+    remove_stale(dst)
     old = None
     if dst.exists():
         old = dst.with_name(f".{dst.name}.old.{os.getpid()}")

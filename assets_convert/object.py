@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import re
 import shutil
-import tempfile
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -210,7 +209,7 @@ def cached_object(out_dir: Path, name: str, key: str, cache_dir: str | Path | No
         info = dict(_read_info(target))
         info.update(cache_hit=True, seconds=time.perf_counter() - t0)
         return asset, info
-    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=_mkdir(out_dir / "objects")))
+    tmp = cache.scratch_dir(_mkdir(out_dir / "objects") / name)
     try:
         asset, info = build(tmp)
         asset.content_hash = key

@@ -16,7 +16,6 @@ from __future__ import annotations
 import json
 import re
 import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -228,9 +227,7 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
     if hit is not None:
         cache.link_tree(hit, target)
         return _relocate(SceneAsset.from_json((target / "asset.json").read_text(encoding="utf-8")), name)
-    work_root = out_dir / "scenes"
-    work_root.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=work_root))
+    tmp = cache.scratch_dir(target)
     try:
         reading = None
         if layout == "hm3d":

@@ -446,3 +446,26 @@ def test_a_scene_of_a_million_tiny_triangles_ends_clearly_and_resumes(tiny: Path
     after = snapshot(run)
     assert {k: v for k, v in after.items() if k != "manifest.json"} == {k: v for k, v in before.items()
                                                                         if k != "manifest.json"}
+
+
+def test_replacing_a_converted_folder_removes_what_killed_processes_left_beside_it(tmp_path: Path) -> None:
+    """A SIGKILL between the two renames of `replace_dir` (or during a build in a scratch folder) leaves a dot-folder
+    beside the target; the next replace of that target removes those of dead processes, never a live one's."""
+    from assets_convert.cache import replace_dir, scratch_dir
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    target = tmp_path / "scenes" / "apt_0000"
+    target.mkdir(parents=True)
+    stale = [tmp_path / "scenes" / f".apt_0000.old.{dead.pid}", tmp_path / "scenes" / f".apt_0000.tmp.{dead.pid}.x1"]
+    live = tmp_path / "scenes" / f".apt_0000.tmp.{os.getppid()}.x2"  # the test runner's parent: alive
+    other = tmp_path / "scenes" / f".apt_0001.old.{dead.pid}"  # another target's: not this replace's business
+    for p in stale + [live, other]:
+        p.mkdir()
+        (p / "asset.json").write_text("{}", encoding="utf-8")
+    tmp = scratch_dir(target)
+    (tmp / "asset.json").write_text('{"new": 1}', encoding="utf-8")
+    replace_dir(tmp, target)
+    assert (target / "asset.json").read_text(encoding="utf-8") == '{"new": 1}'
+    assert not any(p.exists() for p in stale) and live.exists() and other.exists()
+    assert sorted(p.name for p in (tmp_path / "scenes").iterdir()) == sorted(["apt_0000", live.name, other.name])
