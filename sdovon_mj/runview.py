@@ -18,10 +18,13 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .errors import InputError
 from .records import Episode, NavMap, ObjectAsset, RecordError, RegionMap, Relevance, SceneAsset, SceneVariant, load_json
+
+if TYPE_CHECKING:
+    from .config import RunConfig
 
 
 def _load(path: Path, cls: type) -> Any:
@@ -46,7 +49,7 @@ class RunView:
         """Return the absolute path of a run-relative path."""
         return self.root / Path(rel)
 
-    def config(self) -> Any:
+    def config(self) -> "RunConfig":
         """Return the run's resolved `RunConfig` (``config.yaml``; the defaults where a run folder has none)."""
         from .config import load_config
 

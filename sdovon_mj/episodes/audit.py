@@ -96,11 +96,14 @@ def audit_inside(run_dir: str | Path) -> InsideAudit:
     cfg = load_config(run / "config.yaml")
     vis = (cfg.episodes.vis_width, cfg.episodes.vis_height)  # the view points' own visibility definition
     a = InsideAudit(eta_gt=cfg.agent.eta_gt)
+    scenes: dict[Path, tuple[dict[int, ReceptaclePlane], list[NavMap]]] = {}  # read once per scene
     for vfile in sorted(run.glob("scenes/*/variants/*/variant.json")):
         v = load_json(vfile, SceneVariant)
         scene_dir = vfile.parents[2]
-        planes = {p.id: p for p in load_json(scene_dir / "semantics/planes.json", ReceptaclePlane)}
-        navmaps = [load_json(p, NavMap) for p in sorted((scene_dir / "observe").glob("navmap_*.json"))]
+        if scene_dir not in scenes:
+            scenes[scene_dir] = ({p.id: p for p in load_json(scene_dir / "semantics/planes.json", ReceptaclePlane)},
+                                 [load_json(p, NavMap) for p in sorted((scene_dir / "observe").glob("navmap_*.json"))])
+        planes, navmaps = scenes[scene_dir]
         a.placed += len(v.placements)
         for p in v.placements:
             a.resting += p.status == "resting"

@@ -42,7 +42,7 @@ from ..sim.camera import pose_cv
 from .control import Navigator, blocked_cells, lattice_approach, segment_checker
 from .frontier import OccupancyMap, agent_frame, explore, scan_actions
 from .goal import approach_point, goal_points, infer_view_points, object_centre
-from .memory import SceneMemory, build_memory, container_planes, extract_planes
+from .memory import RANKINGS, SceneMemory, build_memory, container_planes, extract_planes
 
 # Receptacles the A* agents try to open (OPEN) when they do not see the goal at them: furniture with doors or
 # drawers, named by the labels their detector gives (what a robot that knows such furniture opens would try).
@@ -532,8 +532,8 @@ class SemanticAStar(ReceptacleAStar):
     name = "semantic-astar"
 
     def __init__(self, *args: Any, ranking: str = "placement", **kwargs: Any) -> None:
-        if ranking not in ("placement", "search"):
-            raise ValueError(f"unknown ranking {ranking!r} (placement or search)")
+        if ranking not in RANKINGS:
+            raise ValueError(f"unknown ranking {ranking!r} ({' or '.join(RANKINGS)})")
         super().__init__(*args, **kwargs)
         self.ranking = ranking
 

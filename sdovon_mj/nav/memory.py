@@ -35,6 +35,9 @@ class MemoryEntry:
         return np.asarray(self.plane.polygon, float).mean(axis=0)
 
 
+RANKINGS = ("placement", "search")  # the orders `SceneMemory.ranked` knows (Semantic A*'s ``ranking``)
+
+
 @dataclass
 class SceneMemory:
     """What an A* baseline remembers of a scene after exploring it."""
@@ -55,8 +58,8 @@ class SceneMemory:
         ``"search"``: `Relevance.pair_score`, how likely people would put the goal there, comparable across
         pairs of one object (a receptacle that suits everything, such as a shelf, ranks high for every goal).
         """
-        if direction not in ("placement", "search"):
-            raise ValueError(f"unknown ranking direction {direction!r} (placement or search)")
+        if direction not in RANKINGS:
+            raise ValueError(f"unknown ranking direction {direction!r} ({' or '.join(RANKINGS)})")
         tiebreak = rng.permutation(len(self.entries))
         if relevance is None or category not in relevance.objects:
             return [self.entries[i] for i in tiebreak]

@@ -260,7 +260,7 @@ def sample_placements(planes: list[ReceptaclePlane], relevance: Relevance, objec
             res.notes.append(f"plane {plane.id} ({plane.label}, {abs(plane.area):.3f} m^2) is smaller than every object footprint: nothing placed on it")
             continue
         cats, p = category_distribution(relevance, plane.region, plane.label, categories, cfg.temperature, cfg.top_k,
-                                        scene_pairs, allowed.get((plane.region, plane.label)) if cfg.top_pairs > 0 else None)
+                                        scene_pairs, allowed.get((plane.region, plane.label)))
         for _ in range(cfg.m):
             if n >= cfg.max_objects:
                 break
