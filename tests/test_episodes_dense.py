@@ -128,3 +128,32 @@ def test_view_points_cover_every_cell_that_sees_the_object(tmp_path):
     assert variants == 5
     assert visible >= 100, f"only {visible} sampled cells see a goal: the sample says little"
     assert covered / visible >= 0.95, f"{covered}/{visible} cells that see the object are near a view point"
+
+
+def test_candidates_cover_strips_between_lattice_rows():
+    """A navigable strip that falls between the lattice's rows (one cell wide, beside a counter) is tested cell by
+    cell: every navigable cell within the radius lies within the success distance of a first-pass candidate."""
+    from sdovon_mj.episodes.viewpoints import ObjectBox, candidate_cells, covering_cells, lattice_stride
+
+    nav = np.zeros((40, 40), bool)
+    nav[5:20, 5:35] = True  # an open area
+    nav[25, 5:35] = True  # a strip on row 25, off the stride-3 lattice (rows 0, 3, ..., 24, 27)
+    nm = NavMap(floor=0, height=0.0, origin=np.zeros(2), resolution=0.05, navigable=nav, free=nav.copy())
+    box = ObjectBox("obj_000", 0, np.array([0.9, 1.35, 0.8]), np.array([1.0, 1.45, 0.9]))  # beside the strip
+    stride = lattice_stride(0.05, 0.0, 0.1)
+    assert stride == 3
+    lattice = candidate_cells(nm, box, 1.0, stride)
+    assert not np.any(lattice[:, 0] == 25)  # the lattice alone never stands on the strip
+    cand = covering_cells(nm, box, 1.0, stride, 0.1)
+    fine = candidate_cells(nm, box, 1.0, 1)
+    xy, cxy = nm.frame.to_world(fine), nm.frame.to_world(cand)
+    gap = np.min(np.linalg.norm(xy[:, None, :] - cxy[None, :, :], axis=2), axis=1)
+    assert gap.max() < 0.1 and np.any(cand[:, 0] == 25)
+    # in the open area the lattice is enough: cells are added only at the rim of the radius (their nearest lattice
+    # cells lie outside it), none inside
+    added = cand[len(lattice):]
+    rim = added[added[:, 0] != 25]
+    rxy = nm.frame.to_world(rim)
+    d = np.hypot(np.maximum(np.maximum(box.lo[0] - rxy[:, 0], 0), rxy[:, 0] - box.hi[0]),
+                 np.maximum(np.maximum(box.lo[1] - rxy[:, 1], 0), rxy[:, 1] - box.hi[1]))
+    assert np.all(d > 1.0 - 0.1)

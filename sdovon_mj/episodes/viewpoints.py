@@ -2,7 +2,8 @@
 
 Dense, as Habitat's ObjectNav datasets: a candidate is a navigable cell on a lattice of navmap cells
 (``viewpoint_step``; by default the sparsest lattice that puts every cell within ``success_distance`` of
-a lattice point: 0.15 m on a 0.05 m map for 0.1 m, `lattice_stride`) whose centre lies within
+a lattice point: 0.15 m on a 0.05 m map for 0.1 m, `lattice_stride`; navigable cells farther than that from
+every navigable lattice cell, in strips between its rows, are candidates too: `covering_cells`) whose centre lies within
 ``viewpoint_radius`` of the object's XY bounding box, with no cap that thins them. Cheap test first: MuJoCo rays, cast in one vectorised call
 per target point from a 3x3x3 grid of points inside the object's box towards every candidate camera; a
 candidate whose every ray is blocked by scene geometry is dropped without rendering (a heuristic: an object that
@@ -162,6 +163,39 @@ def candidate_cells(navmap: NavMap, box: ObjectBox, radius: float, stride: int) 
     dx = np.maximum(np.maximum(box.lo[0] - xy[:, 0], 0.0), xy[:, 0] - box.hi[0])
     dy = np.maximum(np.maximum(box.lo[1] - xy[:, 1], 0.0), xy[:, 1] - box.hi[1])
     return cells[np.hypot(dx, dy) <= radius]
+
+
+def covering_cells(navmap: NavMap, box: ObjectBox, radius: float, stride: int, success_distance: float) -> np.ndarray:
+    """Return the first-pass view point candidates: the ``stride`` lattice, plus every navigable cell within `radius`
+    of the box that lies `success_distance` (m) or farther from each navigable lattice cell.
+
+    The lattice alone misses navigable areas that fall between its rows and columns (a strip one or two cells wide
+    beside a counter, a doorway): no lattice cell there is navigable, so none is tested, and an agent standing there
+    that sees the object would be off every view point. Those cells are tested themselves.
+
+    Parameters
+    ----------
+    navmap : NavMap
+        Navigation map of the object's floor.
+    box : ObjectBox
+        The object's world bounding box, metres.
+    radius : float
+        View radius around the box's XY footprint, metres.
+    stride : int
+        Lattice stride in cells (`lattice_stride`); 1 returns every navigable cell in the radius.
+    success_distance : float
+        A cell at least this far (metres) from every navigable lattice cell is a candidate itself.
+
+    Returns
+    -------
+    (K, 2) int array of (row, col) cells: the lattice cells first, then the added ones.
+    """
+    lattice = candidate_cells(navmap, box, radius, stride)
+    if stride <= 1:
+        return lattice
+    fine = candidate_cells(navmap, box, radius, 1)
+    far = _nearest(navmap.frame.to_world(fine), navmap.frame.to_world(lattice)) >= success_distance - 1e-9
+    return np.concatenate([lattice, fine[far]]) if far.any() else lattice
 
 
 def facing(camera: np.ndarray, target: np.ndarray) -> tuple[float, float]:
@@ -524,7 +558,7 @@ def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBo
                 seen[(int(cell[0]), int(cell[1]))] = (frac, yaw)
 
     stride = 1 if exhaustive else lattice_stride(navmap.resolution, cfg.viewpoint_step, cfg.success_distance)
-    test(candidate_cells(navmap, box, cfg.viewpoint_radius, stride))
+    test(covering_cells(navmap, box, cfg.viewpoint_radius, stride, cfg.success_distance))
     if seen and stride > 1:
         # Refine the edge of the covered area at the grid resolution: the ring of cells not within the
         # success distance of a view point but next to (8-neighbours of) a cell that is.
