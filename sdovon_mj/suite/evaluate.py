@@ -22,6 +22,7 @@ from .. import metrics as M
 from .. import plugins
 from ..config import AgentConfig, NavConfig
 from ..errors import InputError
+from ..geometry import quat_yaw
 from ..progress import Progress
 from ..store import atomic_write_bytes, atomic_write_text
 from ..knowledge import knowledge_of
@@ -36,6 +37,54 @@ PAPER = {  # SD-OVON tables 4 and 5 (ground-truth detector), for the closing com
     "semantic-astar": {"success": 0.8081, "spl": 0.4270, "soft_spl": 0.4700, "distance_to_goal": 1.0989},
     "semantic-astar no-FN": {"success": 0.3752, "spl": 0.2111, "soft_spl": 0.4742, "distance_to_goal": 1.5230},
 }
+
+
+# Why an episode ended as it did (`episode_outcome`), in table order.
+OUTCOMES = ("success", "step limit", "not found", "other instance", "missed stop")
+OUTCOME_HELP = {
+    "success": "STOP within the success distance of a goal's view point",
+    "step limit": "the step limit ended the episode (no STOP)",
+    "not found": "STOP without having detected the goal category (the agent's search was exhausted)",
+    "other instance": "STOP at an object of the goal category that is no goal (nowhere within the view radius sees it)",
+    "missed stop": "STOP near a detected goal object, not within the success distance of its view points",
+}
+# A detected object's reconstructed centre (the median of its depth points, `nav.goal.object_centre`) lies on the
+# object's surface, so within its box up to the depth pixels at its rim; 0.3 m leaves room for those and for a
+# partly occluded object while staying below the spacing of two receptacles (an object on another piece).
+OTHER_INSTANCE_M = 0.3
+
+
+def episode_outcome(result: dict, episode: Any, pose: str = "absolute") -> str:
+    """Return why an episode ended as it did: one of `OUTCOMES` (evaluation only: it reads the episode's goals).
+
+    ``result`` holds the suite's metrics (``success``, ``stop_called``) and the agent's ``info``: ``detected``
+    (whether it saw the goal category) and ``goal`` (the reconstructed centre it drove to, XYZ in the agent's
+    frame), as the built-in agents report them. ``pose`` is the agent's pose sensor (`Knowledge.pose`): with
+    ``gps+compass`` the centre is in the episode's start frame and is taken back to the scene frame here.
+    Agents that report neither end as "missed stop" when they STOP elsewhere.
+    """
+    if result.get("success"):
+        return "success"
+    if not result.get("stop_called"):
+        return "step limit"
+    info = result.get("info") or {}
+    if info.get("detected") is False:
+        return "not found"
+    centre, goals = info.get("goal"), list(getattr(episode, "goals", []) or [])
+    if centre is not None and goals:
+        c = np.asarray(centre, float)[:3].copy()
+        if pose != "absolute":  # start frame (x forward, y left at the start pose) -> scene frame
+            a = math.radians(quat_yaw(episode.start_rotation))
+            start = np.asarray(episode.start_position, float)
+            c[:2] = start[:2] + np.array([math.cos(a) * c[0] - math.sin(a) * c[1], math.sin(a) * c[0] + math.cos(a) * c[1]])
+            c[2] += float(start[2])
+        d = []
+        for g in goals:
+            lo, hi = (np.asarray(g.bounds, float) if g.bounds is not None else np.stack([g.position, g.position]))
+            d.append(float(np.linalg.norm(np.maximum(np.maximum(lo - c, c - hi), 0.0))))
+        if min(d) > OTHER_INSTANCE_M:
+            return "other instance"
+    return "missed stop"
 
 
 def make_agent(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True, agent: AgentConfig | None = None) -> Any:
@@ -111,6 +160,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                          "must_open": bool(ep.goals) and all(g.open_part for g in ep.goals),
                          "part_moves": [list(t) for t in env.task.part_moves],
                          "info": agent.info, "trajectory": np.round(np.array(env.task.trajectory)[:, :2], 4).tolist()}
+                    r["outcome"] = episode_outcome(r, ep, know.pose)
                     results.append(r)
                     if out is not None:
                         atomic_write_text(out / "episodes" / label.replace(" ", "_") / f"{ep.episode_id}.json",
@@ -181,6 +231,8 @@ def _summary(results: list[dict], bootstrap: int, seed: int) -> dict[str, Any]:
             out[f"{k}_ci"] = (round(float(lo), 4), round(float(hi), 4))
     if results:
         out["knowledge"] = results[0].get("knowledge", "")
+        if all("outcome" in r for r in results):
+            out["outcomes"] = {k: round(sum(r["outcome"] == k for r in results) / len(results), 4) for k in OUTCOMES}
     return out
 
 
@@ -208,6 +260,18 @@ def inside_table(rows: dict[str, dict[str, Any]]) -> str:
         what = "a goal hidden" if key == "inside" else "every goal hidden"
         lines.append(f"| {name} | {what} | {s['episodes']} | {_cell(s, 'success')} | {_cell(s, 'spl')} | "
                      f"{_cell(s, 'soft_spl')} | {s['distance_to_goal']:.3f} |")
+    return "\n".join(lines)
+
+
+def outcome_table(rows: dict[str, dict[str, Any]]) -> str:
+    """Return the markdown table of why episodes ended (shares of `OUTCOMES` per agent; '' when none recorded)."""
+    shown = {n: s["outcomes"] for n, s in rows.items() if s.get("outcomes")}
+    if not shown:
+        return ""
+    lines = ["| Agent | Episodes | " + " | ".join(OUTCOMES) + " |", "|---" * (len(OUTCOMES) + 2) + "|"]
+    for name, o in shown.items():
+        lines.append(f"| {name} | {rows[name]['episodes']} | " + " | ".join(f"{o.get(k, 0.0):.3f}" for k in OUTCOMES) + " |")
+    lines += ["", "; ".join(f"{k}: {OUTCOME_HELP[k]}" for k in OUTCOMES) + "."]
     return "\n".join(lines)
 
 
@@ -330,6 +394,8 @@ def run(args: argparse.Namespace) -> int:
             trajectory_picture(args.dataset, r, out / "pictures" / label.replace(" ", "_") / f"{r['episode_id']}.png")
     rows = {label: {**summarize(res), "episodes_per_minute": round(speed[label], 2)} for label, res in per_agent.items()}
     md = "## Overall\n\n" + overall_table(rows) + "\n\n## Per category (top-5, >= 2 successes)\n\n" + category_table(per_agent) + "\n"
+    if outcome_table(rows):
+        md += "\n## How episodes ended\n\n" + outcome_table(rows) + "\n"
     if inside_table(rows):
         md += "\n## Inside articulated receptacles (goal behind a closed door or drawer)\n\n" + inside_table(rows) + "\n"
     atomic_write_text(out / "tables.md", md)
