@@ -26,8 +26,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 from sdovon_mj.config import AgentConfig, NavConfig, load_config  # noqa: E402
 from sdovon_mj.nav.agents import RandomAStar, SemanticAStar, SemanticFrontierAgent  # noqa: E402
 from sdovon_mj.suite import find_bundles, load_bundle  # noqa: E402
-from sdovon_mj.suite.evaluate import (episodes_per_minute, evaluate, inside_table, overall_table,  # noqa: E402
-                                      select_bundles, summarize)
+from sdovon_mj.suite.evaluate import (episodes_per_minute, evaluate, inside_table, outcome_table,  # noqa: E402
+                                      overall_table, select_bundles, summarize)
 
 
 def generate_dataset(root: Path, scenes: list[int], variants: int, k_e: int) -> Path:
@@ -45,6 +45,9 @@ def generate_dataset(root: Path, scenes: list[int], variants: int, k_e: int) -> 
 def print_tables(rows: dict) -> None:
     """Print the overall table and, when some episodes hide a goal in a closed part, the inside table."""
     print(overall_table(rows, paper=False))
+    ended = outcome_table(rows)
+    if ended:
+        print("\nHow episodes ended (shares):\n" + ended)
     inside = inside_table(rows)
     if inside:
         print("\nInside articulated receptacles:\n" + inside)
@@ -93,9 +96,12 @@ def main() -> None:
     root = Path(a.dataset) if a.dataset else generate_dataset(Path(a.generate), a.scenes, a.variants, a.k_e)
     body = AgentConfig(sensor_width=a.width, sensor_height=a.width * 3 // 4)
     nav, lattice = NavConfig(), replace(NavConfig(), fn_mode="lattice")
+    facing = replace(NavConfig(), look_yaws=1)  # Observe at a navigation point: the receptacle only, no look around
     runs = [("semantic-astar", SemanticAStar(agent=body)), ("random-astar", RandomAStar(agent=body)),
             ("semantic-frontier (no prior)", SemanticFrontierAgent(agent=body)),
-            ("semantic-astar search-ranking", SemanticAStar(agent=body, ranking="search"))]
+            ("semantic-astar search-ranking", SemanticAStar(agent=body, ranking="search")),
+            ("semantic-astar facing-only", SemanticAStar(nav=facing, agent=body)),
+            ("random-astar facing-only", RandomAStar(nav=facing, agent=body))]
     if not a.quick:
         runs += [("semantic-astar no-FN", SemanticAStar(agent=body, final_nav=False)),
                  ("random-astar no-FN", RandomAStar(agent=body, final_nav=False))]
@@ -117,11 +123,11 @@ def main() -> None:
     rows, per_episode = {}, {}
     for label, agent in runs:
         t0 = time.perf_counter()
-        res = evaluate(data, agent, nav if "lattice" not in label else lattice, a.episodes, progress=False)
+        res = evaluate(data, agent, agent.nav, a.episodes, progress=False)
         rows[label] = {**summarize(res), "knowledge": res[0]["knowledge"] if res else "",
                        "episodes_per_minute": episodes_per_minute(res, time.perf_counter() - t0)}
         per_episode[label] = [{k: r[k] for k in ("episode_id", "scene", "success", "spl", "soft_spl", "inside",
-                                                 "must_open", "distance_to_goal", "shortest", "path_length")}
+                                                 "must_open", "distance_to_goal", "shortest", "path_length", "outcome")}
                               for r in res]
         print(f"{label}: {len(res)} episodes, SR {rows[label]['success']:.3f}, SPL {rows[label]['spl']:.3f}, "
               f"{rows[label]['episodes_per_minute']:.1f} episodes/min", flush=True)

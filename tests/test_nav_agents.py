@@ -16,7 +16,7 @@ from sdovon_mj.nav.astar import astar, plan, plan_cells
 from sdovon_mj.nav.control import lattice_plan
 from sdovon_mj.nav.goal import goal_points, infer_view_points
 from sdovon_mj.grid import segment_free
-from sdovon_mj.suite.evaluate import evaluate, make_agent, summarize
+from sdovon_mj.suite.evaluate import OUTCOMES, episode_outcome, evaluate, make_agent, outcome_table, summarize
 from sdovon_mj.grid import GridFrame
 from sdovon_mj.gridgraph import GeodesicField
 from sdovon_mj.records import Episode, Goal, ViewPoint, load_json, save_json
@@ -242,6 +242,7 @@ def test_honest_agents_run_and_succeed_on_an_easy_episode(easy_bundle):
         assert len(res) == 3, cls.name
         easy = next(r for r in res if r["episode_id"] == "easy")
         assert easy["success"] == 1.0, (cls.name, easy["info"])
+        assert easy["outcome"] == "success" and all(r["outcome"] in OUTCOMES for r in res)
         assert not agent.knowledge.is_oracle and "ORACLE" not in easy["knowledge"]
     sem = SemanticAStar(agent=body, explore_steps=400)
     evaluate(easy_bundle, sem, episodes=1, progress=False)
@@ -317,3 +318,77 @@ def test_semantic_ranking_directions_on_a_popular_and_a_specific_object():
         mem.ranked("specific", rel, rng, "sideways")
     with pytest.raises(ValueError, match="ranking"):
         SemanticAStar(ranking="sideways")
+
+
+def test_episode_outcomes_name_why_an_episode_ended():
+    """Each ending is told apart: success, the step limit, an exhausted search, a same-label object that is no goal
+    (its reconstructed centre far from every goal's box), a STOP near the goal but off its view points."""
+    g = Goal("obj_000", "mug", np.array([1.0, 1.0, 0.8]), [ViewPoint(np.array([0.5, 1.0, 0.0]), yaw_quat(0.0))],
+             np.array([[0.95, 0.95, 0.75], [1.05, 1.05, 0.85]]))
+    ep = Episode("e", "s", "v", "mug", np.zeros(3), yaw_quat(0.0), [g], 1.0, 1.0)
+    base = {"success": 0.0, "stop_called": True}
+    assert episode_outcome({**base, "success": 1.0}, ep) == "success"
+    assert episode_outcome({**base, "stop_called": False, "info": {"detected": True}}, ep) == "step limit"
+    assert episode_outcome({**base, "info": {"detected": False}}, ep) == "not found"
+    assert episode_outcome({**base, "info": {"detected": True, "goal": [3.0, 1.0, 0.8]}}, ep) == "other instance"
+    assert episode_outcome({**base, "info": {"detected": True, "goal": [1.02, 1.0, 0.8]}}, ep) == "missed stop"
+    assert episode_outcome({**base, "info": {}}, ep) == "missed stop"  # an agent that reports nothing
+    # GPS+compass agents report in the start frame (x forward, y left): start at the origin facing +Y
+    turned = Episode("t", "s", "v", "mug", np.zeros(3), yaw_quat(90.0), [g], 1.0, 1.0)
+    near = {**base, "info": {"detected": True, "goal": [1.0, -1.0, 0.8]}}  # 1 m ahead, 1 m right: (1, 1) in the scene
+    assert episode_outcome(near, turned, "gps+compass") == "missed stop"
+    assert episode_outcome(near, turned, "absolute") == "other instance"
+    res = [{"success": s, "spl": s, "soft_spl": s, "distance_to_goal": 0.0, "shortest": 1.0, "path_length": 1.0,
+            "outcome": o} for s, o in ((1.0, "success"), (0.0, "step limit"), (0.0, "step limit"), (0.0, "not found"))]
+    out = summarize(res, bootstrap=0)["outcomes"]
+    assert out == {"success": 0.25, "step limit": 0.5, "not found": 0.25, "other instance": 0.0, "missed stop": 0.0}
+    table = outcome_table({"a": {**summarize(res, bootstrap=0)}})
+    assert "| a | 4 | 0.250 | 0.500 | 0.250 | 0.000 | 0.000 |" in table
+
+
+def test_astar_observe_looks_around_at_a_navigation_point():
+    """Observe o ~ O(p|s) at a navigation point: after the receptacle, the agent turns left 360 / look_yaws degrees at a
+    time and looks at pitches 0 and -tilt at each yaw, rendering what it looks at, until the detector reports the goal;
+    with ``look_yaws=1`` it looks at the receptacle only."""
+    from types import SimpleNamespace
+
+    from sdovon_mj.actions import LOOK_DOWN, LOOK_UP, TURN_LEFT, TURN_RIGHT
+
+    class Detector:  # reports the goal when the camera looks behind the start heading, slightly down
+        def category_mask(self, semantic, category):
+            return np.ones((2, 2), bool) if semantic == (180, -30) else None
+
+    def drive(look_yaws):
+        agent = RandomAStar(nav=NavConfig(look_yaws=look_yaws), agent=SMALL)
+        pose = {"yaw": 0.0, "pitch": 0.0}
+        env = SimpleNamespace(steps=0)
+
+        def timestep():
+            o = {"heading": np.array([math.radians(pose["yaw"])]), "pitch": np.array([math.radians(pose["pitch"])]),
+                 "objectgoal_text": "mug", "semantic": (round(pose["yaw"]) % 360, round(pose["pitch"]))}
+            return SimpleNamespace(observation=o)
+
+        agent.env, agent.detector, agent.ts, agent.frame_fresh = env, Detector(), timestep(), True
+        gen, acts, rendered, mask = agent._look_around(), [], [], None
+        try:
+            a = next(gen)
+            while True:
+                acts.append(a)
+                pose["yaw"] += {TURN_LEFT: 30.0, TURN_RIGHT: -30.0}.get(a, 0.0)
+                pose["pitch"] += {LOOK_UP: 30.0, LOOK_DOWN: -30.0}.get(a, 0.0)
+                env.steps += 1
+                agent.ts, agent.frame_fresh = timestep(), agent.wants_frame
+                if agent.frame_fresh:
+                    rendered.append((pose["yaw"] % 360, pose["pitch"]))
+                a = gen.send(agent.ts)
+        except StopIteration as stop:
+            mask = stop.value
+        return acts, rendered, mask
+
+    acts, rendered, mask = drive(6)
+    assert mask is not None and rendered[-1] == (180.0, -30.0)
+    # yaws 60 and 120 looked at both pitches, then 180 found at its second pitch: 2 turns per 60 degrees
+    assert acts == [TURN_LEFT, TURN_LEFT, LOOK_DOWN, TURN_LEFT, TURN_LEFT, LOOK_UP, TURN_LEFT, TURN_LEFT, LOOK_DOWN]
+    assert rendered == [(60.0, 0.0), (60.0, -30.0), (120.0, -30.0), (120.0, 0.0), (180.0, 0.0), (180.0, -30.0)]
+    acts, rendered, mask = drive(1)
+    assert acts == [] and mask is None

@@ -340,6 +340,25 @@ class ReceptacleAStar(Agent):
                 return mask
         return None
 
+    def _look_around(self) -> Generator[int, object, np.ndarray | None]:
+        """The rest of Observe o ~ O(p|s) at a navigation point: the other ``nav.look_yaws - 1`` yaws (360 deg /
+        look_yaws apart, turning left), each seen at pitches 0 and -tilt (`_observe`); return the goal mask of the
+        first detection (or None)."""
+        n = int(self.nav.look_yaws)
+        if n <= 1:
+            return None
+        turns = max(1, int(round(360.0 / n / self.nav.turn_angle)))
+        for _ in range(n - 1):
+            for _t in range(turns - 1):
+                yield TURN_LEFT
+            if self.env.steps >= self.nav.max_steps - 20:
+                return None
+            yield from self._rendered(TURN_LEFT)
+            mask = yield from self._observe()
+            if mask is not None:
+                return mask
+        return None
+
     def _open_and_look(self) -> Generator[int, object, np.ndarray | None]:
         """Try OPEN (up to ``open_tries`` times) at the piece in front and look after each; return a goal mask or None.
 
@@ -426,10 +445,13 @@ class ReceptacleAStar(Agent):
         return (yield from self._final_nav_paper(memory, nv, pts))
 
     def _final_nav_paper(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
-        """The paper's FN: Navigate(p_g | eps_nav) to the detected object's centre, then face it with it in view.
+        """The paper's FN: Navigate(p_g | eps_nav) to the detected object's centre, then STOP with it in view.
 
         p_g usually stands on furniture: the agent drives towards the reachable cell of its map nearest to p_g
-        and stops as soon as it is within eps_nav of p_g.
+        and stops as soon as it is within eps_nav of p_g, faces the object and looks. When it does not see it
+        from there (or could not get within eps_nav), it tries other places of its map within the view radius
+        ``nav.fn_viewpoint_radius`` of p_g (at most ``nav.fn_max_checks`` places in all, nearest by path first) and
+        stops at the first that shows the object.
         """
         centre = object_centre(pts)
         pos = np.asarray(self.ts.observation["position"], float)[:2]
@@ -447,7 +469,28 @@ class ReceptacleAStar(Agent):
             if target is not None:
                 reached = yield from nv.goto(target, tol, self.ts)
         seen = yield from self._verify(centre, nv)
-        return {"fn": "paper", "fn_reached": bool(reached), "fn_verified": bool(seen)}
+        tried = 0
+        if not (reached and seen):
+            # "then STOP with the object in view", close by: where Navigate stopped does not show it (the
+            # receptacle's edge hides it from close by, the nearest free cell is behind the piece) or is farther
+            # than eps_nav (no free cell nearer): other places of the agent's map within the view radius
+            # (nav.fn_viewpoint_radius) of p_g, nearest by path first, forward_step apart, each checked by looking
+            pos = np.asarray(self.ts.observation["position"], float)[:2]
+            cands, _d = infer_view_points(centre[None], memory.traversable, memory.frame, pos,
+                                          self.nav.fn_viewpoint_radius, self.nav.forward_step)
+            for c in cands:
+                if tried >= self.nav.fn_max_checks - 1 or self.env.steps >= self.nav.max_steps - 10:
+                    break
+                if np.linalg.norm(c - np.asarray(self.ts.observation["position"], float)[:2]) < self.nav.forward_step / 2:
+                    continue
+                # a place to look from, not a point to stand on exactly: within half a step (the candidates' spacing)
+                if not (yield from nv.goto(c, self.nav.forward_step / 2.0, self.ts)):
+                    continue
+                tried += 1
+                seen = yield from self._verify(centre, nv)
+                if seen:
+                    break
+        return {"fn": "paper", "fn_reached": bool(reached), "fn_verified": bool(seen), "fn_checks": tried}
 
     def _final_nav_lattice(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
         """Our FN variant: walk to the nearest inferred lattice view point of the goal that the detector confirms."""
@@ -502,6 +545,8 @@ class ReceptacleAStar(Agent):
                 mask = yield from self._observe()
                 if mask is None and entry.plane.label.lower() in self.open_labels:
                     mask = yield from self._open_and_look()
+                if mask is None:
+                    mask = yield from self._look_around()
                 if mask is not None:
                     yield from self._found(memory, nv, mask, entry, visited)
                     return
