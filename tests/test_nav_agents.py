@@ -200,18 +200,24 @@ def test_oracle_agent_succeeds(fixture_root):
 
 @pytest.mark.slow
 def test_semantic_beats_random_and_fn_helps_on_fixture(tmp_path):
-    """On the fixture (3 variants, 63 episodes), orderings only: Semantic A* has the higher SPL, FN raises SR.
+    """On the fixture (3 variants, 63 episodes), orderings only: FN raises SR; Semantic A*'s ranking gives the higher
+    SPL when a navigation point shows only its receptacle.
 
     Two rooms and six receptacles leave Random A* time to visit them all, so SR is not ranked here (the SR
-    ranking is asserted on >= 300 default-world episodes: test_nav_dataset.py)."""
+    ranking is asserted on >= 300 default-world episodes: test_nav_dataset.py). The ranking is checked with the
+    agents looking at the receptacle only (``nav.look_yaws=1``): with the look around of O(p|s), the first
+    navigation point of a two-room home shows most of it, whichever receptacle the agent went to, and SPL no
+    longer tells the orders apart."""
     root = fixture_bundle(tmp_path / "fx", variants=3, seed=1)
     body = AgentConfig(sensor_width=160, sensor_height=120)
+    facing = NavConfig(look_yaws=1)
     out = {}
     for cls in (RandomAStar, SemanticAStar):
         for fn in (True, False):
             out[(cls.name, fn)] = summarize(evaluate(root, cls(seed=0, final_nav=fn, agent=body), progress=False))
+        out[(cls.name, "facing")] = summarize(evaluate(root, cls(nav=facing, seed=0, agent=body), progress=False))
     print(out)
-    assert out[("semantic-astar", True)]["spl"] > out[("random-astar", True)]["spl"]
+    assert out[("semantic-astar", "facing")]["spl"] > out[("random-astar", "facing")]["spl"]
     for name in ("random-astar", "semantic-astar"):
         assert out[(name, True)]["success"] > out[(name, False)]["success"]
 
