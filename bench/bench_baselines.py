@@ -27,7 +27,13 @@ from sdovon_mj.config import AgentConfig, NavConfig, load_config  # noqa: E402
 from sdovon_mj.nav.agents import RandomAStar, SemanticAStar, SemanticFrontierAgent  # noqa: E402
 from sdovon_mj.suite import find_bundles, load_bundle  # noqa: E402
 from sdovon_mj.suite.evaluate import (episodes_per_minute, evaluate, inside_table, outcome_table,  # noqa: E402
-                                      overall_table, select_bundles, summarize)
+                                      overall_table, paired_table, select_bundles, summarize)
+
+# Orderings the issue asks about, compared on the same episodes (paired bootstrap): the ranking, prior knowledge, FN.
+PAIRS = [("semantic-astar", "random-astar"), ("random-astar", "semantic-frontier (no prior)"),
+         ("semantic-astar", "semantic-frontier (no prior)"), ("semantic-astar", "semantic-astar no-FN"),
+         ("random-astar", "random-astar no-FN"), ("semantic-astar", "semantic-astar facing-only"),
+         ("random-astar", "random-astar facing-only")]
 
 
 def generate_dataset(root: Path, scenes: list[int], variants: int, k_e: int) -> Path:
@@ -42,9 +48,13 @@ def generate_dataset(root: Path, scenes: list[int], variants: int, k_e: int) -> 
     return root / "export" / "mjcf"
 
 
-def print_tables(rows: dict) -> None:
-    """Print the overall table and, when some episodes hide a goal in a closed part, the inside table."""
+def print_tables(rows: dict, per_episode: dict | None = None) -> None:
+    """Print the overall table, the paired differences, how episodes ended and, when some episodes hide a goal in a
+    closed part, the inside table."""
     print(overall_table(rows, paper=False))
+    paired = paired_table(per_episode or {}, PAIRS)
+    if paired:
+        print("\nPaired differences on the same episodes:\n" + paired)
     ended = outcome_table(rows)
     if ended:
         print("\nHow episodes ended (shares):\n" + ended)
@@ -91,7 +101,7 @@ def main() -> None:
             if len(speed[label]) > 1:  # parts of one row: the summary over every episode, the mean speed
                 rows[label] = {**summarize(eps), "knowledge": speed[label][0].get("knowledge", ""),
                                "episodes_per_minute": float(np.mean([r["episodes_per_minute"] for r in speed[label]]))}
-        print_tables(rows)
+        print_tables(rows, pooled)
         return
     root = Path(a.dataset) if a.dataset else generate_dataset(Path(a.generate), a.scenes, a.variants, a.k_e)
     body = AgentConfig(sensor_width=a.width, sensor_height=a.width * 3 // 4)
@@ -137,7 +147,7 @@ def main() -> None:
         Path(a.json).write_text(json.dumps({"dataset": str(root), "per_scene": a.per_scene, "rows": rows,
                                             "episodes": per_episode}, default=float, indent=1), encoding="utf-8")
     print()
-    print_tables(rows)
+    print_tables(rows, per_episode)
 
 
 if __name__ == "__main__":

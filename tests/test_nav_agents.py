@@ -16,7 +16,8 @@ from sdovon_mj.nav.astar import astar, plan, plan_cells
 from sdovon_mj.nav.control import lattice_plan
 from sdovon_mj.nav.goal import goal_points, infer_view_points
 from sdovon_mj.grid import segment_free
-from sdovon_mj.suite.evaluate import OUTCOMES, episode_outcome, evaluate, make_agent, outcome_table, summarize
+from sdovon_mj.suite.evaluate import (OUTCOMES, episode_outcome, evaluate, make_agent, outcome_table,
+                                      paired_difference, paired_table, summarize)
 from sdovon_mj.grid import GridFrame
 from sdovon_mj.gridgraph import GeodesicField
 from sdovon_mj.records import Episode, Goal, ViewPoint, load_json, save_json
@@ -398,3 +399,35 @@ def test_astar_observe_looks_around_at_a_navigation_point():
     assert rendered == [(60.0, 0.0), (60.0, -30.0), (120.0, -30.0), (120.0, 0.0), (180.0, 0.0), (180.0, -30.0)]
     acts, rendered, mask = drive(1)
     assert acts == [] and mask is None
+
+
+def test_paired_difference_orders_agents_on_the_same_episodes():
+    """Paired over episodes: a constant per-episode gain is decided even when both agents' own spreads overlap;
+    unmatched episodes are left out; swapping the agents flips the sign."""
+    rng = np.random.default_rng(0)
+    base = rng.random(200)
+    a = [{"episode_id": f"e{i}", "spl": float(v) + 0.05} for i, v in enumerate(base)]
+    b = [{"episode_id": f"e{i}", "spl": float(v)} for i, v in enumerate(base)] + [{"episode_id": "x", "spl": 9.0}]
+    d = paired_difference(a, b, "spl")
+    assert d["episodes"] == 200 and abs(d["diff"] - 0.05) < 1e-9 and d["ci"][0] > 0.0
+    assert paired_difference(b, a, "spl")["diff"] == -d["diff"]
+    ua, ub = summarize([{**r, "success": 1.0, "soft_spl": 0.0, "distance_to_goal": 0.0, "shortest": 1.0,
+                         "path_length": 1.0} for r in a]), summarize([{**r, "success": 1.0, "soft_spl": 0.0,
+                         "distance_to_goal": 0.0, "shortest": 1.0, "path_length": 1.0} for r in b[:-1]])
+    assert ua["spl_ci"][0] < ub["spl_ci"][1]  # the unpaired intervals overlap
+    a_sr = [{**r, "success": 1.0} for r in a]
+    b_sr = [{**r, "success": 1.0} for r in b]
+    assert "| A - B | 200 | +0.000 [+0.000, +0.000] | +0.050 [+0.050, +0.050] |" in paired_table(
+        {"A": a_sr, "B": b_sr}, [("A", "B"), ("A", "missing")])
+
+
+def test_eval_command_writes_outcomes_and_paired_differences(fixture_root, tmp_path):
+    """`sdovon-mj eval` with two agents writes the overall table, the paired differences and how episodes ended."""
+    from sdovon_mj.cli import main
+
+    rc = main(["eval", str(fixture_root), "--agent", "oracle", "--agent", "random", "--episodes", "3",
+               "--width", "32", "--height", "24", "--pictures", "0", "--out", str(tmp_path / "ev")])
+    md = (tmp_path / "ev" / "tables.md").read_text()
+    assert rc == 0
+    assert "| oracle - random | 3 |" in md and "## How episodes ended" in md
+    assert "| oracle | 3 | 1.000 | 0.000 | 0.000 | 0.000 | 0.000 |" in md  # the oracle stops on a view point

@@ -236,6 +236,39 @@ def _summary(results: list[dict], bootstrap: int, seed: int) -> dict[str, Any]:
     return out
 
 
+def paired_difference(a: list[dict], b: list[dict], key: str = "success", bootstrap: int = 2000,
+                      seed: int = 0) -> dict[str, Any]:
+    """Return the mean per-episode difference a - b of a metric over the episodes both agents ran, with a 95 % interval.
+
+    The agents ran the same episodes, so the comparison is paired: the bootstrap resamples episodes (percentile
+    method), each carrying both agents' results, which removes the episode-to-episode spread the two unpaired
+    intervals of `summarize` both hold. Returns ``{"diff", "ci": (low, high), "episodes"}``; an interval that
+    excludes 0 orders the two agents on these episodes.
+    """
+    bx = {r["episode_id"]: float(r[key]) for r in b}
+    pairs = [(float(r[key]), bx[r["episode_id"]]) for r in a if r["episode_id"] in bx]
+    if not pairs:
+        return {"diff": float("nan"), "ci": (float("nan"), float("nan")), "episodes": 0}
+    d = np.array([x - y for x, y in pairs])
+    rng = np.random.default_rng(seed)
+    means = d[rng.integers(0, len(d), size=(int(bootstrap), len(d)))].mean(axis=1)
+    lo, hi = np.percentile(means, [2.5, 97.5])
+    return {"diff": round(float(d.mean()), 4), "ci": (round(float(lo), 4), round(float(hi), 4)), "episodes": len(d)}
+
+
+def paired_table(per_episode: dict[str, list[dict]], pairs: list[tuple[str, str]]) -> str:
+    """Return the markdown table of paired differences (SR, SPL) for agent pairs present in ``per_episode``."""
+    shown = [(x, y) for x, y in pairs if x in per_episode and y in per_episode]
+    if not shown:
+        return ""
+    lines = ["| A - B | Episodes | SR difference [95% CI] | SPL difference [95% CI] |", "|---|---|---|---|"]
+    for x, y in shown:
+        sr, spl = (paired_difference(per_episode[x], per_episode[y], k) for k in ("success", "spl"))
+        lines.append(f"| {x} - {y} | {sr['episodes']} | {sr['diff']:+.3f} [{sr['ci'][0]:+.3f}, {sr['ci'][1]:+.3f}] | "
+                     f"{spl['diff']:+.3f} [{spl['ci'][0]:+.3f}, {spl['ci'][1]:+.3f}] |")
+    return "\n".join(lines)
+
+
 def episodes_per_minute(results: list[dict], seconds: float) -> float:
     """Return evaluation speed: episodes per wall minute."""
     return 60.0 * len(results) / seconds if seconds > 0 else float("nan")
@@ -394,6 +427,10 @@ def run(args: argparse.Namespace) -> int:
             trajectory_picture(args.dataset, r, out / "pictures" / label.replace(" ", "_") / f"{r['episode_id']}.png")
     rows = {label: {**summarize(res), "episodes_per_minute": round(speed[label], 2)} for label, res in per_agent.items()}
     md = "## Overall\n\n" + overall_table(rows) + "\n\n## Per category (top-5, >= 2 successes)\n\n" + category_table(per_agent) + "\n"
+    labels = list(per_agent)
+    paired = paired_table(per_agent, [(x, y) for i, x in enumerate(labels) for y in labels[i + 1:]])
+    if paired:
+        md += "\n## Paired differences (same episodes, 95 % paired bootstrap)\n\n" + paired + "\n"
     if outcome_table(rows):
         md += "\n## How episodes ended\n\n" + outcome_table(rows) + "\n"
     if inside_table(rows):
