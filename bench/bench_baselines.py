@@ -105,7 +105,7 @@ def main() -> None:
         return
     root = Path(a.dataset) if a.dataset else generate_dataset(Path(a.generate), a.scenes, a.variants, a.k_e)
     body = AgentConfig(sensor_width=a.width, sensor_height=a.width * 3 // 4)
-    nav, lattice = NavConfig(), replace(NavConfig(), fn_mode="lattice")
+    lattice = replace(NavConfig(), fn_mode="lattice")
     facing = replace(NavConfig(), look_yaws=1)  # Observe at a navigation point: the receptacle only, no look around
     runs = [("semantic-astar", SemanticAStar(agent=body)), ("random-astar", RandomAStar(agent=body)),
             ("semantic-frontier (no prior)", SemanticFrontierAgent(agent=body)),

@@ -345,6 +345,9 @@ def test_episode_outcomes_name_why_an_episode_ended():
     near = {**base, "info": {"detected": True, "goal": [1.0, -1.0, 0.8]}}  # 1 m ahead, 1 m right: (1, 1) in the scene
     assert episode_outcome(near, turned, "gps+compass") == "missed stop"
     assert episode_outcome(near, turned, "absolute") == "other instance"
+    from sdovon_mj.suite.boundary import scene_frame_point, start_frame_pose
+    back = scene_frame_point(np.array([1.0, -1.0, 0.8]), np.array([2.0, -1.0, 0.5]), 90.0)
+    assert np.allclose(back, [3.0, 0.0, 1.3]) and np.allclose(start_frame_pose(back, 0.0, [2.0, -1.0], 90.0)[0], [1.0, -1.0])
     res = [{"success": s, "spl": s, "soft_spl": s, "distance_to_goal": 0.0, "shortest": 1.0, "path_length": 1.0,
             "outcome": o} for s, o in ((1.0, "success"), (0.0, "step limit"), (0.0, "step limit"), (0.0, "not found"))]
     out = summarize(res, bootstrap=0)["outcomes"]

@@ -165,7 +165,8 @@ def candidate_cells(navmap: NavMap, box: ObjectBox, radius: float, stride: int) 
     return cells[np.hypot(dx, dy) <= radius]
 
 
-def covering_cells(navmap: NavMap, box: ObjectBox, radius: float, stride: int, success_distance: float) -> np.ndarray:
+def covering_cells(navmap: NavMap, box: ObjectBox, radius: float, stride: int, success_distance: float,
+                   fine: np.ndarray | None = None) -> np.ndarray:
     """Return the first-pass view point candidates: the ``stride`` lattice, plus every navigable cell within `radius`
     of the box that lies `success_distance` (m) or farther from each navigable lattice cell.
 
@@ -185,6 +186,8 @@ def covering_cells(navmap: NavMap, box: ObjectBox, radius: float, stride: int, s
         Lattice stride in cells (`lattice_stride`); 1 returns every navigable cell in the radius.
     success_distance : float
         A cell at least this far (metres) from every navigable lattice cell is a candidate itself.
+    fine : (M, 2) int array, optional
+        ``candidate_cells(navmap, box, radius, 1)`` when the caller has it already.
 
     Returns
     -------
@@ -193,7 +196,7 @@ def covering_cells(navmap: NavMap, box: ObjectBox, radius: float, stride: int, s
     lattice = candidate_cells(navmap, box, radius, stride)
     if stride <= 1:
         return lattice
-    fine = candidate_cells(navmap, box, radius, 1)
+    fine = candidate_cells(navmap, box, radius, 1) if fine is None else fine
     far = _nearest(navmap.frame.to_world(fine), navmap.frame.to_world(lattice)) >= success_distance - 1e-9
     return np.concatenate([lattice, fine[far]]) if far.any() else lattice
 
@@ -558,11 +561,11 @@ def object_view_points(checker: VisibilityChecker, navmap: NavMap, box: ObjectBo
                 seen[(int(cell[0]), int(cell[1]))] = (frac, yaw)
 
     stride = 1 if exhaustive else lattice_stride(navmap.resolution, cfg.viewpoint_step, cfg.success_distance)
-    test(covering_cells(navmap, box, cfg.viewpoint_radius, stride, cfg.success_distance))
+    fine = candidate_cells(navmap, box, cfg.viewpoint_radius, 1) if stride > 1 else None
+    test(covering_cells(navmap, box, cfg.viewpoint_radius, stride, cfg.success_distance, fine))
     if seen and stride > 1:
         # Refine the edge of the covered area at the grid resolution: the ring of cells not within the
         # success distance of a view point but next to (8-neighbours of) a cell that is.
-        fine = candidate_cells(navmap, box, cfg.viewpoint_radius, 1)
         xy = navmap.frame.to_world(fine)
         covered = _nearest(xy, navmap.frame.to_world(np.array(sorted(seen)))) < cfg.success_distance - 1e-9
         ring = ~covered & (_nearest(xy, xy[covered]) <= navmap.resolution * (math.sqrt(2.0) + 1e-6))

@@ -164,4 +164,17 @@ def start_frame_pose(position: np.ndarray, yaw_deg: float, start: np.ndarray, st
     return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]]), (yaw_deg - start_yaw_deg + 180.0) % 360.0 - 180.0
 
 
-__all__ = ["AgentBundle", "AgentEnv", "Knowledge", "KnowledgeError", "OracleView", "knowledge_of", "start_frame_pose"]
+def scene_frame_point(point: np.ndarray, start: np.ndarray, start_yaw_deg: float) -> np.ndarray:
+    """Return a point given in an episode's start frame (x forward, y left, z from the start's floor) in the scene
+    frame: the inverse of `start_frame_pose` for positions (XY, or XYZ with the start's height added)."""
+    c, s = math.cos(math.radians(start_yaw_deg)), math.sin(math.radians(start_yaw_deg))
+    p = np.asarray(point, float).copy()
+    st = np.asarray(start, float)
+    p[:2] = st[:2] + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1]])
+    if len(p) > 2:
+        p[2] += float(st[2]) if len(st) > 2 else 0.0
+    return p
+
+
+__all__ = ["AgentBundle", "AgentEnv", "Knowledge", "KnowledgeError", "OracleView", "knowledge_of", "scene_frame_point",
+           "start_frame_pose"]

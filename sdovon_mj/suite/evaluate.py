@@ -27,7 +27,7 @@ from ..progress import Progress
 from ..store import atomic_write_bytes, atomic_write_text
 from ..knowledge import knowledge_of
 from ..perceive.gt_detector import GroundTruthDetector
-from .boundary import AgentBundle, AgentEnv
+from .boundary import AgentBundle, AgentEnv, scene_frame_point
 from .bundle import Bundle, find_bundles, load_bundle
 from .objectnav import make_environment
 
@@ -72,12 +72,9 @@ def episode_outcome(result: dict, episode: Any, pose: str = "absolute") -> str:
         return "not found"
     centre, goals = info.get("goal"), list(getattr(episode, "goals", []) or [])
     if centre is not None and goals:
-        c = np.asarray(centre, float)[:3].copy()
+        c = np.asarray(centre, float)[:3]
         if pose != "absolute":  # start frame (x forward, y left at the start pose) -> scene frame
-            a = math.radians(quat_yaw(episode.start_rotation))
-            start = np.asarray(episode.start_position, float)
-            c[:2] = start[:2] + np.array([math.cos(a) * c[0] - math.sin(a) * c[1], math.sin(a) * c[0] + math.cos(a) * c[1]])
-            c[2] += float(start[2])
+            c = scene_frame_point(c, episode.start_position, quat_yaw(episode.start_rotation))
         d = []
         for g in goals:
             lo, hi = (np.asarray(g.bounds, float) if g.bounds is not None else np.stack([g.position, g.position]))
@@ -431,10 +428,11 @@ def run(args: argparse.Namespace) -> int:
     paired = paired_table(per_agent, [(x, y) for i, x in enumerate(labels) for y in labels[i + 1:]])
     if paired:
         md += "\n## Paired differences (same episodes, 95 % paired bootstrap)\n\n" + paired + "\n"
-    if outcome_table(rows):
-        md += "\n## How episodes ended\n\n" + outcome_table(rows) + "\n"
-    if inside_table(rows):
-        md += "\n## Inside articulated receptacles (goal behind a closed door or drawer)\n\n" + inside_table(rows) + "\n"
+    ended, inside = outcome_table(rows), inside_table(rows)
+    if ended:
+        md += "\n## How episodes ended\n\n" + ended + "\n"
+    if inside:
+        md += "\n## Inside articulated receptacles (goal behind a closed door or drawer)\n\n" + inside + "\n"
     atomic_write_text(out / "tables.md", md)
     atomic_write_text(out / "summary.json", json.dumps(_finite(rows), indent=1, sort_keys=True) + "\n")
     print(md)
