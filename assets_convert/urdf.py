@@ -249,6 +249,8 @@ def _geometry(el: ET.Element, urdf: Path, where: str, what: str,
         if not path.is_file():
             raise InputError(where, f"{what}: mesh file '{fn}' not found (looked at {display_path(path)})")
         sc = shape.get("scale")
+        if sc is not None and len(sc.split()) not in (1, 3):
+            raise InputError(where, f"{what} mesh scale needs 1 or 3 numbers, got {sc!r}")
         scale = _floats(sc, 3, where, f"{what} mesh scale") if sc is not None and len(sc.split()) == 3 else \
             np.full(3, _floats(sc, 1, where, f"{what} mesh scale", (1.0,))[0])
         if (scale == 0).any():

@@ -330,6 +330,19 @@ def test_bad_urdf_names_file_and_part(tmp_path: Path, case: str, body: str, expe
         assert s in msg, (case, msg)
 
 
+def test_mesh_scale_of_four_numbers_is_named(tmp_path: Path) -> None:
+    """A mesh scale of neither 1 nor 3 numbers (racecar_differential.urdf in pybullet_data has '1 1 1 1')."""
+    folder = tmp_path / "scale"
+    folder.mkdir()
+    (folder / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    path = _write(folder, '<link name="base"><visual><geometry><mesh filename="m.obj" scale="1 1 1 1"/></geometry></visual></link>')
+    with pytest.raises(InputError) as e:
+        read_urdf(path)
+    msg = str(e.value)
+    for s in (str(path), "link 'base' visual 0", "mesh scale needs 1 or 3 numbers", "'1 1 1 1'"):
+        assert s in msg, msg
+
+
 def test_cycle_with_a_root_elsewhere(tmp_path: Path) -> None:
     """A cycle beside a proper tree (one root) is still found."""
     body = LINK.format(n="r") + LINK.format(n="a") + LINK.format(n="b") + _joint("j1", "a", "b") + _joint("j2", "b", "a")
