@@ -480,6 +480,39 @@ def _load_parts(mesh: Path, scale: np.ndarray, T: np.ndarray, where: str, what: 
     return parts
 
 
+def inertia_problem(I: np.ndarray) -> str | None:
+    """Return why a 3x3 inertia tensor (kg m^2) is not physical for MuJoCo, or None when it is.
+
+    MuJoCo's compiler needs positive principal moments that satisfy the triangle inequality (A + B >= C);
+    PyBullet accepts URDFs without either (e.g. ``izz="0"``).
+    """
+    from .writer import fmt
+
+    I = np.asarray(I, dtype=np.float64)
+    if not np.isfinite(I).all():
+        return "has non-finite entries"
+    ev = np.sort(np.linalg.eigvalsh(0.5 * (I + I.T)))
+    scale = max(float(np.abs(ev).max()), 1e-300)
+    if ev[0] <= 1e-9 * scale or ev[0] <= 1e-14:
+        return f"has principal moments {fmt(ev, 6)} (not all positive)"
+    if ev[0] + ev[1] < ev[2] * (1.0 - 1e-9):
+        return f"has principal moments {fmt(ev, 6)} (A + B < C: no rigid body has them)"
+    return None
+
+
+def box_inertia(mass: float, points: np.ndarray | None, fallback: float = 0.05) -> np.ndarray:
+    """Return the principal moments (kg m^2) of a solid box of `mass` spanning `points` (N, 3), axis-aligned.
+
+    A side under 1 mm counts as 1 mm; without points the box is a cube of side `fallback` metres.
+    """
+    if points is None or len(points) == 0:
+        ext = np.full(3, float(fallback))
+    else:
+        ext = np.maximum(np.ptp(np.asarray(points, dtype=np.float64), axis=0), 1e-3)
+    a, b, c = ext
+    return mass / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+
+
 def _primitive_corners(g: Geometry) -> np.ndarray:
     """Return points bounding a primitive in the link frame (box corners; cylinder/sphere bounding-box corners)."""
     if g.kind == "box":
@@ -667,8 +700,19 @@ def write_mjcf(robot: Robot, work: Path, name: str, density: float, cfg: Convert
             R = ine.origin[:3, :3]
             I = R @ ine.inertia @ R.T * s * s  # in the link frame
             pos = ine.origin[:3, 3] * s
-            full = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
-            lines.insert(0, f'<inertial pos="{fmt(pos)}" mass="{fmt([ine.mass * robot.mass_scale])}" fullinertia="{fmt(full, 8)}"/>')
+            mass = ine.mass * robot.mass_scale
+            why = inertia_problem(I)
+            if why is None:
+                full = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
+                lines.insert(0, f'<inertial pos="{fmt(pos)}" mass="{fmt([mass])}" fullinertia="{fmt(full, 8)}"/>')
+            else:
+                # PyBullet runs such links; MuJoCo refuses to compile them. Keep the URDF's mass and centre of
+                # mass, take the inertia of a solid box spanning the link's geometry (SolidWorks exports, random
+                # objects with izz=0).
+                diag = box_inertia(mass, np.concatenate(points[lname]) if points[lname] else None)
+                warnings.append(f"link '{lname}': URDF inertia {why}; used a solid box of the link's geometry "
+                                f"with its mass ({fmt(diag, 8)} kg m^2)")
+                lines.insert(0, f'<inertial pos="{fmt(pos)}" mass="{fmt([mass])}" diaginertia="{fmt(diag, 8)}"/>')
         elif not colls and lname != robot.root and _moves(robot, lname):
             warnings.append(f"link '{lname}' moves but has no inertial and no collision geometry: given {MIN_MASS:g} kg")
             lines.insert(0, f'<inertial pos="0 0 0" mass="{MIN_MASS:g}" diaginertia="1e-6 1e-6 1e-6"/>')
@@ -838,5 +882,5 @@ def _meta_json_category(path: Path) -> str | None:
     return None
 
 
-__all__ = ["Geometry", "Inertial", "Joint", "Link", "Robot", "convert_urdf_report", "read_urdf", "resolve_mesh",
+__all__ = ["Geometry", "Inertial", "Joint", "Link", "Robot", "box_inertia", "convert_urdf_report", "inertia_problem", "read_urdf", "resolve_mesh",
            "urdf_mesh_files", "write_mjcf"]

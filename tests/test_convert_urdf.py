@@ -343,6 +343,31 @@ def test_mesh_scale_of_four_numbers_is_named(tmp_path: Path) -> None:
         assert s in msg, msg
 
 
+def test_unphysical_urdf_inertia_is_replaced_with_a_warning(tmp_path: Path) -> None:
+    """izz=0 (pybullet_data's random objects) or A + B < C: MuJoCo refuses to compile it, PyBullet runs it.
+
+    The link keeps the URDF mass and centre of mass and takes a solid box of its geometry's extent; the report warns.
+    """
+    from assets_convert.urdf import box_inertia, inertia_problem
+
+    assert inertia_problem(np.diag([1.0, 1.0, 0.0])) is not None
+    assert inertia_problem(np.diag([1.0, 1.0, 3.0])) is not None  # 1 + 1 < 3
+    assert inertia_problem(np.diag([1.0, 2.0, 3.0])) is None
+    assert np.allclose(box_inertia(12.0, np.array([[0, 0, 0], [1, 2, 3]])), [13, 10, 5])
+    body = ('<link name="base"><inertial><origin xyz="0.01 0 0"/><mass value="0.1"/>'
+            '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="0"/></inertial>'
+            '<collision><geometry><box size="0.1 0.2 0.3"/></geometry></collision></link>')
+    path = _write(tmp_path / "in", body, "blob")
+    asset, report = convert_object_report(path, tmp_path / "out", cache_dir=tmp_path / "cache")
+    assert any("URDF inertia has principal moments" in w and "not all positive" in w for w in report["warnings"]), report
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "out" / asset.mjcf))
+    body_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "object")
+    assert m.body_mass[body_id] == pytest.approx(0.1)
+    want = sorted(box_inertia(0.1, np.array([[-0.05, -0.1, -0.15], [0.05, 0.1, 0.15]])))
+    assert sorted(m.body_inertia[body_id]) == pytest.approx(want, rel=1e-5)
+    assert m.body_ipos[body_id][0] == pytest.approx(0.01)
+
+
 def test_cycle_with_a_root_elsewhere(tmp_path: Path) -> None:
     """A cycle beside a proper tree (one root) is still found."""
     body = LINK.format(n="r") + LINK.format(n="a") + LINK.format(n="b") + _joint("j1", "a", "b") + _joint("j2", "b", "a")
