@@ -28,7 +28,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Convert the inputs; print a summary; exit 1 when any input failed."""
-    from .tree import convert_tree
+    from .load import SUPPORTED
+    from .tree import URDF_SUFFIX, convert_tree
+
+    ALL_SUPPORTED = SUPPORTED + (URDF_SUFFIX,)
 
     cfg = ConvertConfig()
     cfg = replace(cfg, units=str(args.units), up=str(args.up), target_size=float(args.target_size))
@@ -42,6 +45,13 @@ def run(args: argparse.Namespace) -> int:
     for row in report["items"]:
         if row["status"] != "ok":
             print(f"sdovon-mj convert: {row['file']}: {row['error']}", file=sys.stderr)
-    print(f"converted {report['ok']}/{report['count']} {args.kind}s in {report['seconds']:.1f} s; "
-          f"report: {Path(args.out) / 'convert_report.json'}")
+    for row in report.get("skipped", []):
+        print(f"sdovon-mj convert: skipped {row['file']}: {row['reason']}", file=sys.stderr)
+    print(f"converted {report['ok']}/{report['count']} {args.kind}s in {report['seconds']:.1f} s"
+          + (f", skipped {len(report['skipped'])} file(s) of other formats" if report.get("skipped") else "")
+          + f"; report: {Path(args.out) / 'convert_report.json'}")
+    if report["count"] == 0:
+        print(f"sdovon-mj convert: nothing to convert in {', '.join(map(str, args.inputs))} (no "
+              f"{', '.join(ALL_SUPPORTED if args.kind == 'object' else SUPPORTED)} files)", file=sys.stderr)
+        return 1
     return 0 if report["failed"] == 0 else 1

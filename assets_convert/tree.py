@@ -26,6 +26,9 @@ from .metadata import meta_for
 
 URDF_SUFFIX = ".urdf"  # articulated objects (assets_convert.urdf); their meshes are not objects of their own
 SKIP_PREFIXES = ("receptacle_mesh",)  # habitat receptacle annotations, not models
+# 3D model formats we do not read: a folder search lists them as skipped instead of passing over them silently
+OTHER_MODEL_SUFFIXES = (".dae", ".fbx", ".3ds", ".blend", ".usd", ".usda", ".usdc", ".usdz", ".x3d", ".wrl", ".off",
+                        ".3mf", ".dxf", ".ifc", ".max", ".ma", ".mb", ".c4d", ".skp")
 
 
 def _in_habitat_dataset(f: Path, top: Path) -> bool:
@@ -68,6 +71,31 @@ def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object")
             seen.add(k)  # type: ignore[arg-type]
             uniq.append(f)
     return sorted(uniq, key=lambda f: os.fsencode(str(f)))
+
+
+def unsupported_models(inputs: str | Path | Iterable[str | Path], kind: str = "object") -> list[Path]:
+    """Return the model files in the input folders that `find_inputs` passes over: formats we do not read.
+
+    Files a URDF among the inputs references (its links' meshes, e.g. ``.dae``) are not listed. Named files
+    (not folders) are not listed: they are converted and fail with the format named.
+    """
+    items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
+    found: list[Path] = []
+    urdfs: list[Path] = []
+    for item in items:
+        p = Path(item)
+        if not p.is_dir():
+            continue
+        for f in sorted(p.rglob("*")):
+            if not f.is_file() or any(part.startswith(".") for part in f.relative_to(p).parts):
+                continue
+            suf = f.suffix.lower()
+            if suf == URDF_SUFFIX:
+                urdfs.append(f)
+            elif suf in OTHER_MODEL_SUFFIXES:
+                found.append(f)
+    linked = {os.path.realpath(m) for u in urdfs for m in _urdf_meshes(u)}
+    return sorted({f for f in found if os.path.realpath(f) not in linked}, key=lambda f: os.fsencode(str(f)))
 
 
 def _urdf_meshes(f: Path) -> list[Path]:
@@ -303,5 +331,10 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     report = {"kind": kind, "out_dir": str(out_dir), "count": len(items),
               "ok": sum(r["status"] == "ok" for r in items), "failed": sum(r["status"] != "ok" for r in items),
               "seconds": round(time.perf_counter() - t_start, 3), "items": items}
+    skipped = unsupported_models(inputs, kind)
+    if skipped:  # only then: a report without skipped files keeps its bytes
+        report["skipped"] = [{"file": display_path(f), "reason": f"unsupported format '{f.suffix.lower()}' "
+                              f"(supported: {', '.join(SUPPORTED)}{', .urdf' if kind == 'object' else ''}); "
+                              "export it to one of them"} for f in skipped]
     atomic_write_text(out_dir / "convert_report.json", dumps(report))
     return report

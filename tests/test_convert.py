@@ -432,3 +432,26 @@ def test_cli_convert(tmp_path):
                  "--cache", "off"]) == 0
     assert (tmp_path / "out" / "objects" / "thing" / "model.xml").is_file()
     assert main(["convert", str(tmp_path / "missing.obj"), "--out", str(tmp_path / "o2"), "--no-progress"]) == 1
+
+
+def test_cli_convert_lists_files_of_other_formats(tmp_path, capsys):
+    """A folder's .dae / .fbx files are listed as skipped (report and stderr), not passed over; nothing to convert -> 1."""
+    from sdovon_mj.cli import main
+
+    lib = tmp_path / "lib"
+    _write(lib / "toy" / "thing" / "thing.obj", TETRA)
+    (lib / "toy" / "duck").mkdir(parents=True)
+    (lib / "toy" / "duck" / "duck.dae").write_text("<COLLADA/>")
+    (lib / "toy" / "lamp.fbx").write_bytes(b"Kaydara FBX Binary")
+    assert main(["convert", str(lib), "--out", str(tmp_path / "out"), "--no-progress", "--cache", "off", "--jobs", "1"]) == 0
+    err = capsys.readouterr().err
+    report = json.loads((tmp_path / "out" / "convert_report.json").read_text())
+    assert [r["status"] for r in report["items"]] == ["ok"]
+    skipped = {Path(r["file"]).name: r["reason"] for r in report["skipped"]}
+    assert set(skipped) == {"duck.dae", "lamp.fbx"} and "unsupported format '.dae'" in skipped["duck.dae"]
+    assert "skipped" in err and "duck.dae" in err and "lamp.fbx" in err
+    only = tmp_path / "only"
+    (only / "x").mkdir(parents=True)
+    (only / "x" / "duck.dae").write_text("<COLLADA/>")
+    assert main(["convert", str(only), "--out", str(tmp_path / "o3"), "--no-progress", "--cache", "off"]) == 1
+    assert "nothing to convert" in capsys.readouterr().err
