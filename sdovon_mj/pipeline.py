@@ -400,7 +400,7 @@ def check_inputs(scenes: list[str] | None = None, objects: list[str] | None = No
     A scene must be a readable file of a known format whose first bytes fit it; an object is such a file or
     a folder holding at least one. Contents are checked by the converter later (a corrupt mesh fails its task).
     """
-    from .stages import OBJECT_SUFFIXES
+    from .stages import OBJECT_LIBRARY_SUFFIXES, OBJECT_SUFFIXES
 
     problems: list[tuple[str, str]] = []
     for s in scenes or []:
@@ -410,13 +410,13 @@ def check_inputs(scenes: list[str] | None = None, objects: list[str] | None = No
     for o in objects or []:
         p = Path(o)
         if p.is_dir():
-            found = [q for q in sorted(p.rglob("*")) if q.suffix.lower() in OBJECT_SUFFIXES and q.is_file()]
+            found = [q for q in sorted(p.rglob("*")) if q.suffix.lower() in OBJECT_LIBRARY_SUFFIXES and q.is_file()]
             if not found:
-                problems.append((f"objects folder {_shown(o)}", f"holds no {'/'.join(x[1:].upper() for x in OBJECT_SUFFIXES)} files"))
-            bad = [(f"object {_shown(q)}", w) for q in found for w in [_input_problem(q, OBJECT_SUFFIXES)] if w]
+                problems.append((f"objects folder {_shown(o)}", f"holds no {'/'.join(x[1:].upper() for x in OBJECT_LIBRARY_SUFFIXES)} files"))
+            bad = [(f"object {_shown(q)}", w) for q in found for w in [_input_problem(q, OBJECT_LIBRARY_SUFFIXES)] if w]
             problems += bad
         else:
-            why = _input_problem(p, OBJECT_SUFFIXES)
+            why = _input_problem(p, OBJECT_LIBRARY_SUFFIXES)
             if why:
                 problems.append((f"object {_shown(o)}", why))
     if problems:

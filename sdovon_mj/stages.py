@@ -38,6 +38,9 @@ from .store import Store, file_hash, fingerprint
 
 SCOPES = ("run", "scene", "variant", "export")
 OBJECT_SUFFIXES = (".obj", ".glb", ".gltf", ".ply", ".stl")
+# An object library also takes URDF objects (assets_convert.urdf); the meshes a URDF references are its links'
+# parts, not objects of their own (the converter drops them from the library).
+OBJECT_LIBRARY_SUFFIXES = OBJECT_SUFFIXES + (".urdf",)
 
 
 @dataclass
@@ -241,9 +244,9 @@ def _object_files(ctx: StageContext) -> list[tuple[Path, str | None]]:
         files: list[tuple[Path, str | None]] = []
         for p in map(Path, ctx.inputs["objects"]):
             if p.is_dir():
-                found = sorted(q for q in p.rglob("*") if q.suffix.lower() in OBJECT_SUFFIXES)
+                found = sorted(q for q in p.rglob("*") if q.suffix.lower() in OBJECT_LIBRARY_SUFFIXES)
                 if not found:
-                    raise InputError(p, "folder holds no OBJ/GLB/glTF/PLY/STL object files")
+                    raise InputError(p, "folder holds no OBJ/GLB/glTF/PLY/STL/URDF object files")
                 files += [(q, _meta_category(q)) for q in found]
             elif p.exists():
                 files.append((p, _meta_category(p)))

@@ -35,3 +35,31 @@ def test_bad_object_is_reported_and_the_library_goes_on(tmp_path):
     again = TaskResult(spec=result.spec, ok=True)
     stages.run_task(store, cfg, StageRunner(store, again), "run")
     assert again.skipped == ["objects"]
+
+
+def test_urdf_objects_in_a_library_folder(tmp_path):
+    """A library folder's URDF is one object (generate took its link mesh as an object and refused a .urdf file)."""
+    from sdovon_mj.pipeline import check_inputs
+
+    lib = tmp_path / "lib"
+    box = lib / "box" / "model.obj"
+    box.parent.mkdir(parents=True)
+    box.write_text(trimesh.creation.box(extents=(0.1, 0.08, 0.05)).export(file_type="obj"))
+    blob = lib / "toy" / "blob" / "blob.urdf"
+    blob.parent.mkdir(parents=True)
+    (blob.parent / "blob.obj").write_text(trimesh.creation.box(extents=(0.06, 0.05, 0.04)).export(file_type="obj"))
+    blob.write_text('<robot name="blob"><link name="base"><inertial><mass value="0.1"/>'
+                    '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="0"/></inertial>'
+                    '<visual><geometry><mesh filename="blob.obj"/></geometry></visual>'
+                    '<collision><geometry><mesh filename="blob.obj"/></geometry></collision></link></robot>')
+    check_inputs(objects=[str(lib)])
+    check_inputs(objects=[str(blob)])  # a URDF named on its own is an object too
+    cfg = RunConfig(convert=ConvertConfig(jobs=1))
+    store = prepare_run(tmp_path / "run", cfg, None, [str(lib)])
+    result = TaskResult(spec=TaskSpec(kind="objects", run_root=str(store.root)), ok=True)
+    stages.run_task(store, cfg, StageRunner(store, result), "run")
+    assert json.loads(store.path("objects/failures.json").read_text()) == {}
+    assets = load_json(store.path("objects/objects.json"), ObjectAsset)
+    assert sorted(a.name for a in assets) == ["blob", "box"]  # the URDF's link mesh is not an object of its own
+    urdf_asset = next(a for a in assets if a.name == "blob")
+    assert urdf_asset.mass == 0.1 and store.path(urdf_asset.mjcf).exists()
