@@ -158,9 +158,29 @@ def _gltf_json(path: Path) -> dict[str, Any]:
         raise InputError(display_path(path), f"glTF JSON is not readable: {e}") from None
 
 
+def _check_gltf_extensions(path: Path, doc: dict[str, Any]) -> None:
+    """Raise InputError when a glTF's geometry is compressed in a way the loader cannot decode here.
+
+    trimesh decodes ``KHR_draco_mesh_compression`` through DracoPy when it is installed (without it the vertices
+    are silently zeros) and does not decode ``EXT_meshopt_compression`` at all.
+    """
+    import importlib.util
+
+    used = set(doc.get("extensionsUsed", [])) | set(doc.get("extensionsRequired", []))
+    if "KHR_draco_mesh_compression" in used and importlib.util.find_spec("DracoPy") is None:
+        raise InputError(display_path(path), "the geometry is Draco-compressed (KHR_draco_mesh_compression) and "
+                         "DracoPy is not installed: `pip install DracoPy`, or write the file without Draco compression")
+    meshopt = sorted(used & {"EXT_meshopt_compression", "KHR_meshopt_compression"})
+    if meshopt:
+        raise InputError(display_path(path), f"the geometry is meshopt-compressed ({meshopt[0]}), which cannot be "
+                         "read here: write the file without it (e.g. `gltf-transform copy IN OUT` after "
+                         "`gltf-transform meshopt --decode`, or re-export from the source)")
+
+
 def _gltf_references(path: Path) -> list[Path]:
-    """Return the buffers and images a glTF references; raise on missing ones."""
+    """Return the buffers and images a glTF references; raise on missing ones or undecodable compression."""
     doc = _gltf_json(path)
+    _check_gltf_extensions(path, doc)
     from urllib.parse import unquote
 
     refs: list[Path] = []

@@ -455,3 +455,40 @@ def test_cli_convert_lists_files_of_other_formats(tmp_path, capsys):
     (only / "x" / "duck.dae").write_text("<COLLADA/>")
     assert main(["convert", str(only), "--out", str(tmp_path / "o3"), "--no-progress", "--cache", "off"]) == 1
     assert "nothing to convert" in capsys.readouterr().err
+
+
+def _glb_with_extensions(path: Path, used: list[str]) -> Path:
+    """Write a box GLB (trimesh) whose JSON chunk lists `used` as extensionsUsed."""
+    import struct
+
+    import trimesh
+
+    data = trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(file_type="glb")
+    clen = struct.unpack("<I", data[12:16])[0]
+    doc = json.loads(data[20:20 + clen])
+    doc["extensionsUsed"] = used
+    raw = json.dumps(doc).encode()
+    raw += b" " * (-len(raw) % 4)
+    rest = data[20 + clen:]
+    out = struct.pack("<4sII", b"glTF", 2, 20 + len(raw) + len(rest)) + struct.pack("<II", len(raw), 0x4E4F534A) + raw + rest
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(out)
+    return path
+
+
+def test_compressed_gltf_geometry_is_named(tmp_path, monkeypatch):
+    """Draco without DracoPy (trimesh fills zeros: it was 'mesh is only 0 m across ... check the units') and meshopt
+    (trimesh cannot decode it) fail with the extension named and what to do."""
+    import sys
+
+    from sdovon_mj.errors import InputError
+
+    meshopt = _glb_with_extensions(tmp_path / "m" / "box.glb", ["EXT_meshopt_compression"])
+    with pytest.raises(InputError, match=r"box\.glb.*meshopt-compressed \(EXT_meshopt_compression\)"):
+        convert_object_report(meshopt, tmp_path / "out", cache_dir="off")
+    draco = _glb_with_extensions(tmp_path / "d" / "box.glb", ["KHR_draco_mesh_compression"])
+    monkeypatch.setitem(sys.modules, "DracoPy", None)  # as on a machine without it
+    with pytest.raises(InputError, match=r"box\.glb.*Draco-compressed.*DracoPy is not installed"):
+        convert_object_report(draco, tmp_path / "out", cache_dir="off")
+    plain = _glb_with_extensions(tmp_path / "p" / "box.glb", [])
+    convert_object_report(plain, tmp_path / "out", cache_dir="off")  # the same file uncompressed converts
