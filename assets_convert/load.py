@@ -177,10 +177,42 @@ def _check_gltf_extensions(path: Path, doc: dict[str, Any]) -> None:
                          "`gltf-transform meshopt --decode`, or re-export from the source)")
 
 
+# Texture encodings Pillow (and so trimesh) cannot decode: a base-colour texture in one of them would be dropped
+GPU_TEXTURE_MIMES = ("image/ktx2", "image/ktx", "image/x-basis", "image/basis")
+GPU_TEXTURE_SUFFIXES = (".ktx2", ".ktx", ".basis")
+GPU_TEXTURE_EXTENSIONS = ("KHR_texture_basisu", "GOOGLE_texture_basis", "EXT_texture_astc", "MSFT_texture_dds")
+
+
+def _check_colour_textures(path: Path, doc: dict[str, Any]) -> None:
+    """Raise InputError when a base-colour texture is in a GPU encoding (KTX2 / Basis) that cannot be decoded here.
+
+    trimesh reads images through Pillow; a KTX2 or Basis texture is dropped without a word and the model would
+    come out untextured (a scene's renders then feed the detectors grey surfaces).
+    """
+    textures, images = doc.get("textures", []), doc.get("images", [])
+    for mat in doc.get("materials", []):
+        idx = mat.get("pbrMetallicRoughness", {}).get("baseColorTexture", {}).get("index")
+        if idx is None or not 0 <= idx < len(textures):
+            continue
+        tex = textures[idx]
+        src = tex.get("source")
+        ext = sorted(set(tex.get("extensions", {})) & set(GPU_TEXTURE_EXTENSIONS))
+        img = images[src] if src is not None and 0 <= src < len(images) else {}
+        gpu = (src is None and ext) or img.get("mimeType", "").lower() in GPU_TEXTURE_MIMES \
+            or str(img.get("uri", "")).lower().endswith(GPU_TEXTURE_SUFFIXES)
+        if gpu:
+            how = ext[0] if ext else (img.get("mimeType") or Path(str(img.get("uri", ""))).suffix)
+            raise InputError(display_path(path), f"material '{mat.get('name', '')}' has its base-colour texture in a GPU "
+                             f"encoding ({how}) that cannot be decoded here, so the model would lose its look: use a "
+                             "copy with PNG/JPEG textures (HM3D: the plain <id>.glb of the glb package, not "
+                             "<id>.basis.glb)")
+
+
 def _gltf_references(path: Path) -> list[Path]:
     """Return the buffers and images a glTF references; raise on missing ones or undecodable compression."""
     doc = _gltf_json(path)
     _check_gltf_extensions(path, doc)
+    _check_colour_textures(path, doc)
     from urllib.parse import unquote
 
     refs: list[Path] = []

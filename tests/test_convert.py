@@ -457,16 +457,24 @@ def test_cli_convert_lists_files_of_other_formats(tmp_path, capsys):
     assert "nothing to convert" in capsys.readouterr().err
 
 
-def _glb_with_extensions(path: Path, used: list[str]) -> Path:
-    """Write a box GLB (trimesh) whose JSON chunk lists `used` as extensionsUsed."""
+def _glb_with_extensions(path: Path, used: list[str], textured: bool = False, mutate=None) -> Path:
+    """Write a box GLB (trimesh; a PNG base-colour texture when `textured`) whose JSON chunk lists `used` as
+    extensionsUsed, after `mutate(doc)` when given."""
     import struct
 
     import trimesh
+    from PIL import Image
 
-    data = trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(file_type="glb")
+    box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    if textured:
+        uv = np.random.default_rng(0).random((len(box.vertices), 2))
+        box.visual = trimesh.visual.TextureVisuals(uv=uv, image=Image.new("RGB", (8, 8), (200, 30, 30)))
+    data = box.export(file_type="glb")
     clen = struct.unpack("<I", data[12:16])[0]
     doc = json.loads(data[20:20 + clen])
     doc["extensionsUsed"] = used
+    if mutate is not None:
+        mutate(doc)
     raw = json.dumps(doc).encode()
     raw += b" " * (-len(raw) % 4)
     rest = data[20 + clen:]
@@ -492,3 +500,22 @@ def test_compressed_gltf_geometry_is_named(tmp_path, monkeypatch):
         convert_object_report(draco, tmp_path / "out", cache_dir="off")
     plain = _glb_with_extensions(tmp_path / "p" / "box.glb", [])
     convert_object_report(plain, tmp_path / "out", cache_dir="off")  # the same file uncompressed converts
+
+
+def test_gpu_encoded_colour_textures_are_named(tmp_path):
+    """A KTX2 / Basis base-colour texture (HM3D's .basis.glb, KHR_texture_basisu) cannot be decoded by Pillow:
+    trimesh dropped it without a word and the model came out untextured; now the file fails naming the encoding."""
+    from sdovon_mj.errors import InputError
+
+    def ktx2(doc):
+        doc["images"][0]["mimeType"] = "image/ktx2"
+
+    def basisu_only(doc):
+        doc["textures"][0] = {"extensions": {"KHR_texture_basisu": {"source": 0}}}
+
+    for name, mutate, want in (("ktx2", ktx2, "image/ktx2"), ("basisu", basisu_only, "KHR_texture_basisu")):
+        glb = _glb_with_extensions(tmp_path / name / "box.glb", [], textured=True, mutate=mutate)
+        with pytest.raises(InputError, match=rf"box\.glb.*base-colour texture in a GPU encoding \({want}\)"):
+            convert_object_report(glb, tmp_path / "out", cache_dir="off")
+    png = _glb_with_extensions(tmp_path / "png" / "box.glb", [], textured=True)
+    convert_object_report(png, tmp_path / "out", cache_dir="off")  # the same box with its PNG converts
