@@ -55,11 +55,28 @@ def sanitize(name: str) -> str:
     return s or "object"
 
 
+# Folders that hold a model's files rather than name it (YCB <name>/google_16k/textured.obj, Google Scanned Objects
+# <name>/meshes/model.obj): a generic file stem takes its name from the first folder above them
+GENERIC_DIRS = {"meshes", "mesh", "models", "model", "obj", "objs", "geometry", "visual", "visuals", "textured",
+                "google_16k", "google_64k", "google_512k", "poisson", "tsdf", "normalized", "glb", "gltf"}
+
+
 def default_name(path: Path) -> str:
-    """Return an object name from a file path (the folder name for generic stems like textured.obj)."""
+    """Return an object name from a file path (the folder name for generic stems like textured.obj).
+
+    The folder is the first one up that is not a container like ``meshes/`` or ``google_16k/`` (`GENERIC_DIRS`), so
+    ``Panda/meshes/model.obj`` is ``Panda`` and ``002_master_chef_can/google_16k/textured.obj`` is
+    ``002_master_chef_can``; two inputs that still end with one name are told apart by `convert_tree`.
+    """
+    path = Path(path)
     stem = path.stem
-    if stem.lower() in GENERIC_STEMS or stem.lower().endswith("_1k"):
-        return sanitize(path.parent.name if stem.lower() in GENERIC_STEMS else re.sub(r"_1k$", "", stem))
+    if stem.lower() in GENERIC_STEMS:
+        for anc in list(path.parents)[:3]:
+            if anc.name and anc.name.lower() not in GENERIC_DIRS:
+                return sanitize(anc.name)
+        return sanitize(path.parent.name)
+    if stem.lower().endswith("_1k"):
+        return sanitize(re.sub(r"_1k$", "", stem))
     return sanitize(stem)
 
 

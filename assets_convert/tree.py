@@ -119,6 +119,36 @@ def _placed_by_sibling(f: Path) -> bool:
     return any(Path(it.get("asset", "")).name == f.name for it in items[1:])
 
 
+def _object_name(task: dict[str, Any]) -> str:
+    """Return the name an object task's conversion will give (its output folder under objects/)."""
+    from .object import default_name, sanitize
+
+    if task.get("name"):
+        return sanitize(task["name"])
+    path = Path(task["path"])
+    return sanitize(path.stem) if path.suffix.lower() == URDF_SUFFIX else default_name(path)
+
+
+def _tell_apart(tasks: list[dict[str, Any]]) -> None:
+    """Give object tasks that would share a name (one output folder) distinct ones: the first in input order keeps
+    it, the others get ``_2``, ``_3``, ... (a free name), and a ``renamed`` note for their report row."""
+    taken: dict[str, str] = {}
+    names = [_object_name(t) for t in tasks]
+    used = set(names)
+    for t, name in zip(tasks, names):
+        if name not in taken:
+            taken[name] = t["display"]
+            continue
+        k = 2
+        while f"{name}_{k}" in used:
+            k += 1
+        new = f"{name}_{k}"
+        used.add(new)
+        taken[new] = t["display"]
+        t["name"] = new
+        t["renamed"] = f"named '{new}': '{name}' is the name of {taken[name]} in this batch"
+
+
 def _work(task: dict[str, Any]) -> dict[str, Any]:
     """Convert one input (runs in a worker process); return its report row."""
     t0 = time.perf_counter()
@@ -145,15 +175,16 @@ def _work(task: dict[str, Any]) -> dict[str, Any]:
                                                 source=task["display"])
             row.update(name=a.name, category=a.category, mjcf=a.mjcf, faces=info.get("faces"), hulls=a.hull_count,
                        volume_ratio=round(a.volume_ratio, 4), mass=round(a.mass, 6), cache_hit=info.get("cache_hit"),
-                       warnings=info.get("warnings", []), parts=[display_path(p) for p in task["parts"]])
+                       warnings=info.get("warnings", []) + ([task["renamed"]] if task.get("renamed") else []),
+                       parts=[display_path(p) for p in task["parts"]])
         else:
             from .object import convert_object_report
 
             a, info = convert_object_report(task["path"], task["out_dir"], category=task.get("category"),
-                                            config=task["config"], cache_dir=task["cache_dir"])
+                                            name=task.get("name"), config=task["config"], cache_dir=task["cache_dir"])
             row.update(name=a.name, category=a.category, mjcf=a.mjcf, faces=info.get("faces"), hulls=a.hull_count,
                        volume_ratio=round(a.volume_ratio, 4), mass=round(a.mass, 6), cache_hit=info.get("cache_hit"),
-                       warnings=info.get("warnings", []))
+                       warnings=info.get("warnings", []) + ([task["renamed"]] if task.get("renamed") else []))
     except Exception as e:  # noqa: BLE001 - every failure becomes a report row, the batch goes on
         from sdovon_mj.errors import InputError
 
@@ -275,6 +306,8 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
             continue
         tasks.append({"path": str(f), "display": display_path(f), "out_dir": str(out_dir), "kind": kind, "config": cfg,
                       "cache_dir": cache, "category": cat})
+    if kind == "object":
+        _tell_apart(tasks)
     rows: dict[int, dict[str, Any]] = {}
     t_start = time.perf_counter()
     bar = None

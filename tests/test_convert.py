@@ -519,3 +519,30 @@ def test_gpu_encoded_colour_textures_are_named(tmp_path):
             convert_object_report(glb, tmp_path / "out", cache_dir="off")
     png = _glb_with_extensions(tmp_path / "png" / "box.glb", [], textured=True)
     convert_object_report(png, tmp_path / "out", cache_dir="off")  # the same box with its PNG converts
+
+
+def test_library_layouts_name_objects_and_equal_names_are_told_apart(tmp_path):
+    """YCB (<name>/google_16k/textured.obj) and Google Scanned Objects (<name>/meshes/model.obj) objects are named
+    after their folder, not the container (every YCB object was 'google_16k', every GSO one 'meshes', and each
+    overwrote the last in objects/<name>/); inputs that still share a name get distinct ones, noted in the report."""
+    import trimesh
+
+    from assets_convert.object import default_name
+
+    assert default_name(Path("ycb/002_master_chef_can/google_16k/textured.obj")) == "002_master_chef_can"
+    assert default_name(Path("gso/Panda_Figure/meshes/model.obj")) == "Panda_Figure"
+    assert default_name(Path("lib/mug/mug_0/model.obj")) == "mug_0"  # the default library's layout as before
+    lib = tmp_path / "lib"
+    for folder, size in (("gso/Panda_Figure/meshes", 0.08), ("gso/Blue_Mug/meshes", 0.09), ("a/Cup/meshes", 0.1),
+                         ("b/Cup/meshes", 0.11)):
+        (lib / folder).mkdir(parents=True)
+        trimesh.creation.box(extents=(size, 0.06, 0.1)).export(str(lib / folder / "model.obj"))
+    report = convert_tree([lib], tmp_path / "out", jobs=1, progress=False, cache_dir="off")
+    rows = {Path(r["file"]).parts[-3]: r for r in report["items"]}
+    assert report["ok"] == 4
+    names = sorted(r["name"] for r in report["items"])
+    assert names == ["Blue_Mug", "Cup", "Cup_2", "Panda_Figure"]
+    assert all((tmp_path / "out" / "objects" / n / "model.xml").is_file() for n in names)
+    renamed = [r for r in report["items"] if r["name"] == "Cup_2"][0]
+    assert any("'Cup' is the name of" in w for w in renamed["warnings"]), renamed
+    assert rows["Panda_Figure"]["warnings"] == []
