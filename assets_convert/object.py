@@ -81,7 +81,8 @@ def default_name(path: Path) -> str:
 
 
 def default_category(path: Path) -> str:
-    """Return a category guess: meta.json 'category' beside the file, else the grandparent folder name."""
+    """Return a category guess: meta.json 'category' beside the file, else the grandparent folder name (a leading
+    numeric id such as YCB's '002_' dropped)."""
     meta = path.parent / "meta.json"
     if meta.is_file():
         try:
@@ -90,7 +91,11 @@ def default_category(path: Path) -> str:
                 return str(cat)
         except (json.JSONDecodeError, UnicodeDecodeError, AttributeError):
             pass
-    return path.parent.parent.name or path.parent.name or "object"
+    # the grandparent folder (<category>/<name>/<file>; YCB <name>/google_16k/textured.obj and GSO <name>/meshes/
+    # model.obj give the object's name), without a dataset's numeric id prefix: YCB '002_master_chef_can' ->
+    # 'master_chef_can' (the category is a goal's text)
+    name = path.parent.parent.name or path.parent.name or "object"
+    return re.sub(r"^\d+[_\-\s]+(?=[A-Za-z])", "", name) or name
 
 
 def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> tuple[float, str]:

@@ -532,6 +532,11 @@ def test_library_layouts_name_objects_and_equal_names_are_told_apart(tmp_path):
     assert default_name(Path("ycb/002_master_chef_can/google_16k/textured.obj")) == "002_master_chef_can"
     assert default_name(Path("gso/Panda_Figure/meshes/model.obj")) == "Panda_Figure"
     assert default_name(Path("lib/mug/mug_0/model.obj")) == "mug_0"  # the default library's layout as before
+    from assets_convert.object import default_category
+
+    assert default_category(Path("ycb/002_master_chef_can/google_16k/textured.obj")) == "master_chef_can"
+    assert default_category(Path("gso/Panda_Figure/meshes/model.obj")) == "Panda_Figure"
+    assert default_category(Path("lib/mug/mug_0/model.obj")) == "mug" and default_category(Path("007/x/a.obj")) == "007"
     lib = tmp_path / "lib"
     for folder, size in (("gso/Panda_Figure/meshes", 0.08), ("gso/Blue_Mug/meshes", 0.09), ("a/Cup/meshes", 0.1),
                          ("b/Cup/meshes", 0.11)):
