@@ -112,6 +112,15 @@ class MeshConverter:
         assets.sort(key=lambda a: a.name)
         return assets, failures
 
+    def skipped_files(self, folder: str | Path, kind: str = "object") -> dict[str, str]:
+        """Return {file: why} for the model files in a folder this converter does not read (other formats)."""
+        from .load import SUPPORTED, display_path
+        from .tree import URDF_SUFFIX, unsupported_models
+
+        known = ", ".join(SUPPORTED + ((URDF_SUFFIX,) if kind == "object" else ()))
+        return {display_path(f): f"unsupported format '{f.suffix.lower()}' (supported: {known}); export it to one "
+                                 "of them" for f in unsupported_models(Path(folder), kind)}
+
     def scene_files(self, folder: str | Path) -> list[Path]:
         """Return the scenes a folder holds (mesh files, Habitat scene instances; companions and dataset assets skipped)."""
         from .tree import find_inputs

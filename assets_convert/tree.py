@@ -364,10 +364,13 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     report = {"kind": kind, "out_dir": str(out_dir), "count": len(items),
               "ok": sum(r["status"] == "ok" for r in items), "failed": sum(r["status"] != "ok" for r in items),
               "seconds": round(time.perf_counter() - t_start, 3), "items": items}
-    skipped = unsupported_models(inputs, kind)
+    from .plugin import MeshConverter
+
+    skipped = {}
+    for item in ([inputs] if isinstance(inputs, (str, Path)) else list(inputs)):
+        if Path(item).is_dir():
+            skipped.update(MeshConverter().skipped_files(item, kind))
     if skipped:  # only then: a report without skipped files keeps its bytes
-        report["skipped"] = [{"file": display_path(f), "reason": f"unsupported format '{f.suffix.lower()}' "
-                              f"(supported: {', '.join(SUPPORTED)}{', .urdf' if kind == 'object' else ''}); "
-                              "export it to one of them"} for f in skipped]
+        report["skipped"] = [{"file": f, "reason": why} for f, why in sorted(skipped.items())]
     atomic_write_text(out_dir / "convert_report.json", dumps(report))
     return report

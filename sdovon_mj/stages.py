@@ -290,7 +290,12 @@ def _world_objects(ctx: StageContext) -> list[str]:
 
 def _objects(ctx: StageContext) -> list[str]:
     """Convert the object library into ``objects/<name>/`` (+ object.json) and ``objects/objects.json``."""
-    assets, failures = converter().convert_library(_object_files(ctx), ctx.store.root, ctx.cfg.convert)
+    conv = converter()
+    assets, failures = conv.convert_library(_object_files(ctx), ctx.store.root, ctx.cfg.convert)
+    if hasattr(conv, "skipped_files"):  # files of formats the converter does not read, in the input folders
+        for p in map(Path, ctx.inputs["objects"] or []):
+            if p.is_dir():
+                failures.update({k: v for k, v in conv.skipped_files(p, "object").items() if k not in failures})
     if not assets:
         raise StageError("no object converted: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
     save_json(assets, ctx.store.path("objects/objects.json"))

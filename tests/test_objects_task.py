@@ -52,13 +52,20 @@ def test_urdf_objects_in_a_library_folder(tmp_path):
                     '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="0"/></inertial>'
                     '<visual><geometry><mesh filename="blob.obj"/></geometry></visual>'
                     '<collision><geometry><mesh filename="blob.obj"/></geometry></collision></link></robot>')
+    (lib / "toy" / "duck").mkdir(parents=True)
+    (lib / "toy" / "duck" / "duck.dae").write_text("<COLLADA/>")  # a format the converter does not read
     check_inputs(objects=[str(lib)])
     check_inputs(objects=[str(blob)])  # a URDF named on its own is an object too
     cfg = RunConfig(convert=ConvertConfig(jobs=1))
     store = prepare_run(tmp_path / "run", cfg, None, [str(lib)])
     result = TaskResult(spec=TaskSpec(kind="objects", run_root=str(store.root)), ok=True)
     stages.run_task(store, cfg, StageRunner(store, result), "run")
-    assert json.loads(store.path("objects/failures.json").read_text()) == {}
+    failures = json.loads(store.path("objects/failures.json").read_text())
+    assert list(failures) == [str(lib / "toy" / "duck" / "duck.dae")], failures  # listed, not passed over
+    assert "unsupported format '.dae'" in failures[str(lib / "toy" / "duck" / "duck.dae")]
+    from sdovon_mj.commands.generate import library_warnings
+
+    assert [line for line in library_warnings(str(store.root)) if "duck.dae" in line and "left out" in line]
     assets = load_json(store.path("objects/objects.json"), ObjectAsset)
     assert sorted(a.name for a in assets) == ["blob", "box"]  # the URDF's link mesh is not an object of its own
     urdf_asset = next(a for a in assets if a.name == "blob")

@@ -40,6 +40,8 @@ def run(args: argparse.Namespace) -> int:
     for f in summary.failures:  # root causes; a follow-on failure names its cause instead of repeating it
         print(f"not run: {f.spec.label} (caused by {f.caused_by})" if f.caused_by else f"failed: {f.spec.label}: {f.error}",
               file=sys.stderr)
+    for line in library_warnings(summary.run_root):
+        print(f"WARNING: {line}", file=sys.stderr)
     empty = empty_warnings(summary.run_root, {f.spec.label for f in summary.failures})
     for line in empty:
         print(f"WARNING: {line}", file=sys.stderr)
@@ -48,6 +50,18 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
     # Partial runs keep every finished output; the exit code still tells scripts that something failed.
     return 1 if summary.failures or (empty and not args.allow_empty) else 0
+
+
+def library_warnings(run_root: str) -> list[str]:
+    """Return one line per input object the run's library left out (objects/failures.json: failed or skipped)."""
+    import json
+    from pathlib import Path
+
+    path = Path(run_root) / "objects" / "failures.json"
+    if not path.is_file():
+        return []
+    failures = json.loads(path.read_text(encoding="utf-8"))
+    return [f"object {f} left out of the library: {why}" for f, why in sorted(failures.items())]
 
 
 def empty_warnings(run_root: str, failed: set[str] | None = None) -> list[str]:
