@@ -28,10 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Convert the inputs; print a summary; exit 1 when any input failed."""
-    from .load import SUPPORTED
-    from .tree import URDF_SUFFIX, convert_tree
-
-    ALL_SUPPORTED = SUPPORTED + (URDF_SUFFIX,)
+    from .tree import convert_tree, known_suffixes
 
     cfg = ConvertConfig()
     cfg = replace(cfg, units=str(args.units), up=str(args.up), target_size=float(args.target_size))
@@ -52,6 +49,6 @@ def run(args: argparse.Namespace) -> int:
           + f"; report: {Path(args.out) / 'convert_report.json'}")
     if report["count"] == 0:
         print(f"sdovon-mj convert: nothing to convert in {', '.join(map(str, args.inputs))} (no "
-              f"{', '.join(ALL_SUPPORTED if args.kind == 'object' else SUPPORTED)} files)", file=sys.stderr)
+              f"{', '.join(known_suffixes(args.kind))} files)", file=sys.stderr)
         return 1
     return 0 if report["failed"] == 0 else 1

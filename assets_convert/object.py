@@ -80,6 +80,15 @@ def default_name(path: Path) -> str:
     return sanitize(stem)
 
 
+def object_name(path: str | Path, name: str | None = None) -> str:
+    """Return the name a conversion of `path` gives its object (its folder under objects/): `name` when given,
+    else a URDF's file stem or `default_name`."""
+    path = Path(path)
+    if name:
+        return sanitize(name)
+    return sanitize(path.stem) if path.suffix.lower() == ".urdf" else default_name(path)
+
+
 def default_category(path: Path) -> str:
     """Return a category guess: meta.json 'category' beside the file, else the grandparent folder name (a leading
     numeric id such as YCB's '002_' dropped)."""
@@ -184,7 +193,7 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
     out_dir = Path(out_dir)
     meta = meta_for(path)  # assets.yaml / <file>.yaml: wins over the run-wide config, not over explicit arguments
     files = referenced_files(path) + meta.sources
-    name = sanitize(name) if name else default_name(path)
+    name = object_name(path, name)
     category = category or meta.category or default_category(path)
     if str(units) == "auto" and (meta.units is not None or meta.scale != 1.0):
         units = meta.units_value(cfg.units)

@@ -114,12 +114,10 @@ class MeshConverter:
 
     def skipped_files(self, folder: str | Path, kind: str = "object") -> dict[str, str]:
         """Return {file: why} for the model files in a folder this converter does not read (other formats)."""
-        from .load import SUPPORTED, display_path
-        from .tree import URDF_SUFFIX, unsupported_models
+        from .load import display_path
+        from .tree import skipped_reason, unsupported_models
 
-        known = ", ".join(SUPPORTED + ((URDF_SUFFIX,) if kind == "object" else ()))
-        return {display_path(f): f"unsupported format '{f.suffix.lower()}' (supported: {known}); export it to one "
-                                 "of them" for f in unsupported_models(Path(folder), kind)}
+        return {display_path(f): skipped_reason(f, kind) for f in unsupported_models(Path(folder), kind)}
 
     def scene_files(self, folder: str | Path) -> list[Path]:
         """Return the scenes a folder holds (mesh files, Habitat scene instances; companions and dataset assets skipped)."""

@@ -43,25 +43,52 @@ def _in_habitat_dataset(f: Path, top: Path) -> bool:
     return False
 
 
-def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object") -> list[Path]:
-    """Expand files and folders into a sorted list of mesh files to convert."""
+def known_suffixes(kind: str = "object") -> tuple[str, ...]:
+    """Return the file suffixes a conversion of `kind` ("object" or "scene") reads (objects also take URDFs)."""
+    return SUPPORTED + ((URDF_SUFFIX,) if kind == "object" else ())
+
+
+def skipped_reason(path: Path, kind: str = "object") -> str:
+    """Return why a model file of another format is skipped (for reports and warnings)."""
+    return (f"unsupported format '{Path(path).suffix.lower()}' (supported: {', '.join(known_suffixes(kind))}); "
+            "export it to one of them")
+
+
+def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Path], list[Path]]:
+    """Walk the inputs once: return (the files to convert, `find_inputs`; the model files of other formats in the
+    input folders, `unsupported_models`), each sorted."""
     items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
     out: list[Path] = []
+    other: list[Path] = []
+    folder_urdfs: list[Path] = []
     for item in items:
         p = Path(item)
         if p.is_dir():
             for f in sorted(p.rglob("*")):
+                if not f.is_file() or any(part.startswith(".") for part in f.relative_to(p).parts):
+                    continue
+                suffix = f.suffix.lower()
+                if suffix == URDF_SUFFIX:
+                    folder_urdfs.append(f)
+                elif suffix in OTHER_MODEL_SUFFIXES:
+                    other.append(f)
                 scene_cfg = kind == "scene" and f.name.lower().endswith(habitat.SCENE_INSTANCE)
-                urdf = kind == "object" and f.suffix.lower() == URDF_SUFFIX
-                if f.is_file() and (f.suffix.lower() in SUPPORTED or scene_cfg or urdf) and not f.name.startswith(SKIP_PREFIXES) \
-                        and not any(part.startswith(".") for part in f.relative_to(p).parts):
+                urdf = kind == "object" and suffix == URDF_SUFFIX
+                if (suffix in SUPPORTED or scene_cfg or urdf) and not f.name.startswith(SKIP_PREFIXES):
                     if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or _in_habitat_dataset(f, p)):
                         continue
                     out.append(f)
         else:
             out.append(p)
+    meshes: dict[Path, set[str]] = {}
+
+    def links(u: Path) -> set[str]:
+        if u not in meshes:
+            meshes[u] = {os.path.realpath(m) for m in _urdf_meshes(u)}
+        return meshes[u]
+
     # the meshes a URDF among the inputs references are its links, not objects of their own
-    linked = {os.path.realpath(m) for f in out if f.suffix.lower() == URDF_SUFFIX for m in _urdf_meshes(f)}
+    linked = set().union(*(links(f) for f in out if f.suffix.lower() == URDF_SUFFIX))
     out = [f for f in out if f.suffix.lower() == URDF_SUFFIX or os.path.realpath(f) not in linked]
     seen: set[str] = set()
     uniq = []
@@ -70,32 +97,24 @@ def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object")
         if k not in seen:
             seen.add(k)  # type: ignore[arg-type]
             uniq.append(f)
-    return sorted(uniq, key=lambda f: os.fsencode(str(f)))
+    # a URDF's link meshes (e.g. .dae) are not skipped models
+    linked_other = set().union(*(links(u) for u in folder_urdfs))
+    other = sorted({f for f in other if os.path.realpath(f) not in linked_other}, key=lambda f: os.fsencode(str(f)))
+    return sorted(uniq, key=lambda f: os.fsencode(str(f))), other
+
+
+def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object") -> list[Path]:
+    """Expand files and folders into a sorted list of mesh files to convert."""
+    return _scan(inputs, kind)[0]
 
 
 def unsupported_models(inputs: str | Path | Iterable[str | Path], kind: str = "object") -> list[Path]:
     """Return the model files in the input folders that `find_inputs` passes over: formats we do not read.
 
-    Files a URDF among the inputs references (its links' meshes, e.g. ``.dae``) are not listed. Named files
+    Files a URDF in the input folders references (its links' meshes, e.g. ``.dae``) are not listed. Named files
     (not folders) are not listed: they are converted and fail with the format named.
     """
-    items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
-    found: list[Path] = []
-    urdfs: list[Path] = []
-    for item in items:
-        p = Path(item)
-        if not p.is_dir():
-            continue
-        for f in sorted(p.rglob("*")):
-            if not f.is_file() or any(part.startswith(".") for part in f.relative_to(p).parts):
-                continue
-            suf = f.suffix.lower()
-            if suf == URDF_SUFFIX:
-                urdfs.append(f)
-            elif suf in OTHER_MODEL_SUFFIXES:
-                found.append(f)
-    linked = {os.path.realpath(m) for u in urdfs for m in _urdf_meshes(u)}
-    return sorted({f for f in found if os.path.realpath(f) not in linked}, key=lambda f: os.fsencode(str(f)))
+    return _scan(inputs, kind)[1]
 
 
 def _urdf_meshes(f: Path) -> list[Path]:
@@ -119,21 +138,13 @@ def _placed_by_sibling(f: Path) -> bool:
     return any(Path(it.get("asset", "")).name == f.name for it in items[1:])
 
 
-def _object_name(task: dict[str, Any]) -> str:
-    """Return the name an object task's conversion will give (its output folder under objects/)."""
-    from .object import default_name, sanitize
-
-    if task.get("name"):
-        return sanitize(task["name"])
-    path = Path(task["path"])
-    return sanitize(path.stem) if path.suffix.lower() == URDF_SUFFIX else default_name(path)
-
-
 def _tell_apart(tasks: list[dict[str, Any]]) -> None:
     """Give object tasks that would share a name (one output folder) distinct ones: the first in input order keeps
     it, the others get ``_2``, ``_3``, ... (a free name), and a ``renamed`` note for their report row."""
+    from .object import object_name
+
     taken: dict[str, str] = {}
-    names = [_object_name(t) for t in tasks]
+    names = [object_name(t["path"], t.get("name")) for t in tasks]
     used = set(names)
     for t, name in zip(tasks, names):
         if name not in taken:
@@ -284,7 +295,7 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     cfg = config or ConvertConfig()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    files = find_inputs(inputs, kind)
+    files, skipped = _scan(inputs, kind)
     timeout = float(timeout if timeout is not None else cfg.timeout_s)
     jobs = int(jobs or cfg.jobs or os.cpu_count() or 1)
     jobs = max(1, min(jobs, len(files) or 1))
@@ -364,13 +375,8 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     report = {"kind": kind, "out_dir": str(out_dir), "count": len(items),
               "ok": sum(r["status"] == "ok" for r in items), "failed": sum(r["status"] != "ok" for r in items),
               "seconds": round(time.perf_counter() - t_start, 3), "items": items}
-    from .plugin import MeshConverter
-
-    skipped = {}
-    for item in ([inputs] if isinstance(inputs, (str, Path)) else list(inputs)):
-        if Path(item).is_dir():
-            skipped.update(MeshConverter().skipped_files(item, kind))
     if skipped:  # only then: a report without skipped files keeps its bytes
-        report["skipped"] = [{"file": f, "reason": why} for f, why in sorted(skipped.items())]
+        report["skipped"] = sorted(({"file": display_path(f), "reason": skipped_reason(f, kind)} for f in skipped),
+                                   key=lambda r: r["file"])
     atomic_write_text(out_dir / "convert_report.json", dumps(report))
     return report

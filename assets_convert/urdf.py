@@ -846,14 +846,14 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
     """
     from . import cache
     from .metadata import meta_for
-    from .object import cached_object, density_for, sanitize
+    from .object import cached_object, density_for, object_name
 
     t0 = time.perf_counter()
     cfg = config or ConvertConfig()
     path, out_dir = Path(path), Path(out_dir)
     robot = read_urdf(path)
     meta = meta_for(path)
-    name = sanitize(name) if name else sanitize(path.stem)
+    name = object_name(path, name)
     category = category or meta.category or _meta_json_category(path) or robot.name
     dens = float(density) if density else density_for(category, cfg.default_density)
     params = {"kind": "urdf", "name": name, "category": category, "density": dens,
