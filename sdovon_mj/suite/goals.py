@@ -29,28 +29,38 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..records import TAG, Episode, Goal, RecordError, ViewPoint, _savez_deterministic, load_json, records_equal
+from ..records import TAG, Episode, Goal, RecordError, ViewPoint, _savez_deterministic, load_json
 from ..store import dumps
 
 GOALS_FORMAT = "sdovon-goals-1"
 EPISODE_REF = "EpisodeRef"  # record tag of an episode whose goals live in the goal table
 
 
-def goal_table(episodes: list[Episode]) -> tuple[list[Goal], list[list[int]]]:
-    """Return the distinct goals of episodes (first-seen order, equal records once) and each episode's indices."""
+def goal_table(episodes: list[Episode], encoded: list[list[dict[str, Any]]] | None = None,
+               ) -> tuple[list[Goal], list[list[int]], list[str]]:
+    """Return the distinct goals of episodes (first-seen order, equal records once), each episode's indices and each
+    table goal's JSON text (`store.dumps` of its `to_dict` data: equal texts, equal records).
+
+    ``encoded``: each episode's goals as `to_dict` data (``Episode.to_dict()["goals"]``), when the caller has them
+    (they are not encoded again).
+    """
     table: list[Goal] = []
+    texts: list[str] = []
     index: dict[str, int] = {}
     refs: list[list[int]] = []
-    for e in episodes:
+    for i, e in enumerate(episodes):
         row = []
-        for g in e.goals:
-            key = dumps(g.to_dict())
-            if key not in index:
-                index[key] = len(table)
+        data = encoded[i] if encoded is not None else [g.to_dict() for g in e.goals]
+        for g, d in zip(e.goals, data):
+            key = dumps(d)
+            k = index.get(key)
+            if k is None:
+                k = index[key] = len(table)
                 table.append(g)
-            row.append(index[key])
+                texts.append(key)
+            row.append(k)
         refs.append(row)
-    return table, refs
+    return table, refs, texts
 
 
 def goals_npz_bytes(goals: list[Goal]) -> bytes:
@@ -110,19 +120,22 @@ def read_goals_npz(data: bytes | str | Path) -> list[Goal]:
 def pack_episodes(episodes: list[Episode]) -> tuple[str, bytes, str]:
     """Return (episodes.json text, goal table bytes, goal table file name) for a bundle's episodes.
 
-    The goal table is ``goals.npz`` when it reads back to the same records, else ``goals.json``.
+    The goal table is ``goals.npz`` when it reads back to the same records (each goal's JSON text the same), else
+    ``goals.json``. Every goal is encoded once for the episodes' rows and the table, and each goal read back once.
     """
-    table, refs = goal_table(episodes)
-    rows = []
-    for e, r in zip(episodes, refs):
+    rows, encoded = [], []
+    for e in episodes:
         d = e.to_dict()
-        del d["goals"]
+        encoded.append(d.pop("goals"))
         d[TAG] = EPISODE_REF
-        d["goal_refs"] = r
         rows.append(d)
+    table, refs, texts = goal_table(episodes, encoded)
+    for d, r in zip(rows, refs):
+        d["goal_refs"] = r
     try:
         data = goals_npz_bytes(table)
-        if records_equal(read_goals_npz(data), table):
+        back = read_goals_npz(data)
+        if len(back) == len(table) and all(dumps(b.to_dict()) == t for b, t in zip(back, texts)):
             return dumps(rows), data, "goals.npz"
     except (ValueError, RecordError):
         pass
