@@ -9,6 +9,7 @@ The object frame: metres, Z up, base at z = 0, bounding box centred in X and Y. 
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 import time
@@ -36,7 +37,8 @@ DENSITIES: dict[str, float] = {
     "shoe": 400, "sofa": 120, "stool": 350, "table": 350, "tea_set": 700, "teddy_bear": 80,
     "toy": 300, "toy_block": 80, "vase": 900,
 }
-GENERIC_STEMS = {"textured", "model", "mesh", "object", "untitled", "scene", "visual", "model_normalized"}
+GENERIC_STEMS = {"textured", "model", "mesh", "object", "untitled", "scene", "visual", "model_normalized",
+                 "mobility"}  # PartNet-Mobility: <id>/mobility.urdf
 MAX_RATIO_WARN = 1.5
 
 
@@ -82,28 +84,56 @@ def default_name(path: Path) -> str:
 
 def object_name(path: str | Path, name: str | None = None) -> str:
     """Return the name a conversion of `path` gives its object (its folder under objects/): `name` when given,
-    else a URDF's file stem or `default_name`."""
+    else `default_name` (a URDF's file stem, or its folder's name for a generic stem such as PartNet-Mobility's
+    ``<id>/mobility.urdf``)."""
     path = Path(path)
     if name:
         return sanitize(name)
-    return sanitize(path.stem) if path.suffix.lower() == ".urdf" else default_name(path)
+    return default_name(path)
 
 
-def default_category(path: Path) -> str:
-    """Return a category guess: meta.json 'category' beside the file, else the grandparent folder name (a leading
-    numeric id such as YCB's '002_' dropped)."""
-    meta = path.parent / "meta.json"
-    if meta.is_file():
-        try:
-            cat = json.loads(meta.read_text(encoding="utf-8")).get("category")
-            if cat:
-                return str(cat)
-        except (json.JSONDecodeError, UnicodeDecodeError, AttributeError):
-            pass
-    # the grandparent folder (<category>/<name>/<file>; YCB <name>/google_16k/textured.obj and GSO <name>/meshes/
-    # model.obj give the object's name), without a dataset's numeric id prefix: YCB '002_master_chef_can' ->
-    # 'master_chef_can' (the category is a goal's text)
-    name = path.parent.parent.name or path.parent.name or "object"
+def meta_json_category(path: str | Path) -> str | None:
+    """Return the category a ``meta.json`` beside an object file names: its ``category``, else PartNet-Mobility's
+    ``model_cat`` in snake case (``StorageFurniture`` -> ``storage_furniture``); None when there is none."""
+    meta = Path(path).parent / "meta.json"
+    if not meta.is_file():
+        return None
+    try:
+        doc = json.loads(meta.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        return None
+    if not isinstance(doc, dict):
+        return None
+    if doc.get("category"):
+        return str(doc["category"])
+    if isinstance(doc.get("model_cat"), str) and doc["model_cat"].strip():
+        return re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", doc["model_cat"].strip()).replace(" ", "_").lower()
+    return None
+
+
+def default_category(path: Path, root: str | Path | None = None) -> str:
+    """Return a category guess for an object file: the category ``meta.json`` beside it names
+    (`meta_json_category`), else its grandparent folder's name (``<category>/<name>/<file>``; YCB
+    ``<name>/google_16k/textured.obj`` and GSO ``<name>/meshes/model.obj`` give the object's name), a leading numeric
+    id such as YCB's '002_' dropped.
+
+    ``root``: the library folder the file was found in. The grandparent counts only when it lies inside that
+    folder; otherwise (a flat library ``lib/mug.obj``, one folder per object ``lib/mug/model.obj``) the guess is the
+    object's own name (`object_name`) without a numeric id before it or an instance number after it
+    (``chair_01`` -> ``chair``): the library folder (or a folder above it) names no category.
+    """
+    path = Path(path)
+    cat = meta_json_category(path)
+    if cat:
+        return cat
+    folder = path.parent.parent
+    if root is not None:
+        top = os.path.abspath(root)
+        if not os.path.abspath(folder).startswith(top.rstrip(os.sep) + os.sep):
+            name = object_name(path)
+            name = re.sub(r"^\d+[_\-\s]+(?=[A-Za-z])", "", name)
+            return re.sub(r"(?<=[A-Za-z])[_\-\s]*\d+$", "", name) or name
+    name = folder.name or path.parent.name or "object"
     return re.sub(r"^\d+[_\-\s]+(?=[A-Za-z])", "", name) or name
 
 

@@ -54,13 +54,14 @@ def skipped_reason(path: Path, kind: str = "object") -> str:
             "export it to one of them")
 
 
-def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Path], list[Path]]:
+def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Path], list[Path], dict[Path, Path]]:
     """Walk the inputs once: return (the files to convert, `find_inputs`; the model files of other formats in the
-    input folders, `unsupported_models`), each sorted."""
+    input folders, `unsupported_models`), each sorted, and the input folder each file to convert was found in."""
     items = [inputs] if isinstance(inputs, (str, Path)) else list(inputs)
     out: list[Path] = []
     other: list[Path] = []
     folder_urdfs: list[Path] = []
+    roots: dict[Path, Path] = {}
     for item in items:
         p = Path(item)
         if p.is_dir():
@@ -78,6 +79,7 @@ def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Pa
                     if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or _in_habitat_dataset(f, p)):
                         continue
                     out.append(f)
+                    roots.setdefault(f, p)
         else:
             out.append(p)
     meshes: dict[Path, set[str]] = {}
@@ -100,7 +102,7 @@ def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Pa
     # a URDF's link meshes (e.g. .dae) are not skipped models
     linked_other = set().union(*(links(u) for u in folder_urdfs))
     other = sorted({f for f in other if os.path.realpath(f) not in linked_other}, key=lambda f: os.fsencode(str(f)))
-    return sorted(uniq, key=lambda f: os.fsencode(str(f))), other
+    return sorted(uniq, key=lambda f: os.fsencode(str(f))), other, roots
 
 
 def find_inputs(inputs: str | Path | Iterable[str | Path], kind: str = "object") -> list[Path]:
@@ -295,7 +297,9 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     cfg = config or ConvertConfig()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    files, skipped = _scan(inputs, kind)
+    from .object import default_category
+
+    files, skipped, roots = _scan(inputs, kind)
     timeout = float(timeout if timeout is not None else cfg.timeout_s)
     jobs = int(jobs or cfg.jobs or os.cpu_count() or 1)
     jobs = max(1, min(jobs, len(files) or 1))
@@ -305,6 +309,9 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     for f in files:
         meta = meta_for(f) if kind == "object" else None
         cat = (categories or {}).get(str(f))
+        if cat is None and meta is not None and meta.multipart is None and f in roots:
+            # found in an input folder: the category guess knows the library folder (`object.default_category`)
+            cat = meta.category or default_category(f, roots[f])
         if meta is not None and meta.multipart is not None:  # one object of several part files (assets.yaml)
             g = groups.get(meta.multipart)
             if g is None:

@@ -831,12 +831,13 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
     out_dir : str or Path
         Output root; the object goes to ``<out_dir>/objects/<name>/``.
     category : str, optional
-        Object category (default: ``assets.yaml`` metadata, ``meta.json`` beside the file, else the URDF's robot
-        name).
+        Object category (default: ``assets.yaml`` metadata, ``meta.json`` beside the file (its ``category`` or
+        PartNet-Mobility's ``model_cat``), else the object's name: `object.default_category` with the URDF's folder as
+        the library; the robot name is not used, URDFs copy it about).
     density : float, optional
         Collision-geom density for links without ``<inertial>``, kg/m^3 (default: the category's).
     name : str, optional
-        Asset name (default: the URDF file stem).
+        Asset name (default: the URDF file stem; its folder's name for a generic stem like ``mobility``).
     config : ConvertConfig, optional
         Conversion settings (CoACD, textures; units and up axis do not apply: a URDF is metres, Z up).
     cache_dir : str or Path, optional
@@ -846,7 +847,7 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
     """
     from . import cache
     from .metadata import meta_for
-    from .object import cached_object, density_for, object_name
+    from .object import cached_object, default_category, density_for, object_name
 
     t0 = time.perf_counter()
     cfg = config or ConvertConfig()
@@ -854,7 +855,8 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
     robot = read_urdf(path)
     meta = meta_for(path)
     name = object_name(path, name)
-    category = category or meta.category or _meta_json_category(path) or robot.name
+    # the URDF's robot name is no category (pybullet_data's duck_vhacd.urdf names its robot 'cube.urdf')
+    category = category or meta.category or default_category(path, path.parent)
     dens = float(density) if density else density_for(category, cfg.default_density)
     params = {"kind": "urdf", "name": name, "category": category, "density": dens,
               **({"source": source} if source else {}),
@@ -868,18 +870,6 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
         return asset, info
 
     return cached_object(out_dir, name, key, cache_dir, source or display_path(path), t0, build)
-
-
-def _meta_json_category(path: Path) -> str | None:
-    """Return 'category' of a meta.json beside the file, if any."""
-    meta = path.parent / "meta.json"
-    if meta.is_file():
-        try:
-            cat = json.loads(meta.read_text(encoding="utf-8")).get("category")
-            return str(cat) if cat else None
-        except (json.JSONDecodeError, UnicodeDecodeError, AttributeError, OSError):
-            return None
-    return None
 
 
 __all__ = ["Geometry", "Inertial", "Joint", "Link", "Robot", "box_inertia", "convert_urdf_report", "inertia_problem", "read_urdf", "resolve_mesh",

@@ -242,12 +242,14 @@ def _object_files(ctx: StageContext) -> list[tuple[Path, str | None]]:
     """Return (object file, category or None) for every input object (the default library once written)."""
     if ctx.inputs["objects"]:
         files: list[tuple[Path, str | None]] = []
+        # the converter's category guess knows the library folder (a flat lib/mug.obj is a mug, not a 'lib')
+        guess = getattr(converter(), "object_category", None)
         for p in map(Path, ctx.inputs["objects"]):
             if p.is_dir():
                 found = sorted(q for q in p.rglob("*") if q.suffix.lower() in OBJECT_LIBRARY_SUFFIXES)
                 if not found:
                     raise InputError(p, "folder holds no OBJ/GLB/glTF/PLY/STL/URDF object files")
-                files += [(q, _meta_category(q)) for q in found]
+                files += [(q, _meta_category(q) or (guess(q, p) if guess else None)) for q in found]
             elif p.exists():
                 files.append((p, _meta_category(p)))
             else:
@@ -292,10 +294,7 @@ def _objects(ctx: StageContext) -> list[str]:
     """Convert the object library into ``objects/<name>/`` (+ object.json) and ``objects/objects.json``."""
     conv = converter()
     assets, failures = conv.convert_library(_object_files(ctx), ctx.store.root, ctx.cfg.convert)
-    if hasattr(conv, "skipped_files"):  # files of formats the converter does not read, in the input folders
-        for p in map(Path, ctx.inputs["objects"] or []):
-            if p.is_dir():
-                failures.update({k: v for k, v in conv.skipped_files(p, "object").items() if k not in failures})
+    failures.update({k: v for k, v in _library_skipped(ctx, conv).items() if k not in failures})
     if not assets:
         raise StageError("no object converted: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
     save_json(assets, ctx.store.path("objects/objects.json"))
@@ -303,11 +302,24 @@ def _objects(ctx: StageContext) -> list[str]:
     return ["objects/objects.json", "objects/failures.json"] + [f"objects/{a.name}/object.json" for a in assets]
 
 
+def _library_skipped(ctx: StageContext, conv: Any) -> dict[str, str]:
+    """Return {file: why} for the files of formats the converter does not read in the input object folders."""
+    out: dict[str, str] = {}
+    if hasattr(conv, "skipped_files"):
+        for p in map(Path, ctx.inputs["objects"] or []):
+            if p.is_dir():
+                out.update(conv.skipped_files(p, "object"))
+    return out
+
+
 def _objects_extra(ctx: StageContext) -> list[Any]:
-    """Return the object stage's further inputs: converter version and (name, category, digest) per file."""
+    """Return the object stage's further inputs: converter version, (name, category, digest) per file, and the
+    files it skips (listed in failures.json: a .dae added to a finished run's library folder is listed on resume)."""
     conv = converter()
-    return [conv.version, [(_input_name(ctx.store, p), c, file_hash(p), *_extra_digests(conv, p))
-                           for p, c in _object_files(ctx)]]
+    extra = [conv.version, [(_input_name(ctx.store, p), c, file_hash(p), *_extra_digests(conv, p))
+                            for p, c in _object_files(ctx)]]
+    skipped = sorted(_library_skipped(ctx, conv))
+    return extra + [skipped] if skipped else extra  # none: the fingerprint of runs before it
 
 
 def _convert_extra(conv: Any, path: Path) -> list[Any]:

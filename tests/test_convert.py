@@ -551,3 +551,34 @@ def test_library_layouts_name_objects_and_equal_names_are_told_apart(tmp_path):
     renamed = [r for r in report["items"] if r["name"] == "Cup_2"][0]
     assert any("'Cup' is the name of" in w for w in renamed["warnings"]), renamed
     assert rows["Panda_Figure"]["warnings"] == []
+
+
+def test_category_guess_knows_the_library_folder(tmp_path):
+    """A category folder counts only inside the library folder: a flat lib/mug.obj or one folder per object
+    (lib/box/model.obj) was given the library folder's name ('lib') as its category, the goal text agents are asked
+    for. PartNet-Mobility's meta.json names its category as model_cat."""
+    import json
+
+    import trimesh
+
+    from assets_convert.object import default_category
+
+    lib = tmp_path / "lib"
+    assert default_category(lib / "mug.obj", lib) == "mug"
+    assert default_category(lib / "chair_01.glb", lib) == "chair"  # an instance number is no part of the category
+    assert default_category(lib / "box" / "model.obj", lib) == "box"
+    assert default_category(lib / "mug" / "mug_0" / "model.obj", lib) == "mug"  # <category>/<name>/<file> as before
+    ycb = tmp_path / "ycb"
+    obj = ycb / "002_master_chef_can" / "google_16k" / "textured.obj"
+    assert default_category(obj, ycb) == default_category(obj, obj.parents[1]) == "master_chef_can"
+    assert default_category(lib / "mug.obj") == tmp_path.name  # no library folder known: the grandparent, as before
+    pm = tmp_path / "pm" / "7128"
+    pm.mkdir(parents=True)
+    (pm / "meta.json").write_text(json.dumps({"model_cat": "StorageFurniture", "model_id": "7128"}))
+    assert default_category(pm / "mobility.urdf", tmp_path / "pm") == "storage_furniture"
+    # through convert_tree on a folder: a flat library and one folder per object
+    (lib / "cup").mkdir(parents=True)
+    trimesh.creation.box(extents=(0.08, 0.06, 0.1)).export(str(lib / "vase_2.obj"))
+    trimesh.creation.box(extents=(0.08, 0.06, 0.1)).export(str(lib / "cup" / "model.obj"))
+    report = convert_tree([lib], tmp_path / "out", jobs=1, progress=False, cache_dir="off")
+    assert sorted((r["name"], r["category"]) for r in report["items"]) == [("cup", "cup"), ("vase_2", "vase")]

@@ -560,3 +560,18 @@ def test_textured_mesh_keeps_its_texture_and_urdf_colour_fills_plain_meshes(tmp_
     assert model.mat_texid[plain.matid[0]].max() == -1 and np.allclose(model.mat_rgba[plain.matid[0]], (0.9, 0.1, 0.1, 1))
     assert (tmp_path / "out" / "objects" / "panel" / "assets" / "texture_0.png").is_file()
     assert asset.hull_count >= 1  # a link with only visual meshes gets hulls
+
+
+def test_urdf_category_is_not_its_robot_name(tmp_path):
+    """A URDF's robot name is copied about (pybullet_data's duck_vhacd.urdf calls its robot 'cube.urdf', the spheres
+    'urdf_robot'): the category comes from the file, as a mesh object's does."""
+    from assets_convert.object import convert_object_report
+
+    body = ('<link name="base"><inertial><mass value="0.2"/><inertia ixx="1e-3" ixy="0" ixz="0" iyy="1e-3" iyz="0" '
+            'izz="1e-3"/></inertial><collision><geometry><box size="0.1 0.08 0.06"/></geometry></collision>'
+            '<visual><geometry><box size="0.1 0.08 0.06"/></geometry></visual></link>')
+    urdf = tmp_path / "lib" / "duck_vhacd.urdf"
+    urdf.parent.mkdir()
+    urdf.write_text(f'<robot name="cube.urdf">{body}</robot>')
+    asset, _info = convert_object_report(urdf, tmp_path / "out", cache_dir="off")
+    assert (asset.name, asset.category) == ("duck_vhacd", "duck_vhacd")

@@ -68,5 +68,16 @@ def test_urdf_objects_in_a_library_folder(tmp_path):
     assert [line for line in library_warnings(str(store.root)) if "duck.dae" in line and "left out" in line]
     assets = load_json(store.path("objects/objects.json"), ObjectAsset)
     assert sorted(a.name for a in assets) == ["blob", "box"]  # the URDF's link mesh is not an object of its own
+    # categories: lib/box/model.obj is a box (its grandparent is the library folder), lib/toy/blob/blob.urdf a toy
+    assert sorted((a.name, a.category) for a in assets) == [("blob", "toy"), ("box", "box")]
     urdf_asset = next(a for a in assets if a.name == "blob")
     assert urdf_asset.mass == 0.1 and store.path(urdf_asset.mjcf).exists()
+    # a rerun of the finished task skips it; a file of another format added to the library folder is noticed
+    again = TaskResult(spec=result.spec, ok=True)
+    stages.run_task(store, cfg, StageRunner(store, again), "run")
+    assert again.skipped == ["objects"]
+    (lib / "toy" / "duck" / "duck.fbx").write_bytes(b"Kaydara FBX Binary  \x00")
+    third = TaskResult(spec=result.spec, ok=True)
+    stages.run_task(store, cfg, StageRunner(store, third), "run")
+    assert third.skipped == []
+    assert str(lib / "toy" / "duck" / "duck.fbx") in json.loads(store.path("objects/failures.json").read_text())
