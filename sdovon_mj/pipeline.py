@@ -168,6 +168,23 @@ def run_task(spec: TaskSpec) -> TaskResult:
 # Executors
 
 
+def rasterizer_threads(workers: int, cores: int | None = None) -> int:
+    """Return the rasterizer threads Mesa's software renderer (llvmpipe) gets in each of `workers` processes.
+
+    llvmpipe starts a rasterizer thread per core in every process; with a worker per core each render hands its
+    tiles to threads that compete with the other workers and waits for them. The cores left per worker (``cores //
+    workers - 1``, at least 0: rasterize in the rendering thread itself) go to its rasterizer. The images are the
+    same (llvmpipe rasterizes each tile alike whichever thread runs it): only the time changes.
+    """
+    cores = cores or os.cpu_count() or 1
+    return max(0, cores // max(1, int(workers)) - 1)
+
+
+def _worker_init(lp_threads: int) -> None:
+    """Set up a pool worker before its first task: llvmpipe's rasterizer threads (``LP_NUM_THREADS``, unless set)."""
+    os.environ.setdefault("LP_NUM_THREADS", str(int(lp_threads)))
+
+
 class LocalExecutor:
     """Runs tasks in a process pool (`jobs` workers; 1 = in this process), with bounded retries."""
 
@@ -196,7 +213,8 @@ class LocalExecutor:
             return [results[i] for i in range(len(specs))]
         pending = {i: 0 for i in range(len(specs))}
         workers = self.jobs if follow else min(self.jobs, len(specs))
-        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_worker_init,
+                                 initargs=(rasterizer_threads(workers),)) as pool:
             futs = {pool.submit(run_task, specs[i]): i for i in pending}
             while futs:
                 done, _ = wait(list(futs), return_when=FIRST_COMPLETED)
