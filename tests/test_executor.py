@@ -14,6 +14,7 @@ from sdovon_mj.pipeline import _worker_init, rasterizer_threads
 # A small room: floor, walls, furniture-sized boxes, a sphere and a capsule, seen across llvmpipe's 64-pixel tiles.
 RENDER = r'''
 import hashlib, sys
+import sdovon_mj  # first: it chooses the GL backend (EGL) before mujoco is imported
 import numpy as np
 import mujoco
 from sdovon_mj.sim.camera import pose_cv
