@@ -14,7 +14,7 @@ import re
 import shutil
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from . import cache
 from .hulls import clean_hulls, decompose, hull_volume, mass_properties
 from .load import FLAT_TOL, display_path, load_mesh
 from .writer import AssetWriter, clean_part, fmt, merge_parts, render_template
+
+if TYPE_CHECKING:
+    from .metadata import AssetMeta
 
 # Bulk densities (kg/m^3) of the solid hull volume: hollow things (boxes, bins, furniture) are light.
 DENSITIES: dict[str, float] = {
@@ -127,14 +130,22 @@ def default_category(path: Path, root: str | Path | None = None) -> str:
     if cat:
         return cat
     folder = path.parent.parent
-    if root is not None:
-        top = os.path.abspath(root)
-        if not os.path.abspath(folder).startswith(top.rstrip(os.sep) + os.sep):
-            name = object_name(path)
-            name = re.sub(r"^\d+[_\-\s]+(?=[A-Za-z])", "", name)
-            return re.sub(r"(?<=[A-Za-z])[_\-\s]*\d+$", "", name) or name
-    name = folder.name or path.parent.name or "object"
-    return re.sub(r"^\d+[_\-\s]+(?=[A-Za-z])", "", name) or name
+    inside = root is None or os.path.abspath(folder).startswith(os.path.abspath(root).rstrip(os.sep) + os.sep)
+    name = (folder.name or path.parent.name or "object") if inside else object_name(path)
+    name = re.sub(r"^\d+[_\-\s]+(?=[A-Za-z])", "", name) or name
+    return name if inside else (re.sub(r"(?<=[A-Za-z])[_\-\s]*\d+$", "", name) or name)
+
+
+def library_category(path: str | Path, library: str | Path | None = None, meta: AssetMeta | None = None) -> str | None:
+    """Return the category converting an object file gives it when none is named: ``assets.yaml`` metadata (`meta`,
+    `metadata.meta_for`'s answer when the caller has it), else `default_category` with the library folder it was found
+    in; None for a part of a multi-part object (its group's category applies)."""
+    from .metadata import meta_for
+
+    meta = meta if meta is not None else meta_for(Path(path))
+    if meta.multipart is not None:
+        return None
+    return meta.category or default_category(Path(path), library)
 
 
 def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> tuple[float, str]:

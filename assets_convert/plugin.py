@@ -116,13 +116,9 @@ class MeshConverter:
         """Return the category converting an object file gives it when none is named (``assets.yaml`` metadata, else
         `object.default_category` with the library folder it was found in); None for a part of a multi-part object
         (its group's category applies)."""
-        from .metadata import meta_for
-        from .object import default_category
+        from .object import library_category
 
-        meta = meta_for(Path(path))
-        if meta.multipart is not None:
-            return None
-        return meta.category or default_category(Path(path), library)
+        return library_category(path, library)
 
     def skipped_files(self, folder: str | Path, kind: str = "object") -> dict[str, str]:
         """Return {file: why} for the model files in a folder this converter does not read (other formats)."""

@@ -297,7 +297,7 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     cfg = config or ConvertConfig()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    from .object import default_category
+    from .object import library_category
 
     files, skipped, roots = _scan(inputs, kind)
     timeout = float(timeout if timeout is not None else cfg.timeout_s)
@@ -309,9 +309,9 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     for f in files:
         meta = meta_for(f) if kind == "object" else None
         cat = (categories or {}).get(str(f))
-        if cat is None and meta is not None and meta.multipart is None and f in roots:
-            # found in an input folder: the category guess knows the library folder (`object.default_category`)
-            cat = meta.category or default_category(f, roots[f])
+        if cat is None and meta is not None and f in roots:
+            # found in an input folder: the category guess knows the library folder (`object.library_category`)
+            cat = library_category(f, roots[f], meta)
         if meta is not None and meta.multipart is not None:  # one object of several part files (assets.yaml)
             g = groups.get(meta.multipart)
             if g is None:
