@@ -55,3 +55,21 @@ def test_failed_server_is_visible_in_relevance(serve, protocol):  # noqa: F811
     assert len(rel.fallbacks) >= 2
     off = relevance(["towel", "cup"], ["kitchen"], ["sink", "shelf"], get_backend())
     assert np.array_equal(rel.p_pair, off.p_pair)  # the fallback's own pair model answered
+
+
+def test_eval_default_split_of_a_held_out_file(tmp_path, capsys):
+    """A file of held-out objects with one split (Housekeep's test objects as ``test``) is scored without --split;
+    a file with several splits and no ``val`` asks for one, naming the file and its splits."""
+    test_only = dict(VOTES, splits={"test": ["towel", "pillow"]})
+    data = tmp_path / "test_votes.json"
+    data.write_text(json.dumps(test_only))
+    assert main(["semantics-eval", "--data", str(data)]) == 0
+    assert "[test: 2 objects]" in capsys.readouterr().out
+    no_splits = {k: v for k, v in VOTES.items() if k != "splits"}
+    data.write_text(json.dumps(no_splits))
+    assert main(["semantics-eval", "--data", str(data)]) == 0
+    assert "[all: 3 objects]" in capsys.readouterr().out
+    data.write_text(json.dumps(dict(VOTES, splits={"train": ["cup"], "test": ["towel"]})))
+    assert main(["semantics-eval", "--data", str(data)]) == 1  # an input error (exit code 1), named
+    err = capsys.readouterr().err
+    assert str(data) in err and "test, train" in err and "--split" in err

@@ -1,7 +1,7 @@
 """`sdovon-mj semantics-eval` (also `sdovon-mj semantics eval`): a semantics backend against human judgements.
 
 Prints ORR mAP (rank a room's receptacles for an object) and OR mAP (rank the rooms) on a file in
-the layout of Housekeep's ``housekeep_train_val.json`` (val split by default), chance beside and, for
+the layout of Housekeep's ``housekeep_train_val.json`` (val split by default, else the file's only split), chance beside and, for
 the offline backend's learned model, its figures on the split it was trained on. The measure is
 `semantics.judgements.score_method`; the scores are the backend's own answers
 (`semantics.judgements.backend_scores`), so a server backend is asked exactly what the pipeline asks.
@@ -29,18 +29,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                                                    "default: the config's")
     p.add_argument("--data", default=None, help=f"human-judgement file (Housekeep layout; default ${DEFAULT_DATA_ENV} "
                                                 "or ../shared/semantics/housekeep/housekeep_train_val.json)")
-    p.add_argument("--split", default="val", help="split of the file to score (train, val, all)")
+    p.add_argument("--split", default=None, help="split of the file to score (train, val, test, all); default: val, "
+                                                 "or the file's only split")
     p.add_argument("--config", default=None, help="run config YAML (its semantics section is used)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="config override, e.g. semantics.model=llama3.1:8b")
     p.add_argument("--json", default=None, help="also write the figures to this JSON file")
 
 
-def evaluate(backend, data: str | Path, split: str = "val") -> dict:
-    """Return the figures of one backend on one split of a judgement file (plus the learned model's train figures)."""
+def evaluate(backend, data: str | Path, split: str | None = None) -> dict:
+    """Return the figures of one backend on one split of a judgement file (plus the learned model's train figures).
+
+    ``split``: the split to score; None: `Judgements.default_split` (val, or the file's only split)."""
     from ..semantics.judgements import backend_scores, load_judgements, score_method
 
     j = load_judgements(data)
+    split = j.default_split() if split is None else split
     objs = j.split(split)
     pair, room = backend_scores(backend, j, objs)
     s = score_method(j, objs, pair, room)

@@ -51,6 +51,17 @@ class Judgements:
         if not self.receptacles:
             self.receptacles = sorted({c for _, c in self.pairs})
 
+    def default_split(self) -> str:
+        """Return the split scored when none is named: ``val`` when the file has one, else its only split (a file of
+        held-out objects with one split, such as ``test``; ``all`` for a file without splits); InputError naming the
+        file and its splits when it has several and no ``val``."""
+        if "val" in self.splits:
+            return "val"
+        if len(self.splits) == 1:
+            return next(iter(self.splits))
+        raise InputError(self.path, f"no split 'val' and {len(self.splits)} others "
+                                    f"({', '.join(sorted(self.splits))}): name one (--split NAME, or all)")
+
     def split(self, name: str) -> list[str]:
         """Return the objects of one split (InputError naming the file when it has no such split)."""
         if name == "all":
