@@ -13,6 +13,7 @@ import os
 import re
 import shutil
 import time
+import unicodedata
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -54,9 +55,16 @@ def density_for(category: str, default: float = 500.0) -> float:
     return float(DENSITIES.get(last, default))
 
 
+# Latin letters that Unicode does not decompose into an ASCII letter and a mark
+_LATIN = str.maketrans({"ß": "ss", "æ": "ae", "Æ": "AE", "ø": "o", "Ø": "O", "œ": "oe", "Œ": "OE", "ł": "l", "Ł": "L",
+                        "đ": "d", "Đ": "D", "þ": "th", "Þ": "Th", "ð": "d", "Ð": "D", "ı": "i"})
+
+
 def sanitize(name: str) -> str:
-    """Return a name safe for MJCF and file names ([A-Za-z0-9_-])."""
-    s = re.sub(r"[^A-Za-z0-9_\-]+", "_", name).strip("_")
+    """Return a name safe for MJCF and file names ([A-Za-z0-9_-]): accented Latin letters lose their marks
+    (``Café`` -> ``Cafe``, ``groß`` -> ``gross``), other characters become ``_``; ``object`` when none is left."""
+    s = unicodedata.normalize("NFKD", str(name).translate(_LATIN)).encode("ascii", "ignore").decode("ascii")
+    s = re.sub(r"[^A-Za-z0-9_\-]+", "_", s).strip("_")
     return s or "object"
 
 
@@ -73,16 +81,34 @@ def default_name(path: Path) -> str:
     ``Panda/meshes/model.obj`` is ``Panda`` and ``002_master_chef_can/google_16k/textured.obj`` is
     ``002_master_chef_can``; two inputs that still end with one name are told apart by `convert_tree`.
     """
-    path = Path(path)
+    return sanitize(_name_text(Path(path)))
+
+
+def _name_text(path: Path) -> str:
+    """Return the text `default_name` makes a name of, as the file system spells it (not yet `sanitize`d)."""
     stem = path.stem
     if stem.lower() in GENERIC_STEMS:
         for anc in list(path.parents)[:3]:
             if anc.name and anc.name.lower() not in GENERIC_DIRS:
-                return sanitize(anc.name)
-        return sanitize(path.parent.name)
+                return anc.name
+        return path.parent.name
     if stem.lower().endswith("_1k"):
-        return sanitize(re.sub(r"_1k$", "", stem))
-    return sanitize(stem)
+        return re.sub(r"_1k$", "", stem)
+    return stem
+
+
+def category_label(text: str) -> str:
+    """Return a category guessed from a file or folder name as goal text is written: lower case, words joined by one
+    underscore, letters of every script kept (``Coffee Mug`` and ``coffee-mug`` -> ``coffee_mug``, ``PowerDrill`` ->
+    ``power_drill``, ``Tasse groß`` -> ``tasse_groß``; empty when the text has no letter or digit).
+
+    A word boundary inside a name written in camel case counts where two lower-case letters meet an upper-case one
+    followed by a lower-case one (``PowerDrill``; not ``iPad`` or ``USBStick``). Case variants of one category in a
+    library (``Mug.obj``, ``mug_2.glb``) so become one category.
+    """
+    s = unicodedata.normalize("NFC", str(text))
+    s = re.sub(r"(?<=[a-z]{2})(?=[A-Z][a-z])", "_", s)
+    return re.sub(r"[\W_]+", "_", s.lower()).strip("_")
 
 
 def object_name(path: str | Path, name: str | None = None) -> str:
@@ -120,20 +146,25 @@ def default_category(path: Path, root: str | Path | None = None) -> str:
     ``<name>/google_16k/textured.obj`` and GSO ``<name>/meshes/model.obj`` give the object's name), a leading numeric
     id such as YCB's '002_' dropped.
 
-    ``root``: the library folder the file was found in. The grandparent counts only when it lies inside that
-    folder; otherwise (a flat library ``lib/mug.obj``, one folder per object ``lib/mug/model.obj``) the guess is the
-    object's own name (`object_name`) without a numeric id before it or an instance number after it
-    (``chair_01`` -> ``chair``): the library folder (or a folder above it) names no category.
+    ``root``: the library folder the file was found in (default: the file's own folder, as for one file converted
+    alone). The grandparent counts only when it lies inside that folder; otherwise (a flat library ``lib/mug.obj``,
+    one folder per object ``lib/mug/model.obj``, a single file) the guess is the object's own name (`default_name`'s
+    text) without a numeric id before it or an instance number after it (``chair_01`` -> ``chair``): the library
+    folder (or a folder above it) names no category. A guessed name is written as `category_label` writes it
+    (``Coffee Mug`` -> ``coffee_mug``); a category ``meta.json`` names is kept as written.
     """
     path = Path(path)
     cat = meta_json_category(path)
     if cat:
         return cat
     folder = path.parent.parent
-    inside = root is None or os.path.abspath(folder).startswith(os.path.abspath(root).rstrip(os.sep) + os.sep)
-    name = (folder.name or path.parent.name or "object") if inside else object_name(path)
-    name = re.sub(r"^\d+[_\-\s]+(?=[A-Za-z])", "", name) or name
-    return name if inside else (re.sub(r"(?<=[A-Za-z])[_\-\s]*\d+$", "", name) or name)
+    root = path.parent if root is None else root
+    inside = os.path.abspath(folder).startswith(os.path.abspath(root).rstrip(os.sep) + os.sep)
+    name = (folder.name or path.parent.name) if inside else _name_text(path)
+    name = re.sub(r"^\d+[\W_]+(?=[^\W\d_])", "", name) or name
+    if not inside:
+        name = re.sub(r"(?<=[^\W\d_])[\W_]*\d+[\W_]*$", "", name) or name  # chair_01, mug (2)
+    return category_label(name) or "object"
 
 
 def library_category(path: str | Path, library: str | Path | None = None, meta: AssetMeta | None = None) -> str | None:

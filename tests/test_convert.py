@@ -535,8 +535,9 @@ def test_library_layouts_name_objects_and_equal_names_are_told_apart(tmp_path):
     from assets_convert.object import default_category
 
     assert default_category(Path("ycb/002_master_chef_can/google_16k/textured.obj")) == "master_chef_can"
-    assert default_category(Path("gso/Panda_Figure/meshes/model.obj")) == "Panda_Figure"
-    assert default_category(Path("lib/mug/mug_0/model.obj")) == "mug" and default_category(Path("007/x/a.obj")) == "007"
+    assert default_category(Path("gso/Panda_Figure/meshes/model.obj")) == "panda_figure"  # goal text: lower case
+    assert default_category(Path("lib/mug/mug_0/model.obj")) == "mug"
+    assert default_category(Path("007/x/a.obj"), Path(".")) == "007"  # a folder of digits keeps them
     lib = tmp_path / "lib"
     for folder, size in (("gso/Panda_Figure/meshes", 0.08), ("gso/Blue_Mug/meshes", 0.09), ("a/Cup/meshes", 0.1),
                          ("b/Cup/meshes", 0.11)):
@@ -571,7 +572,8 @@ def test_category_guess_knows_the_library_folder(tmp_path):
     ycb = tmp_path / "ycb"
     obj = ycb / "002_master_chef_can" / "google_16k" / "textured.obj"
     assert default_category(obj, ycb) == default_category(obj, obj.parents[1]) == "master_chef_can"
-    assert default_category(lib / "mug.obj") == tmp_path.name  # no library folder known: the grandparent, as before
+    # one file on its own (no library folder given): its own folder is the library, never the folder above it
+    assert default_category(lib / "mug.obj") == "mug"
     pm = tmp_path / "pm" / "7128"
     pm.mkdir(parents=True)
     (pm / "meta.json").write_text(json.dumps({"model_cat": "StorageFurniture", "model_id": "7128"}))
@@ -582,3 +584,31 @@ def test_category_guess_knows_the_library_folder(tmp_path):
     trimesh.creation.box(extents=(0.08, 0.06, 0.1)).export(str(lib / "cup" / "model.obj"))
     report = convert_tree([lib], tmp_path / "out", jobs=1, progress=False, cache_dir="off")
     assert sorted((r["name"], r["category"]) for r in report["items"]) == [("cup", "cup"), ("vase_2", "vase")]
+
+
+def test_guessed_categories_are_written_one_way(tmp_path, capsys):
+    """A mixed library spells one category many ways (Mug.obj, mug_2.glb, Coffee Mug.obj, coffee-mug (1).obj): a guessed
+    category is written one way (lower case, words joined by '_'), so agents are not asked for 'Mug' and 'mug' as two
+    goals; letters of other scripts stay in the category; names stay ASCII for files, accents dropped, not the letter.
+    One file converted alone takes its category from its own name, not from the folder above it."""
+    import trimesh
+
+    from assets_convert.object import category_label, default_category, sanitize
+    from sdovon_mj.cli import main
+
+    lib = tmp_path / "lib"
+    for f in ("Mug.obj", "mug_2.obj", "Coffee Mug.obj", "coffee-mug (1).obj", "PowerDrill.obj", "Tasse groß.obj"):
+        assert default_category(lib / f, lib) == {"Mug.obj": "mug", "mug_2.obj": "mug", "PowerDrill.obj": "power_drill",
+                                                  "Tasse groß.obj": "tasse_groß"}.get(f, "coffee_mug"), f
+    assert default_category(lib / "Kitchen Things" / "x" / "a.obj", lib) == "kitchen_things"
+    assert category_label("iPad") == "ipad" and category_label("  ") == ""
+    assert default_category(lib / "杯子.obj", lib) == "杯子" and default_category(lib / "%%.obj", lib) == "object"
+    assert sanitize("Tasse groß (1)") == "Tasse_gross_1" and sanitize("Café") == "Cafe" and sanitize("杯子") == "object"
+    # the command line, one file in a folder of downloads
+    (tmp_path / "Downloads").mkdir()
+    trimesh.creation.box(extents=(0.08, 0.06, 0.1)).export(str(tmp_path / "Downloads" / "Red Mug (2).obj"))
+    out = tmp_path / "out"
+    assert main(["convert", str(tmp_path / "Downloads" / "Red Mug (2).obj"), "--out", str(out), "--cache", "off",
+                 "--no-progress"]) == 0
+    row = json.loads((out / "convert_report.json").read_text())["items"][0]
+    assert (row["name"], row["category"]) == ("Red_Mug_2", "red_mug")
