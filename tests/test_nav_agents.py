@@ -175,6 +175,21 @@ def test_inferred_view_points_follow_the_generator_lattice():
     assert np.allclose(goal_points(depth, m, K, T, 0.5, 5.0)[:, 2], 2.0)
 
 
+def test_fn_stop_place_counts_by_the_seen_points_footprint():
+    """Where FN's Navigate ended counts by its distance to the footprint of the object's seen points (the agent stood
+    1.2-1.4 m from objects on sofas and tables, seen, 'reached' its approach cell, and stopped outside the 1 m view
+    radius): 0 inside the footprint, the distance to its nearest side or corner outside, outliers trimmed."""
+    from sdovon_mj.nav.goal import footprint_distance
+
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.uniform(2.0, 2.4, 400), rng.uniform(1.0, 1.2, 400), rng.uniform(0.4, 0.5, 400)])
+    pts[0] = [9.0, 9.0, 0.4]  # one stray depth pixel far away: trimmed, it does not stretch the footprint
+    assert footprint_distance(np.array([2.2, 1.1]), pts) == 0.0
+    assert footprint_distance(np.array([2.2, 2.4, 0.0]), pts) == pytest.approx(1.2, abs=0.01)  # north of the box
+    assert footprint_distance(np.array([1.0, 0.0]), pts) == pytest.approx(np.hypot(1.0, 1.0), abs=0.02)  # corner
+    assert footprint_distance(np.array([8.0, 8.0]), pts) > 5.0
+
+
 def test_agents_load_through_plugins_and_nav_never_imports_suite():
     """Agents are plugins (built-ins included); `nav` holds agents only and imports nothing of `suite`."""
     import subprocess

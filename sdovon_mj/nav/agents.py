@@ -41,7 +41,7 @@ from ..records import Observation, Relevance
 from ..sim.camera import pose_cv
 from .control import Navigator, blocked_cells, lattice_approach, segment_checker
 from .frontier import OccupancyMap, agent_frame, explore, scan_actions
-from .goal import approach_point, goal_points, infer_view_points, object_centre
+from .goal import approach_point, footprint_distance, goal_points, infer_view_points, object_centre
 from .memory import RANKINGS, SceneMemory, build_memory, container_planes, extract_planes
 
 # Receptacles the A* agents try to open (OPEN) when they do not see the goal at them: furniture with doors or
@@ -448,29 +448,52 @@ class ReceptacleAStar(Agent):
         """The paper's FN: Navigate(p_g | eps_nav) to the detected object's centre, then STOP with it in view.
 
         p_g usually stands on furniture: the agent drives towards the reachable cell of its map nearest to p_g
-        and stops as soon as it is within eps_nav of p_g, faces the object and looks. When it does not see it
-        from there (or could not get within eps_nav), it tries other places of its map within the view radius
-        ``nav.fn_viewpoint_radius`` of p_g (at most ``nav.fn_max_checks`` places in all, nearest by path first) and
-        stops at the first that shows the object.
+        and stops as soon as it is within eps_nav of p_g, faces the object and looks. An agent whose map grows with
+        what it sees (the no-prior agent) plans again from there while that brings it closer. Where Navigate ended
+        counts when the agent sees the object from there and stands within eps_nav of p_g or within the view radius
+        ``nav.fn_viewpoint_radius`` (less half a step) of the object's seen points (`footprint_distance`: the
+        furniture under it can keep every free cell farther than eps_nav). Otherwise it tries other places of its map
+        within the view radius of p_g (at most ``nav.fn_max_checks`` places in all, nearest by path first) and stops
+        at the first that shows the object. ``fn_reached`` in the result: it came within eps_nav of p_g.
         """
         centre = object_centre(pts)
-        pos = np.asarray(self.ts.observation["position"], float)[:2]
-        reached = bool(np.linalg.norm(pos - centre[:2]) <= self.nav.eps_nav)
-        if not reached:
+        half = self.nav.forward_step / 2.0
+
+        def away() -> float:
+            return float(np.linalg.norm(np.asarray(self.ts.observation["position"], float)[:2] - centre[:2]))
+
+        seen = False
+        looked = False
+        while away() > self.nav.eps_nav + 1e-6 and self.env.steps < self.nav.max_steps - 10:
             # straight towards p_g when the agent's map shows that way free, else to the nearest reachable cell
-            away = (pos - centre[:2]) / max(float(np.linalg.norm(pos - centre[:2])), 1e-9)
-            direct = centre[:2] + away * (self.nav.eps_nav - self.nav.forward_step / 2.0)
+            pos = np.asarray(self.ts.observation["position"], float)[:2]
+            direct = centre[:2] + (pos - centre[:2]) / max(away(), 1e-9) * (self.nav.eps_nav - half)
             if segment_free(memory.traversable, memory.frame, pos, direct):
-                target, tol = direct, self.nav.forward_step / 2.0
+                target, tol = direct, half
             else:
                 target = approach_point(centre, memory.traversable, memory.frame, pos)
-                tol = self.nav.forward_step / 2.0 if target is None else max(
-                    self.nav.forward_step / 2.0, self.nav.eps_nav - float(np.linalg.norm(target - centre[:2])))
-            if target is not None:
-                reached = yield from nv.goto(target, tol, self.ts)
-        seen = yield from self._verify(centre, nv)
+                if target is None:
+                    break
+                tol = max(half, self.nav.eps_nav - float(np.linalg.norm(target - centre[:2])))
+                if float(np.linalg.norm(target - pos)) <= tol:
+                    break  # the agent stands where its map lets it come closest
+            start = away()
+            yield from nv.goto(target, tol, self.ts)
+            seen = yield from self._verify(centre, nv)
+            looked = True
+            # Navigate(p_g | eps_nav): an agent whose map grows with what it sees (`_map_grew`) plans again from
+            # here while each round brings it closer; a map built in advance has nothing new to plan with
+            if not self._map_grew(memory) or away() > start - half:
+                break
+            looked = False
+        reached = away() <= self.nav.eps_nav + 1e-6
+        if not looked:
+            seen = yield from self._verify(centre, nv)
+        # where Navigate ended counts when it shows the object and lies within eps_nav of p_g, or within the view radius
+        # of the object's points (the furniture under p_g keeps the agent farther than eps_nav), half a step to spare
+        near = reached or footprint_distance(self.ts.observation["position"], pts) <= self.nav.fn_viewpoint_radius - half
         tried = 0
-        if not (reached and seen):
+        if not (near and seen):
             # "then STOP with the object in view", close by: where Navigate stopped does not show it (the
             # receptacle's edge hides it from close by, the nearest free cell is behind the piece) or is farther
             # than eps_nav (no free cell nearer): other places of the agent's map within the view radius
@@ -481,16 +504,21 @@ class ReceptacleAStar(Agent):
             for c in cands:
                 if tried >= self.nav.fn_max_checks - 1 or self.env.steps >= self.nav.max_steps - 10:
                     break
-                if np.linalg.norm(c - np.asarray(self.ts.observation["position"], float)[:2]) < self.nav.forward_step / 2:
+                if np.linalg.norm(c - np.asarray(self.ts.observation["position"], float)[:2]) < half:
                     continue
                 # a place to look from, not a point to stand on exactly: within half a step (the candidates' spacing)
-                if not (yield from nv.goto(c, self.nav.forward_step / 2.0, self.ts)):
+                if not (yield from nv.goto(c, half, self.ts)):
                     continue
                 tried += 1
                 seen = yield from self._verify(centre, nv)
                 if seen:
                     break
         return {"fn": "paper", "fn_reached": bool(reached), "fn_verified": bool(seen), "fn_checks": tried}
+
+    def _map_grew(self, memory: SceneMemory) -> bool:
+        """Add what the agent sees now to its planning map; return whether it did (an A* agent plans on the map of its
+        first visit, so its map does not grow during an episode)."""
+        return False
 
     def _final_nav_lattice(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
         """Our FN variant: walk to the nearest inferred lattice view point of the goal that the detector confirms."""
@@ -596,7 +624,8 @@ class SemanticFrontierAgent(ReceptacleAStar):
     utility ``(0.1 + s) / (1 + d / 5 m)``, where ``d`` is the path length to it and ``s`` the highest relevance
     P(goal | label), from the semantics backend, of the labels its detector reported within
     ``nav.frontier_radius`` of the frontier (L3MVN-style; `Relevance.pair_score` in the label's best region,
-    as the agent does not know the regions). When the detector sees the goal it runs FN and stops.
+    as the agent does not know the regions). When the detector sees the goal it runs FN and stops; during FN it adds
+    the depth of each look at the goal to its map and plans again from it (`_map_grew`).
     """
 
     name = "semantic-frontier"
@@ -607,11 +636,21 @@ class SemanticFrontierAgent(ReceptacleAStar):
         super().__init__(nav, seed, final_nav, semantics=semantics, agent=agent)
         self.knowledge = Knowledge(detector="gt", pose="gps+compass", prior="none",
                                    fn=self.nav.fn_mode if self.final_nav else "-")
+        self._occ: OccupancyMap | None = None  # the current episode's occupancy map
 
     def prepare(self, bundle, make_env: Callable[..., object]) -> None:
         """Nothing to learn in advance: keep the detector and the goal categories."""
         self.bundle = bundle
         self.detector = bundle.detector
+
+    def _map_grew(self, memory: SceneMemory) -> bool:
+        """Add the depth of the current frame (when rendered) to the episode's occupancy map and plan on it."""
+        occ = self._occ
+        if occ is None or not self.frame_fresh:
+            return False
+        occ.integrate(self.ts.observation["depth"], self.env.K, self._camera(), self.nav.depth_max)
+        memory.traversable = occ.traversable()
+        return True
 
     def _scores(self, category: str, labels: list[str]) -> dict[str, float]:
         """Return label -> relevance of the goal category to it (the backend's P(goal | label))."""
@@ -635,7 +674,7 @@ class SemanticFrontierAgent(ReceptacleAStar):
 
         category = str(self.ts.observation["objectgoal_text"])
         frame = agent_frame(np.zeros(2), self.nav.map_size, self.nav.map_resolution)
-        occ = OccupancyMap(frame, floor_z=0.0, agent=self.agent_config)
+        occ = self._occ = OccupancyMap(frame, floor_z=0.0, agent=self.agent_config)
         occ.mark_free_disc(np.zeros(2), self.agent_config.radius + 0.05)
         seen: list[tuple[np.ndarray, str]] = []  # (world XY in the start frame, label) of detections
         nv = Navigator(self.nav, occ.traversable, frame,

@@ -46,6 +46,17 @@ def footprint(points: np.ndarray, trim: float = 2.0) -> tuple[np.ndarray, np.nda
     return np.percentile(p, trim, axis=0), np.percentile(p, 100.0 - trim, axis=0)
 
 
+def footprint_distance(position: np.ndarray, points: np.ndarray) -> float:
+    """Return the XY distance (m) from a position to the `footprint` of an object's points (0 inside it).
+
+    The footprint of the points an agent saw of an object lies within the object's own box (up to depth noise), so a
+    place within ``r`` of the footprint lies within ``r`` of the object: what FN needs to know of a place it may stop at.
+    """
+    lo, hi = footprint(points)
+    p = np.asarray(position, float)[:2]
+    return float(np.linalg.norm(np.maximum(np.maximum(lo - p, 0.0), p - hi)))
+
+
 def lattice_cells(mask: np.ndarray, frame: GridFrame, lo: np.ndarray, hi: np.ndarray, radius: float,
                   step: float) -> np.ndarray:
     """Return True cells (K, 2) of `mask` on a `step` lattice anchored to the grid within `radius` of box lo..hi."""
