@@ -242,16 +242,17 @@ def _object_files(ctx: StageContext) -> list[tuple[Path, str | None]]:
     """Return (object file, category or None) for every input object (the default library once written)."""
     if ctx.inputs["objects"]:
         files: list[tuple[Path, str | None]] = []
-        # the converter's category guess knows the library folder (a flat lib/mug.obj is a mug, not a 'lib')
+        # the converter's category (as `convert` gives it: assets.yaml, else meta.json, else its guess, which knows the
+        # library folder: a flat lib/mug.obj is a mug, not a 'lib'); a converter without one: meta.json only
         guess = getattr(converter(), "object_category", None)
         for p in map(Path, ctx.inputs["objects"]):
             if p.is_dir():
                 found = sorted(q for q in p.rglob("*") if q.suffix.lower() in OBJECT_LIBRARY_SUFFIXES)
                 if not found:
                     raise InputError(p, "folder holds no OBJ/GLB/glTF/PLY/STL/URDF object files")
-                files += [(q, _meta_category(q) or (guess(q, p) if guess else None)) for q in found]
+                files += [(q, guess(q, p) if guess else _meta_category(q)) for q in found]
             elif p.exists():
-                files.append((p, _meta_category(p)))
+                files.append((p, guess(p, None) if guess else _meta_category(p)))
             else:
                 raise InputError(p, "object file not found")
         return files

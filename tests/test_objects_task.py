@@ -81,3 +81,29 @@ def test_urdf_objects_in_a_library_folder(tmp_path):
     stages.run_task(store, cfg, StageRunner(store, third), "run")
     assert third.skipped == []
     assert str(lib / "toy" / "duck" / "duck.fbx") in json.loads(store.path("objects/failures.json").read_text())
+
+
+def test_generate_and_convert_give_an_object_one_category(tmp_path):
+    """assets.yaml (the user's word) wins over a dataset's meta.json in `convert`; `generate --objects` read meta.json
+    first, so one library gave two categories. Both ask the converter now, for a library folder and a single file."""
+    from assets_convert.tree import convert_tree
+
+    lib = tmp_path / "lib"
+    obj = lib / "7128" / "model.obj"
+    obj.parent.mkdir(parents=True)
+    obj.write_text(trimesh.creation.box(extents=(0.1, 0.08, 0.05)).export(file_type="obj"))
+    (obj.parent / "meta.json").write_text(json.dumps({"category": "StorageFurniture"}))
+    (obj.parent / "assets.yaml").write_text("category: tea_box\n")
+    report = convert_tree([lib], tmp_path / "out", jobs=1, progress=False, cache_dir="off")
+    assert [r["category"] for r in report["items"]] == ["tea_box"]
+    cfg = RunConfig(convert=ConvertConfig(jobs=1))
+    for inputs, run in (([str(lib)], "run"), ([str(obj)], "run_file")):
+        store = prepare_run(tmp_path / run, cfg, None, inputs)
+        stages.run_task(store, cfg, StageRunner(store, TaskResult(TaskSpec(kind="objects", run_root=str(store.root)),
+                                                                  ok=True)), "run")
+        assert [a.category for a in load_json(store.path("objects/objects.json"), ObjectAsset)] == ["tea_box"], run
+    (obj.parent / "assets.yaml").unlink()  # without the user's word, the dataset's meta.json names it
+    store = prepare_run(tmp_path / "run_meta", cfg, None, [str(lib)])
+    stages.run_task(store, cfg, StageRunner(store, TaskResult(TaskSpec(kind="objects", run_root=str(store.root)),
+                                                              ok=True)), "run")
+    assert [a.category for a in load_json(store.path("objects/objects.json"), ObjectAsset)] == ["StorageFurniture"]
