@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from sdovon_mj.config import ConvertConfig
+from sdovon_mj.raycast import first_hits
 
 from .hulls import clean_hulls
 
@@ -18,8 +19,6 @@ from .hulls import clean_hulls
 def heightfield_from_mesh(vertices: np.ndarray, faces: np.ndarray, region_xy_bounds: Any,
                           resolution: float = 0.01) -> tuple[np.ndarray, dict[str, Any]]:
     """Return top-surface heights (rows along Y, cols along X) over an XY box and a MuJoCo hfield spec."""
-    import trimesh
-
     x0, y0, x1, y1 = (float(b) for b in np.ravel(region_xy_bounds))
     nx = max(2, int(np.ceil((x1 - x0) / resolution)) + 1)
     ny = max(2, int(np.ceil((y1 - y0) / resolution)) + 1)
@@ -34,14 +33,11 @@ def heightfield_from_mesh(vertices: np.ndarray, faces: np.ndarray, region_xy_bou
     base = float(v[:, 2].min()) if len(v) else 0.0
     heights = np.full(gx.shape, base)
     if sel.any():
-        mesh = trimesh.Trimesh(v, f[sel], process=False)
-        top = float(mesh.bounds[1, 2]) + 1.0
+        top = float(tri[sel][:, :, 2].max()) + 1.0
         origins = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, top)], axis=1)
-        dirs = np.tile([0.0, 0.0, -1.0], (gx.size, 1))
-        locs, ray_idx, _tri = mesh.ray.intersects_location(origins, dirs, multiple_hits=False)
+        hit, z = first_hits(v, f[sel], origins, axis=2, sign=-1)
         flat = heights.ravel()
-        if len(ray_idx):
-            flat[ray_idx] = locs[:, 2]
+        flat[hit >= 0] = z[hit >= 0]
         heights = flat.reshape(gx.shape)
     zmin = float(heights.min())
     zmax = float(heights.max())

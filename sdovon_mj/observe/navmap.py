@@ -25,6 +25,7 @@ import numpy as np
 
 from ..config import AgentConfig, ObserveConfig
 from ..grid import GridFrame
+from ..raycast import first_hits
 from ..errors import StageError
 from ..records import Floor, NavMap
 from ..store import atomic_write_bytes
@@ -124,26 +125,20 @@ def floor_presence(vertices: np.ndarray, faces: np.ndarray, floor: Floor, origin
     tol : float
         Largest height difference between the hit and the floor, metres.
     """
-    import trimesh
-
     normal, _area, centre = face_geometry(vertices, faces)
     # only faces near this floor can be hit first from RAY_START above it; cast against them alone
     near = (centre[:, 2] >= floor.height - tol - 0.5) & (centre[:, 2] <= floor.height + RAY_START + 0.5)
     if not near.any():
         return np.zeros(shape, dtype=bool)
     sub = np.asarray(faces)[near]
-    mesh = trimesh.Trimesh(np.asarray(vertices, dtype=np.float64), sub, process=False)
     h, w = shape
     jj, ii = np.meshgrid(np.arange(w), np.arange(h))
     x, y = GridFrame(np.asarray(origin, dtype=float), float(res), shape).to_world(np.stack([ii.ravel(), jj.ravel()], 1)).T
     origins = np.stack([x, y, np.full(x.shape, floor.height + RAY_START)], axis=1)
-    dirs = np.tile([0.0, 0.0, -1.0], (len(origins), 1))
-    loc, idx_ray, idx_tri = mesh.ray.intersects_location(origins, dirs, multiple_hits=False)
+    tri, z = first_hits(vertices, sub, origins, axis=2, sign=-1)
+    hit = tri >= 0
     ok = np.zeros(len(origins), dtype=bool)
-    if len(idx_ray):
-        up = normal[near][idx_tri, 2] >= UP_COS
-        close = np.abs(loc[:, 2] - floor.height) <= tol
-        ok[idx_ray[up & close]] = True
+    ok[hit] = (normal[near][tri[hit], 2] >= UP_COS) & (np.abs(z[hit] - floor.height) <= tol)
     return ok.reshape(shape)
 
 
@@ -162,8 +157,6 @@ def solid_interior(vertices: np.ndarray, faces: np.ndarray, z: float, origin: np
     cells : (K, 2) int
         Grid cells (row, column) to test.
     """
-    import trimesh
-
     out = np.zeros(len(cells), dtype=bool)
     if not len(cells):
         return out
@@ -174,16 +167,14 @@ def solid_interior(vertices: np.ndarray, faces: np.ndarray, z: float, origin: np
     if not span.any():
         return out
     normal, _a, _c = face_geometry(v, f[span])
-    mesh = trimesh.Trimesh(v, f[span], process=False)
     xy = origin + (cells[:, ::-1] + 0.5) * res
     origins = np.column_stack([xy, np.full(len(xy), z)])
     inside = np.ones(len(cells), dtype=bool)
-    for d in ([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]):
-        dirs = np.tile(d, (len(origins), 1))
-        tri = mesh.ray.intersects_first(origins, dirs)
+    for sign in (1, -1):
+        tri, _x = first_hits(v, f[span], origins, axis=0, sign=sign)
         hit = tri >= 0
         back = np.zeros(len(cells), dtype=bool)
-        back[hit] = normal[tri[hit]] @ np.asarray(d) > 0
+        back[hit] = sign * normal[tri[hit], 0] > 0
         inside &= back
     return inside
 

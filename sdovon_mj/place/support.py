@@ -23,6 +23,7 @@ from ..config import PlaceConfig
 from ..records import ReceptaclePlane, SceneAsset
 from ..sim import GROUP_SUPPORT
 from ..geometry import convex_hull_ccw
+from ..raycast import first_hits
 
 SUPPORT_FRICTION = (1.0, 0.02, 0.002)  # sliding, torsional, rolling
 SUPPORT_CONDIM = 6
@@ -181,8 +182,6 @@ def add_support(spec: mujoco.MjSpec, planes: list[ReceptaclePlane], scene: Scene
 def _add_hfield(spec: mujoco.MjSpec, plane: ReceptaclePlane, mesh: tuple[np.ndarray, np.ndarray, np.ndarray],
                 cfg: PlaceConfig, name: str) -> bool:
     """Add a heightfield of the scene surface over a plane when it is not flat; return whether one was added."""
-    import trimesh
-
     verts, faces, _ = mesh
     poly = np.asarray(plane.polygon, float)
     lo, hi = poly.min(axis=0), poly.max(axis=0)
@@ -198,12 +197,11 @@ def _add_hfield(spec: mujoco.MjSpec, plane: ReceptaclePlane, mesh: tuple[np.ndar
         & (c[:, 2] < top) & (c[:, 2] > plane.height - 0.3)
     if not keep.any():
         return False
-    tm = trimesh.Trimesh(verts, faces[keep], process=False)
     origins = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, top)])
-    dirs = np.tile([0.0, 0.0, -1.0], (len(origins), 1))
-    locs, idx, _ = tm.ray.intersects_location(origins, dirs, multiple_hits=False)
+    tri, hz = first_hits(verts, faces[keep], origins, axis=2, sign=-1)
+    idx = np.nonzero(tri >= 0)[0]
     z = np.full(len(origins), plane.height)
-    z[idx] = locs[:, 2]
+    z[idx] = hz[idx]
     z = np.clip(z, plane.height - 0.15, plane.height + 0.15)
     if float(np.ptp(z[idx])) < cfg.hfield_flatness if len(idx) else True:
         return False

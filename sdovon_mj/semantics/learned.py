@@ -38,6 +38,13 @@ from .judgements import Judgements, phrase
 
 MODEL_PATH = "data/semantics/learned.json"
 HEADS = ("pair", "room", "receptacle")
+# Loaded weights are rounded to multiples of 2**-24 (|W| < 1: a float32 weight moves by < 3e-8): with embeddings
+# on the 2**-20 grid (`embeddings.QUANTUM`) every product is a multiple of 2**-44 below 1, and the 384 of a row
+# of ``e(o) . W`` add up exactly in float64 (< 2**53 multiples) in any order, so that term is the same bits on
+# every CPU and thread count. What is left inexact is the column kernel's exp and its product with that term:
+# float64 noise of a few units in the 14th digit against scores rounded to 6 decimals (`backends.offline`),
+# a flip chance of about 1e-8 per score.
+WEIGHT_QUANTUM = 2.0 ** -24
 
 
 def pair_text(room: str, receptacle: str) -> str:
@@ -104,10 +111,11 @@ class Head:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "Head":
-        """Rebuild a head from `to_dict` data."""
+        """Rebuild a head from `to_dict` data (weights on the `WEIGHT_QUANTUM` grid)."""
         dec = lambda s: np.frombuffer(base64.b64decode(s), dtype="<f4").astype(np.float64)  # noqa: E731
         k = len(d["columns"])
-        return cls(columns=list(d["columns"]), bias=float(d["bias"]), weights=dec(d["weights"]).reshape(DIM, k),
+        weights = np.round(dec(d["weights"]) / WEIGHT_QUANTUM) * WEIGHT_QUANTUM
+        return cls(columns=list(d["columns"]), bias=float(d["bias"]), weights=weights.reshape(DIM, k),
                    beta=float(d["beta"]), lam=float(d["lambda"]), temperature=float(d["temperature"]))
 
 

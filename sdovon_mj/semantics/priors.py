@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..embeddings import Embedder
+from ..embeddings import embed_labels
 from .validate import _singular, normalise
 
 FLOOR = 0.5  # score a candidate gets when the table says 0 (0-10 scale)
@@ -64,7 +64,6 @@ class Priors:
         self.receptacles: list[str] = list(self.table["receptacles"])
         self.synonyms: dict[str, str] = self.table["synonyms"]
         self.region_synonyms: dict[str, str] = self.table["region_synonyms"]
-        self.embedder = Embedder()
         self._temps: dict[str, float] = {}
         self._lock = threading.Lock()
 
@@ -100,8 +99,8 @@ class Priors:
     def _nearest(self, n: str) -> str | None:
         """Return the table label nearest in embedding space, if close enough."""
         names = sorted(set(self.labels) | set(self.synonyms))
-        vecs = self.embedder.encode(names)
-        q = self.embedder.encode([n])[0]
+        vecs = embed_labels(names)
+        q = embed_labels([n])[0]
         sims = vecs @ q
         i = int(np.argmax(sims))
         if float(sims[i]) < NN_MIN:
@@ -171,8 +170,8 @@ class Priors:
     def _sims(self, objs: list[str], cands: list[str], kind: str) -> np.ndarray:
         """Return cosine similarities (len(objs), len(cands)) with the kind's templates."""
         t_obj, t_cand = REGION_TEMPLATE if kind == "regions" else RECEPTACLE_TEMPLATE
-        a = self.embedder.encode([t_obj.format(o) for o in objs])
-        b = self.embedder.encode([t_cand.format(c) for c in cands])
+        a = embed_labels([t_obj.format(o) for o in objs])
+        b = embed_labels([t_cand.format(c) for c in cands])
         return a @ b.T
 
     def embedding_scores(self, obj: str, candidates: list[str], kind: str) -> dict[str, float]:
@@ -190,7 +189,7 @@ class Priors:
         keys = sorted(k for k, v in self.labels.items() if v.get(kind))
         if not keys:
             return {}
-        sims = self.embedder.encode(keys) @ self.embedder.encode([normalise(label)])[0]
+        sims = embed_labels(keys) @ embed_labels([normalise(label)])[0]
         nn = np.argsort(-sims, kind="stable")[:KNN_K]
         w = _softmax(sims[nn][None, :].astype(np.float64), KNN_T)[0]
         cands = self.regions if kind == "regions" else self.receptacles
