@@ -20,13 +20,14 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "tests"))  # tests/support: the fixture scenes (not installed with the package)
 
 import numpy as np  # noqa: E402
 
 from sdovon_mj.config import ObserveConfig  # noqa: E402
 from sdovon_mj.observe import coverage_viewpoints, scene_floors_and_maps, uniform_viewpoints  # noqa: E402
 from sdovon_mj.observe.stage import load_mesh  # noqa: E402
-from sdovon_mj.testing.scenes import apartment_boxes, living_room_parts, write_box_scene, write_mesh_scene  # noqa: E402
+from support.scenes import apartment_boxes, living_room_parts, write_box_scene, write_mesh_scene  # noqa: E402
 
 SHARED = Path(os.environ.get("SDOVON_SHARED_ASSETS", REPO.parent / "shared" / "assets"))
 

@@ -21,9 +21,10 @@ from pathlib import Path
 import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # tests/support: the fixture scenes (not installed)
 
 from sdovon_mj.config import PlaceConfig  # noqa: E402
-from sdovon_mj.testing.placement import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene  # noqa: E402
+from support.placement import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene  # noqa: E402
 from sdovon_mj.place.variants import run_variant  # noqa: E402
 from sdovon_mj.seeds import variant_seed  # noqa: E402
 from sdovon_mj.records import Relevance  # noqa: E402

@@ -16,8 +16,10 @@ import dataclasses
 import os
 import sys
 import time
+from pathlib import Path
 
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # tests/support: the fixture scenes (not installed)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -33,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from sdovon_mj.config import SemanticsConfig
     from sdovon_mj.semantics import get_backend, region_map
-    from sdovon_mj.testing.groundtruth import apartment_instances, apartment_navmap, region_accuracy
+    from support.groundtruth import apartment_instances, apartment_navmap, region_accuracy
     from sdovon_mj.semantics.regions import _windows, floor_instances
 
     try:

@@ -1,7 +1,7 @@
 """Rendering throughput of the observe stage: RGB, depth, segmentation and all three, at 640x480.
 
 Scenes: a default-world apartment (when sdovon_mj.world and assets_convert.convert_scene are
-available; otherwise the synthetic two-storey apartment of sdovon_mj.testing.scenes) and the
+available; otherwise the synthetic two-storey apartment of tests/support/scenes.py) and the
 shared furnished living room (its glTF room plus the furniture listed in placements.json, textured,
 through convert_scene when available; otherwise composed from placements.json, untextured). Frames
 are rendered from coverage viewpoints with the stage's yaw / pitch sweep, through the same SceneRenderer the stage uses (one update_scene per frame; RGB is one
@@ -25,12 +25,13 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "tests"))  # tests/support: the fixture scenes (not installed with the package)
 
 from sdovon_mj.config import ObserveConfig  # noqa: E402
 from sdovon_mj.observe import coverage_viewpoints, scene_floors_and_maps, view_angles  # noqa: E402
 from sdovon_mj.observe.render_views import load_model, make_renderer  # noqa: E402
 from sdovon_mj.observe.stage import load_mesh  # noqa: E402
-from sdovon_mj.testing.scenes import apartment_boxes, living_room_parts, write_box_scene, write_mesh_scene  # noqa: E402
+from support.scenes import apartment_boxes, living_room_parts, write_box_scene, write_mesh_scene  # noqa: E402
 from sdovon_mj.sim.camera import pose_cv  # noqa: E402
 
 SHARED = Path(os.environ.get("SDOVON_SHARED_ASSETS", REPO.parent / "shared" / "assets"))

@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # tests/support: the fixture scenes (not installed)
 
 
 def main() -> None:
@@ -27,7 +30,7 @@ def main() -> None:
     import numpy as np
 
     from sdovon_mj import suite
-    from sdovon_mj.testing.bundles import fixture_bundle
+    from support.bundles import fixture_bundle
 
     bundle = args.bundle or (fixture_bundle() / "fixture_apartment_v000")
     print(f"bundle: {bundle}  MUJOCO_GL={os.environ.get('MUJOCO_GL')}  LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS')}")

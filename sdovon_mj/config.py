@@ -454,6 +454,26 @@ def _allowed(meta: Any) -> str:
     return " and ".join(f"{ops[k]} {v:g}" for k, v in meta.get("limits", {}).items())
 
 
+def allowed_text(key: str, meta: Any) -> str:
+    """Return what a field accepts, as the configuration reference prints it ('' when anything of its type goes).
+
+    ``key`` is the dotted key (``convert.units``), ``meta`` the field's metadata: its range or choices (for a tuple,
+    each element's), the tuple's length bounds, and the words `validate` accepts for ``convert.units`` / ``convert.up``.
+    """
+    if key == "convert.units":
+        return ", ".join(_UNIT_WORDS) + " or a positive number of metres per file unit"
+    if key == "convert.up":
+        return ", ".join(_UP_WORDS) + " (any case)"
+    parts = [_allowed(meta)] if (meta.get("choices") is not None or meta.get("limits")) else []
+    lo, hi = meta.get("min_len"), meta.get("max_len")
+    if lo is not None and lo == hi:
+        parts.append(f"{lo} values")
+    elif lo is not None or hi is not None:
+        parts.append(" and ".join(t for t in (f"at least {lo} value{'s' if lo != 1 else ''}" if lo is not None else "",
+                                              f"at most {hi} values" if hi is not None else "") if t))
+    return "; ".join(parts)
+
+
 def _field_problem(value: Any, meta: Any) -> str:
     """Return what is wrong with a field value under its declared range/choices ('' when it is allowed)."""
     items = value if isinstance(value, tuple) else (value,)

@@ -22,7 +22,7 @@ from sdovon_mj.perceive.surfaces import receptacle_labels
 from sdovon_mj.receptacles import receptacle_instances
 from sdovon_mj.records import Instance, SceneAsset
 from sdovon_mj.sim.model import load_scene_mesh
-from sdovon_mj.testing.artist_kitchen import write_artist_kitchen
+from support.artist_kitchen import write_artist_kitchen
 
 from test_generate import cli
 

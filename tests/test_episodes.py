@@ -11,7 +11,7 @@ from sdovon_mj.config import AgentConfig, EpisodeConfig
 from sdovon_mj.episodes import episode_report, generate_episodes, n_episodes_formula
 from sdovon_mj.episodes.generate import generate_episodes_with_report, ratio_keep_probability
 from sdovon_mj.gridgraph import GeodesicField, distance_field
-from sdovon_mj.testing.run_folder import build_sample_run
+from support.run_folder import build_sample_run
 from sdovon_mj.records import NavMap, SceneVariant, load_json, records_equal
 
 

@@ -24,7 +24,7 @@ from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from sdovon_mj.sim.camera import pose_cv
 from sdovon_mj.sim.model import geom_segment_ids, object_segment_id, segment_image
 from sdovon_mj.sim.render import SceneRenderer
-from sdovon_mj.testing.run_folder import build_sample_run
+from support.run_folder import build_sample_run
 from exporters.mjcf_bundle import MjcfBundleExporter
 
 REPO = Path(__file__).resolve().parents[1]

@@ -24,7 +24,7 @@ from sdovon_mj.sim import GROUP_AGENT
 from sdovon_mj.sim.camera import pose_cv
 from sdovon_mj.sim.model import object_segment_id, segment_image
 from sdovon_mj.store import dumps
-from sdovon_mj.testing.run_folder import build_sample_run
+from support.run_folder import build_sample_run
 
 
 @pytest.fixture(scope="module")

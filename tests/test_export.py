@@ -25,7 +25,7 @@ from sdovon_mj import plugins
 from sdovon_mj.cli import main
 from sdovon_mj.errors import InputError
 from sdovon_mj.config import AgentConfig, EpisodeConfig
-from sdovon_mj.testing.run_folder import MUG_POSE, build_sample_run
+from support.run_folder import MUG_POSE, build_sample_run
 from sdovon_mj.records import Episode, RecordError, load_json, records_equal, save_json
 from sdovon_mj.store import dumps
 from sdovon_mj.suite import load_bundle, make_environment

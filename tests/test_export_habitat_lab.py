@@ -18,7 +18,7 @@ import pytest
 from sdovon_mj.export import ExportOptions, RunView, run_export
 from exporters.habitat import HabitatExporter
 from sdovon_mj import metrics as M
-from sdovon_mj.testing.run_folder import build_sample_run
+from support.run_folder import build_sample_run
 from sdovon_mj.records import Episode, load_json
 
 import habitat_lab_env

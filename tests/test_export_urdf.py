@@ -170,7 +170,7 @@ def test_sample_run_primitives_and_missing_mjcf(fmt, tmp_path):
     """Primitive geoms (the sample run's sphere and cylinder colliders) export, twice to the same bytes; a missing
     MJCF is named in the error."""
     from sdovon_mj.errors import InputError
-    from sdovon_mj.testing.run_folder import build_sample_run
+    from support.run_folder import build_sample_run
 
     run = build_sample_run(tmp_path / "run", episodes=True)
     rep = run_export(make_exporter(fmt), RunView(run), tmp_path / "out", ExportOptions(name="ds"))

@@ -21,7 +21,7 @@ from sdovon_mj.suite.evaluate import (OUTCOMES, episode_outcome, evaluate, make_
 from sdovon_mj.grid import GridFrame
 from sdovon_mj.gridgraph import GeodesicField
 from sdovon_mj.records import Episode, Goal, ViewPoint, load_json, save_json
-from sdovon_mj.testing.bundles import fixture_bundle
+from support.bundles import fixture_bundle
 
 SMALL = AgentConfig(sensor_width=96, sensor_height=72)
 

@@ -11,7 +11,7 @@ from sdovon_mj.config import AgentConfig, ObserveConfig
 from sdovon_mj.errors import InputError, SdovonError, StageError
 from sdovon_mj.observe import (OffFloorError, coverage_viewpoints, find_floors, load_shards, locate, navigable_map,
                                observe_scene, render_observations, uniform_viewpoints)
-from sdovon_mj.testing.scenes import Box, apartment_boxes, write_box_scene
+from support.scenes import Box, apartment_boxes, write_box_scene
 from sdovon_mj.world.shapes import box
 from sdovon_mj.records import CoverageView, NavMap, load_json
 from sdovon_mj.sim.model import load_scene_mesh

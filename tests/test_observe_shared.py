@@ -13,7 +13,7 @@ import pytest
 
 from sdovon_mj.config import ObserveConfig
 from sdovon_mj.observe import coverage_viewpoints, find_floors, navigable_map, render_observations
-from sdovon_mj.testing.scenes import living_room_parts, write_mesh_scene
+from support.scenes import living_room_parts, write_mesh_scene
 from sdovon_mj.sim.camera import backproject
 from sdovon_mj.sim.model import load_scene_mesh
 

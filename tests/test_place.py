@@ -13,7 +13,7 @@ from sdovon_mj.config import PlaceConfig
 from sdovon_mj.place.check import check_variant, format_report, per_category
 from sdovon_mj.geometry import fan_triangles, points_in_convex_polygon, sample_in_polygon, shrink_polygon
 from sdovon_mj.place.sample import category_distribution, sample_placements, top_pair_share
-from sdovon_mj.testing.placement import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene
+from support.placement import hand_relevance, write_primitive_library, write_primitive_object, write_table_scene
 from sdovon_mj.place.variants import place_variant, place_variants, run_variant
 from sdovon_mj.seeds import variant_seed
 from sdovon_mj.records import ReceptaclePlane, Relevance, SceneVariant, load_json

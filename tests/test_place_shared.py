@@ -7,7 +7,7 @@ import pytest
 
 from sdovon_mj.config import PlaceConfig
 from sdovon_mj.place import check_variant, format_report, run_variant
-from sdovon_mj.testing.placement import write_table_scene
+from support.placement import write_table_scene
 from sdovon_mj.records import Relevance
 
 ITEMS = (("banana", "banana/bullet_banana/banana.obj"), ("toy block", "toy_block/ycb_061_foam_brick"))

@@ -3,7 +3,7 @@ receptacle plane (independent ray + contact check), no interpenetration, figures
 
 Scenes: `generate_apartment(seed)` written as GLB and converted by `assets_convert.convert_scene`, with its
 ground-truth support surfaces as receptacle planes. Objects: the primitive Menagerie-style models of
-`testing.placement` (fast) and, in a slow test, the world's object library converted by assets_convert.
+`support.placement` (tests/support, fast) and, in a slow test, the world's object library converted by assets_convert.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import pytest
 from sdovon_mj.config import PlaceConfig
 from sdovon_mj.place import check_variant, format_report, per_category, planes_from_scene, run_variant
 from sdovon_mj.seeds import variant_seed
-from sdovon_mj.testing.placement import write_primitive_object
+from support.placement import write_primitive_object
 from sdovon_mj.records import SceneAsset
 
 world = pytest.importorskip("sdovon_mj.world")

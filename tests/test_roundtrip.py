@@ -17,7 +17,7 @@ from exporters.habitat.glb import geoms_mesh
 from sdovon_mj.export import ExportOptions, RunView, run_export
 from sdovon_mj.sim import GROUP_OBJECT_VISUAL
 from sdovon_mj.sim.model import load_scene_mesh
-from sdovon_mj.testing.run_folder import build_sample_run
+from support.run_folder import build_sample_run
 
 MM = 1e-3
 DEG = 0.5

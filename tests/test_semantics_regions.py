@@ -168,7 +168,7 @@ def _world():
 
 def test_default_world_region_map_agrees_with_room_types():
     """Offline backend, ground-truth instances, 5 apartments: >= 80 % of navigable cells get the true room type."""
-    from sdovon_mj.testing.groundtruth import apartment_instances, apartment_navmap, region_accuracy
+    from support.groundtruth import apartment_instances, apartment_navmap, region_accuracy
 
     generate_apartment = _world()
     b = get_backend(SemanticsConfig())
@@ -192,7 +192,7 @@ def test_default_world_region_map_agrees_with_room_types():
 
 
 def test_groundtruth_instances_and_navmap():
-    from sdovon_mj.testing.groundtruth import apartment_instances, apartment_navmap
+    from support.groundtruth import apartment_instances, apartment_navmap
 
     apt = _world()(0)
     insts = apartment_instances(apt)

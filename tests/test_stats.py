@@ -226,7 +226,7 @@ def test_corrupt_record_names_the_file(tmp_path: Path) -> None:
 
 
 def test_sample_run(tmp_path: Path) -> None:
-    from sdovon_mj.testing.run_folder import build_sample_run
+    from support.run_folder import build_sample_run
 
     root = build_sample_run(tmp_path / "sample", episodes=True)
     s = dataset_statistics(root)

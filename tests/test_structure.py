@@ -3,36 +3,46 @@
 - the core (`sdovon_mj`) never imports `exporters/` or `assets_convert/`: it reaches them through the
   plugin registry;
 - no import circles between the core's units (a unit: a top-level module such as `sdovon_mj.records`, or a
-  subpackage such as `sdovon_mj.nav`);
+  subpackage such as `sdovon_mj.nav`), nor between any two files of the project (the test fixtures of
+  `tests/support/` included): a file that imports a file that imports it back can only be read with it;
 - `nav` (agents) does not import `suite` (the environment and evaluation);
 - stage packages never import the pipeline wiring (`stages`, `pipeline`, `commands`, `cli`);
-- nothing outside tests/bench imports `sdovon_mj.testing` (fixtures are not part of the pipeline).
+- the product imports nothing of tests/, bench/ or tools/ (the fixtures of `tests/support/` are not part of it).
 """
 
 from __future__ import annotations
 
 import ast
+import functools
 from collections import defaultdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("sdovon_mj", "exporters", "assets_convert")
+# (folder the package sits in, package): the product's packages, then the test fixtures (tests/support, `support`)
+PRODUCT = ((ROOT, "sdovon_mj"), (ROOT, "exporters"), (ROOT, "assets_convert"))
+PACKAGES = PRODUCT + ((ROOT / "tests", "support"),)
 STAGE_PACKAGES = ("world", "sim", "observe", "perceive", "receptacles", "semantics", "place", "episodes", "nav", "suite")
 WIRING = ("stages", "pipeline", "commands", "cli")
 
 
-def _modules() -> dict[str, Path]:
+def _modules(packages: tuple[tuple[Path, str], ...] = PACKAGES) -> dict[str, Path]:
+    """Return dotted module name -> file for every .py file of `packages` (a package is its __init__.py)."""
     mods = {}
-    for pkg in PACKAGES:
-        for p in (ROOT / pkg).rglob("*.py"):
-            parts = p.relative_to(ROOT).with_suffix("").parts
+    for base, pkg in packages:
+        for p in (base / pkg).rglob("*.py"):
+            parts = p.relative_to(base).with_suffix("").parts
             name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
             mods[name] = p
     return mods
 
 
 def _imports(mods: dict[str, Path]) -> dict[str, set[str]]:
-    """Return module -> the project modules it imports (resolved, relative imports included)."""
+    """Return module -> the project modules it imports (resolved, relative and lazy imports included).
+
+    ``from pkg import name`` depends on the submodule ``pkg.name`` when there is one, else on ``pkg`` itself
+    (its ``__init__``); ``import a.b`` on ``a.b``. The parent packages Python runs first are not counted:
+    a package's ``__init__`` that imports its own submodules would otherwise close a circle with each of them.
+    """
     out: dict[str, set[str]] = defaultdict(set)
     for name, path in mods.items():
         pkg = name if path.name == "__init__.py" else name.rpartition(".")[0]
@@ -43,7 +53,7 @@ def _imports(mods: dict[str, Path]) -> dict[str, set[str]]:
                     target = ".".join(base + ([node.module] if node.module else []))
                 else:
                     target = node.module or ""
-                cands = [target] + [f"{target}.{a.name}" for a in node.names]
+                cands = [f"{target}.{a.name}" if f"{target}.{a.name}" in mods else target for a in node.names]
             elif isinstance(node, ast.Import):
                 cands = [a.name for a in node.names]
             else:
@@ -56,6 +66,23 @@ def _imports(mods: dict[str, Path]) -> dict[str, set[str]]:
     return out
 
 
+def _top_level_imports(path: Path) -> set[str]:
+    """Return the first component of every absolute import of a file (lazy ones included)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            names.add(node.module.split(".")[0])
+        elif isinstance(node, ast.Import):
+            names.update(a.name.split(".")[0] for a in node.names)
+    return names
+
+
+@functools.cache
+def _project_graph() -> dict[str, set[str]]:
+    """Return the file graph of the whole project (read once per test session)."""
+    return _imports(_modules())
+
+
 def _unit(mod: str) -> str:
     parts = mod.split(".")
     return ".".join(parts[:2]) if parts[0] == "sdovon_mj" and len(parts) > 1 else parts[0]
@@ -63,7 +90,7 @@ def _unit(mod: str) -> str:
 
 def _unit_graph() -> dict[str, set[str]]:
     g: dict[str, set[str]] = defaultdict(set)
-    for a, bs in _imports(_modules()).items():
+    for a, bs in _project_graph().items():
         for b in bs:
             if _unit(a) != _unit(b):
                 g[_unit(a)].add(_unit(b))
@@ -106,7 +133,7 @@ def _cycles(g: dict[str, set[str]]) -> list[list[str]]:
 
 
 def test_the_core_never_imports_exporters_or_converters():
-    bad = sorted(f"{a} -> {b}" for a, bs in _imports(_modules()).items() if a.startswith("sdovon_mj")
+    bad = sorted(f"{a} -> {b}" for a, bs in _project_graph().items() if a.startswith("sdovon_mj")
                  for b in bs if b.startswith(("exporters", "assets_convert")))
     assert not bad, bad
 
@@ -116,9 +143,37 @@ def test_no_import_circles():
     assert not cycles, cycles
 
 
+def _circle_text(comp: list[str], g: dict[str, set[str]]) -> str:
+    """Return one strongly connected set of files with the imports that tie it, for the failure message."""
+    return "; ".join(f"{a} -> {', '.join(sorted(b for b in g[a] if b in comp))}" for a in comp)
+
+
+def test_no_import_circles_between_files():
+    """No two files of the project import each other, directly or through others (lazy imports count)."""
+    g = _project_graph()
+    cycles = _cycles(g)
+    assert not cycles, "import circles between files:\n" + "\n".join(_circle_text(c, g) for c in cycles)
+
+
 def test_the_cycle_finder_finds_circles():
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
     assert _cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_the_file_graph_sees_lazy_relative_and_package_imports(tmp_path):
+    """The file graph finds a circle closed by a lazy `from . import b` and one through a package's `__init__`
+    (`from .. import VALUE`); `from . import b` is an import of b, not of the package, so `pkg` importing
+    `pkg.a` closes no circle with it."""
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("from .a import f\nfrom .sub import g\n")
+    (pkg / "a.py").write_text("def f():\n    from . import b\n    return b\n")
+    (pkg / "b.py").write_text("from pkg.a import f\n")
+    (pkg / "sub" / "__init__.py").write_text("from .c import g\n")
+    (pkg / "sub" / "c.py").write_text("def g():\n    from .. import VALUE\n")
+    g = _imports(_modules(((tmp_path, "pkg"),)))
+    assert g["pkg.a"] == {"pkg.b"} and g["pkg.sub.c"] == {"pkg"}
+    assert sorted(_cycles(g)) == [["pkg", "pkg.sub", "pkg.sub.c"], ["pkg.a", "pkg.b"]]
 
 
 def test_stage_packages_do_not_reach_the_wiring_and_nav_not_the_suite():
@@ -129,7 +184,12 @@ def test_stage_packages_do_not_reach_the_wiring_and_nav_not_the_suite():
     assert "sdovon_mj.suite" not in g.get("sdovon_mj.nav", set())
 
 
-def test_fixtures_stay_out_of_the_pipeline():
-    users = sorted(a for a, bs in _imports(_modules()).items()
-                   if not a.startswith("sdovon_mj.testing") and any(b.startswith("sdovon_mj.testing") for b in bs))
+def test_the_product_imports_nothing_of_tests_bench_or_tools():
+    """Fixtures live in tests/support (not installed); no product file imports them or any test, bench or tool."""
+    assert not (ROOT / "sdovon_mj" / "testing").exists()
+    outside = {p.stem if p.suffix == ".py" else p.name for d in ("tests", "bench", "tools") for p in (ROOT / d).iterdir()
+               if p.suffix == ".py" or (p / "__init__.py").exists()} | {"tests", "bench", "tools"}
+    assert "support" in outside
+    users = sorted(f"{name} -> {sorted(hit)}" for name, path in _modules(PRODUCT).items()
+                   if (hit := _top_level_imports(path) & outside))
     assert not users, users

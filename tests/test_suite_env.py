@@ -13,7 +13,7 @@ from dm_env import StepType, test_utils
 
 from sdovon_mj import suite
 from sdovon_mj.errors import InputError
-from sdovon_mj.testing.bundles import fixture_bundle
+from support.bundles import fixture_bundle
 
 
 @pytest.fixture(scope="module")

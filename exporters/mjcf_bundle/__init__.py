@@ -1,4 +1,4 @@
-"""MJCF bundle exporter: one folder per variant sharing the dataset's asset folder (layout in README.md next to this file).
+"""MJCF bundle exporter: one folder per variant sharing the dataset's asset folder (layout: docs/formats/mjcf-bundle.md).
 
 Default layout: ``<name>/assets/<run-relative path>`` holds every scene's and object's asset files once
 (``assets/scenes/<scene>/...``, ``assets/objects/<object>/...``), each bundle's ``scene.xml`` refers to them

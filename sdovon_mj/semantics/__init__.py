@@ -10,26 +10,11 @@ Public API:
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Sequence
 
-from ..config import SemanticsConfig
-from ..errors import StageError
-from .backends import Backend
+from .backends import Backend, get_backend
 from .regions import annotate_planes, input_region_map, region_map, region_picture
 from .relevance import relevance
-
-
-def get_backend(cfg: SemanticsConfig | None = None, cache_dir: str | Path | None = None) -> Backend:
-    """Return the configured LLM backend (cache under `cache_dir` when given and enabled)."""
-    from .. import plugins
-
-    cfg = cfg or SemanticsConfig()
-    cls = plugins.load("llm_backend", cfg.backend)
-    backend = cls(cfg, cache_dir=cache_dir)
-    if not isinstance(backend, Backend):
-        raise StageError(f"llm_backend plugin '{cfg.backend}' did not build a semantics Backend")
-    return backend
 
 
 def offline_data_digest() -> str:

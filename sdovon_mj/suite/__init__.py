@@ -9,7 +9,7 @@ command); agents come from `sdovon_mj.nav` through the plugin registry.
 
 Tasks (tagged like `dm_control.suite`): ``objectnav`` (rgb+depth, 640x480), ``objectnav_semantic``
 (adds segmentation) and ``objectnav_small`` (128x128, for fast training loops). Tests and benches run
-them on the two-room fixture apartment of `sdovon_mj.testing.bundles` (the suite itself never imports it).
+them on the two-room fixture apartment of `tests/support/bundles.py` (the suite itself never imports it).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Reading MJCF episode bundles: one folder per scene variant with its MJCF, episodes and navmap.
 
-Layout read (exporters/mjcf_bundle writes it; the fixture builder in `sdovon_mj.testing.bundles` writes the same):
+Layout read (exporters/mjcf_bundle writes it; the fixture builder in `tests/support/bundles.py` writes the same):
 
     <variant>/
       <name>.xml              scene + objects MJCF, loads from any cwd (asset paths relative to it)

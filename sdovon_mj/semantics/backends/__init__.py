@@ -67,8 +67,6 @@ class Backend:
     def fallback_backend(self) -> "Backend":
         """Return the configured fallback backend (built once)."""
         if self._fallback is None:
-            from .. import get_backend
-
             sub = dataclasses.replace(self.cfg, backend=self.cfg.fallback, fallback="")
             self._fallback = get_backend(sub, None)
         return self._fallback
@@ -208,3 +206,19 @@ class ServerBackend(Backend):
     @property
     def label(self) -> str:
         return f"{self.name}:{self.model}@{self.url}"
+
+
+def get_backend(cfg: SemanticsConfig | None = None, cache_dir: str | Path | None = None) -> Backend:
+    """Return the configured LLM backend (cache under `cache_dir` when given and enabled).
+
+    The backend class comes from the plugin group ``sdovon_mj.llm_backends`` (offline, ollama, openai, or any
+    installed plugin); `sdovon_mj.semantics` re-exports this function.
+    """
+    from ... import plugins
+
+    cfg = cfg or SemanticsConfig()
+    cls = plugins.load("llm_backend", cfg.backend)
+    backend = cls(cfg, cache_dir=cache_dir)
+    if not isinstance(backend, Backend):
+        raise StageError(f"llm_backend plugin '{cfg.backend}' did not build a semantics Backend")
+    return backend

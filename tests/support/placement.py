@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..geometry import yaw_quat
-from ..records import Floor, ObjectAsset, ReceptaclePlane, Relevance, Room, SceneAsset, SemanticInstance, SupportSurface
-from ..store import atomic_write_text
+from sdovon_mj.geometry import yaw_quat
+from sdovon_mj.records import Floor, ObjectAsset, ReceptaclePlane, Relevance, Room, SceneAsset, SemanticInstance, SupportSurface
+from sdovon_mj.store import atomic_write_text
 from .mjcf import box_geom
 
 _HEAD = """<mujoco model="{name}">

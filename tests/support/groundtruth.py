@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from ..geometry import points_in_polygon
-from ..grid import GridFrame
-from ..records import Instance, NavMap, RegionMap
+from sdovon_mj.geometry import points_in_polygon
+from sdovon_mj.grid import GridFrame
+from sdovon_mj.records import Instance, NavMap, RegionMap
 
 STRUCTURE_KINDS = ("structure",)
 WALL_HALF = 0.06  # cells this close to a room edge are wall

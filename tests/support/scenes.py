@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..records import SceneAsset, SemanticInstance, save_json
-from ..sim import GROUP_CEILING, GROUP_SCENE
-from ..sim.model import instance_geom_name, save_scene_mesh
-from ..store import atomic_write_text
-from ..world.shapes import box
+from sdovon_mj.records import SceneAsset, SemanticInstance, save_json
+from sdovon_mj.sim import GROUP_CEILING, GROUP_SCENE
+from sdovon_mj.sim.model import instance_geom_name, save_scene_mesh
+from sdovon_mj.store import atomic_write_text
+from sdovon_mj.world.shapes import box
 from .mjcf import obj_text
 
 

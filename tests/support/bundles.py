@@ -19,16 +19,17 @@ import numpy as np
 
 import mujoco
 
-from ..geometry import yaw_quat
-from ..grid import GridFrame, erode
-from ..gridgraph import GeodesicField
-from ..records import (Episode, Goal, NavMap, RegionMap, Relevance, Room, SceneAsset, SemanticInstance,
+from sdovon_mj.geometry import yaw_quat
+from sdovon_mj.grid import GridFrame, erode
+from sdovon_mj.gridgraph import GeodesicField
+from sdovon_mj.records import (Episode, Goal, NavMap, RegionMap, Relevance, Room, SceneAsset, SemanticInstance,
                        ViewPoint, save_json)
-from ..sim.model import object_segment_id
-from ..store import atomic_write_text, user_cache_dir
+from sdovon_mj.sim.model import object_segment_id
+from sdovon_mj.store import atomic_write_text, user_cache_dir
 from .mjcf import corner_box_geom, outer_walls
 
-CACHE_VERSION = "vp6"  # bump when the written bundles change (vp6: oracle/ folder, dense 0.1 m view points)
+CACHE_VERSION = "vp7"  # bump when the written bundles change (vp6: oracle/ folder, dense 0.1 m view points;
+# vp7: the scene's source names tests/support)
 
 RES = 0.05
 ORIGIN = np.array([-0.2, -0.2])
@@ -117,7 +118,7 @@ def scene_asset(mjcf_name: str) -> SceneAsset:
         insts.append(SemanticInstance(k, v[0], [f"inst_{k}"], room=REGIONS.index(v[1]), kind="receptacle",
                                       bounds=np.array([[v[2], v[3], 0.0], [v[4], v[5], v[6]]])))
     rooms = [Room(i, r, 0, np.array([[a, 0.0], [b, 0.0], [b, SIZE[1]], [a, SIZE[1]]])) for i, (r, (a, b)) in enumerate(ROOMS.items())]
-    return SceneAsset(name="fixture_apartment", mjcf=mjcf_name, source="sdovon_mj.testing.bundles", instances=insts,
+    return SceneAsset(name="fixture_apartment", mjcf=mjcf_name, source="tests/support/bundles.py", instances=insts,
                       rooms=rooms, bounds=np.array([[0.0, 0.0, 0.0], [SIZE[0], SIZE[1], WALL_H]]))
 
 

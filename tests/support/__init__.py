@@ -1,4 +1,8 @@
-"""Small fixture scenes for tests and benches, built on world/; no stage imports it.
+"""Small fixture scenes for tests and benches (`tests/support/`, imported as ``support``), built on world/.
+
+Not part of the product: the wheel leaves it out (tests/test_wheel.py) and no product module imports it
+(tests/test_structure.py). Tests import it as ``from support.scenes import ...`` (pytest puts tests/ on
+``sys.path``); benches and tools put ``tests/`` on ``sys.path`` first (see bench/bench_coverage.py).
 
 Each writer puts a tiny, fully known input on disk in the layout a stage reads, so a test or a
 bench can drive one stage without the stages upstream of it:
@@ -10,5 +14,5 @@ bench can drive one stage without the stages upstream of it:
   planes and a hand-filled relevance table, for the place stage.
 - ``run_folder``: a small run folder (room, table, cabinet, three objects) for episodes and export.
 - ``bundles``: the two-room ObjectNav apartment written as episode bundles (cached), for the suite
-  and the navigation agents; the suite's ``fixture`` task loads it.
+  and the navigation agents.
 """

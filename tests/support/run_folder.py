@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from ..config import EpisodeConfig
-from ..geometry import yaw_quat
-from ..records import Floor, NavMap, ObjectAsset, Placement, SceneAsset, SceneVariant, SemanticInstance, save_json
-from ..store import atomic_write_text
-from ..world.shapes import cylinder
+from sdovon_mj.config import EpisodeConfig
+from sdovon_mj.geometry import yaw_quat
+from sdovon_mj.records import Floor, NavMap, ObjectAsset, Placement, SceneAsset, SceneVariant, SemanticInstance, save_json
+from sdovon_mj.store import atomic_write_text
+from sdovon_mj.world.shapes import cylinder
 from .mjcf import box_geom, corner_box_geom, obj_text, outer_walls
 
 SCENE = "room"
@@ -146,7 +146,7 @@ def build_sample_run(root: str | Path, episodes: bool = False, cfg: EpisodeConfi
                                mjcf=f"scenes/{SCENE}/variants/{vname}/variant.xml")
         save_json(variant, vdir / "variant.json")
         if episodes:
-            from ..episodes.generate import generate_episodes
+            from sdovon_mj.episodes.generate import generate_episodes
 
             eps = generate_episodes(variant, [nm], root, cfg or EpisodeConfig(), seed + index)
             save_json(eps, vdir / "episodes.json")
