@@ -7,21 +7,11 @@
 >>> write_object_library(0, "objects", variants=3)   # objects/<category>/<category>_<k>/model.obj + .mtl + meta.json
 """
 
-from .apartment import (
-    MATERIALS,
-    STRUCTURE_LABELS,
-    Apartment,
-    Door,
-    InstanceSpec,
-    RoomSpec,
-    Storey,
-    SurfaceSpec,
-    WorldMesh,
-    generate_apartment,
-)
+from .apartment import generate_apartment
 from .furniture import FURNITURE_LABELS, RECEPTACLE_LABELS
 from .io import default_apartment_path, default_name, write_apartment
 from .layout import ROOM_TYPES
+from .model import MATERIALS, STRUCTURE_LABELS, Apartment, Door, InstanceSpec, RoomSpec, Storey, SurfaceSpec, WorldMesh
 from .objects import OBJECT_CATEGORIES, HouseholdObject, ObjectCategory, generate_object, write_object_library
 
 __all__ = [

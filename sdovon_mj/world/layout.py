@@ -31,6 +31,9 @@ DOOR_OPENING = 1.0  # wall opening incl. 5 cm jambs -> 0.9 m clear
 DOOR_HEIGHT = 2.05  # opening incl. 5 cm head -> 2.0 m clear
 DOOR_MARGIN = 0.3  # minimum distance of an opening from the end of the shared wall
 GRID = 0.05
+WALL_T = 0.1  # wall thickness (two 5 cm room-side slabs back to back)
+SKIRTING = (0.012, 0.08)  # skirting board depth and height
+STOREY_HEIGHT = 3.0  # floor-to-floor height of a home of several storeys
 
 
 @dataclass
@@ -283,3 +286,17 @@ def plan(rng: np.random.Generator, types_per_floor: list[list[str]]) -> tuple[fl
         if ok:
             return width, depth, rooms, doors
     raise RuntimeError("no valid floor plan found")
+
+
+def room_doors(room: PlanRoom, doors: list[PlanDoor]) -> list[tuple[PlanDoor, str]]:
+    """Return the doors of a room with the side of the room they are on (S, E, N, W)."""
+    out = []
+    for d in doors:
+        if room.id not in (d.room_a, d.room_b):
+            continue
+        if d.vertical:
+            side = "W" if abs(d.line - room.x0) < 1e-6 else "E"
+        else:
+            side = "S" if abs(d.line - room.y0) < 1e-6 else "N"
+        out.append((d, side))
+    return out
