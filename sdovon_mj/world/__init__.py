@@ -7,7 +7,7 @@
 >>> write_object_library(0, "objects", variants=3)   # objects/<category>/<category>_<k>/model.obj + .mtl + meta.json
 """
 
-from .apartment import generate_apartment
+from .home import generate_apartment, generate_home, generate_house
 from .furniture import FURNITURE_LABELS, RECEPTACLE_LABELS
 from .io import default_apartment_path, default_name, write_apartment
 from .layout import ROOM_TYPES
@@ -17,6 +17,6 @@ from .objects import OBJECT_CATEGORIES, HouseholdObject, ObjectCategory, generat
 __all__ = [
     "MATERIALS", "STRUCTURE_LABELS", "FURNITURE_LABELS", "RECEPTACLE_LABELS", "ROOM_TYPES",
     "Apartment", "Door", "InstanceSpec", "RoomSpec", "Storey", "SurfaceSpec", "WorldMesh",
-    "generate_apartment", "write_apartment", "default_apartment_path", "default_name",
+    "generate_apartment", "generate_home", "generate_house", "write_apartment", "default_apartment_path", "default_name",
     "OBJECT_CATEGORIES", "HouseholdObject", "ObjectCategory", "generate_object", "write_object_library",
 ]

@@ -117,6 +117,7 @@ class Apartment:
     ceilings: bool = True
     notes: tuple[str, ...] = ()
     articulated: tuple[ArticulatedInstance, ...] = ()  # world.articulated: pieces written as URDF (world/artplace.py)
+    preset: str = "apartment"  # the world preset that drew it (world/presets.py)
 
     def instance(self, instance_id: int) -> InstanceSpec:
         """Return the instance with this id."""

@@ -37,7 +37,7 @@ _COS = {0: 1, 90: 0, 180: -1, 270: 0}
 _SIN = {0: 0, 90: 1, 180: 0, 270: -1}
 
 
-def _rot(yaw: int) -> np.ndarray:
+def rot90(yaw: int) -> np.ndarray:
     """Return the exact 2x2 rotation for a multiple of 90 degrees."""
     y = yaw % 360
     return np.array([[_COS[y], -_SIN[y]], [_SIN[y], _COS[y]]], dtype=np.float64)
@@ -62,7 +62,7 @@ class Group:
 
     def placed(self, ox: float, oy: float, yaw: int) -> list[tuple[Model, float, float, int]]:
         """Return the items with world (ox, oy, yaw) for a group origin and yaw."""
-        r = _rot(yaw)
+        r = rot90(yaw)
         out = []
         for m, dx, dy, iy in self.items:
             p = r @ np.array([dx, dy])
@@ -71,25 +71,25 @@ class Group:
 
     def footprint(self) -> np.ndarray:
         """Return (x0, y0, x1, y1) of all items in the group frame."""
-        boxes = np.array([_item_box(m, dx, dy, iy) for m, dx, dy, iy in self.items])
+        boxes = np.array([item_box(m, dx, dy, iy) for m, dx, dy, iy in self.items])
         return np.array([boxes[:, 0].min(), boxes[:, 1].min(), boxes[:, 2].max(), boxes[:, 3].max()])
 
 
-def _item_box(m: Model, ox: float, oy: float, yaw: int) -> np.ndarray:
+def item_box(m: Model, ox: float, oy: float, yaw: int) -> np.ndarray:
     """Return (x0, y0, x1, y1, z0, z1) of a model placed at (ox, oy) with yaw (z1 = real top)."""
     b = _model_bounds(m)
-    corners = np.array([[b[0], b[1]], [b[3], b[1]], [b[3], b[4]], [b[0], b[4]]]) @ _rot(yaw).T
+    corners = np.array([[b[0], b[1]], [b[3], b[1]], [b[3], b[4]], [b[0], b[4]]]) @ rot90(yaw).T
     return np.array([corners[:, 0].min() + ox, corners[:, 1].min() + oy, corners[:, 0].max() + ox,
                      corners[:, 1].max() + oy, b[2], b[5]])
 
 
-def _overlap2(a: np.ndarray, b: np.ndarray, margin: float = 0.0) -> bool:
+def overlap2(a: np.ndarray, b: np.ndarray, margin: float = 0.0) -> bool:
     """Whether two (x0, y0, x1, y1, ...) rectangles overlap (closer than `margin` counts)."""
     return bool(a[0] < b[2] + margin and b[0] < a[2] + margin and a[1] < b[3] + margin and b[1] < a[3] + margin)
 
 
 @dataclass
-class _RoomState:
+class RoomState:
     """Placement state of one room."""
 
     interior: np.ndarray  # x0, y0, x1, y1
@@ -104,37 +104,37 @@ class _RoomState:
         ix = self.interior
         new = []
         for m, ox, oy, yaw in items:
-            b = _item_box(m, ox, oy, yaw)
+            b = item_box(m, ox, oy, yaw)
             if b[0] < ix[0] - 1e-6 or b[1] < ix[1] - 1e-6 or b[2] > ix[2] + 1e-6 or b[3] > ix[3] + 1e-6:
                 return False
             for wz in self.windows if m.label not in ("sink", "bed", "sofa") else ():  # may stand below a window
-                if _overlap2(b, wz) and b[4] < wz[5] and wz[4] < b[5]:
+                if overlap2(b, wz) and b[4] < wz[5] and wz[4] < b[5]:
                     return False
             if m.kind == "receptacle":
                 b[5] += OBJECT_CLEARANCE
             for k in self.keepouts:
-                if _overlap2(b, k):
+                if overlap2(b, k):
                     return False
             for o in self.bodies:
-                if _overlap2(b, o, 0.02) and b[4] < o[5] and o[4] < b[5]:
+                if overlap2(b, o, 0.02) and b[4] < o[5] and o[4] < b[5]:
                     return False
             if b[4] < NAV_IGNORE_ABOVE and b[5] > FLAT:
                 for c in self.clear:
-                    if _overlap2(b, c):
+                    if overlap2(b, c):
                         return False
             new.append(b)
         if clear is not None:
             if clear[0] < ix[0] - 1e-6 or clear[1] < ix[1] - 1e-6 or clear[2] > ix[2] + 1e-6 or clear[3] > ix[3] + 1e-6:
                 return False
             for o in self.bodies:
-                if o[4] < NAV_IGNORE_ABOVE and o[5] > FLAT and _overlap2(clear, o):
+                if o[4] < NAV_IGNORE_ABOVE and o[5] > FLAT and overlap2(clear, o):
                     return False
         return True
 
     def commit(self, items: list[tuple[Model, float, float, int]], clear: np.ndarray | None) -> None:
         """Record placed items."""
         for m, ox, oy, yaw in items:
-            b = _item_box(m, ox, oy, yaw)
+            b = item_box(m, ox, oy, yaw)
             if m.kind == "receptacle":
                 b[5] += OBJECT_CLEARANCE
             self.bodies.append(b)
@@ -146,13 +146,13 @@ class _RoomState:
 _SIDES = (("S", 0), ("E", 90), ("N", 180), ("W", 270))
 
 
-def _place_wall(state: _RoomState, g: Group, rng: np.random.Generator, corner: bool) -> bool:
+def place_wall(state: RoomState, g: Group, rng: np.random.Generator, corner: bool) -> bool:
     """Place a group with its back against one of the room's walls."""
     fp = g.footprint()
     ix = state.interior
     cands = []
     for side, yaw in _SIDES:
-        r = _rot(yaw)
+        r = rot90(yaw)
         c = np.array([[fp[0], fp[1]], [fp[2], fp[1]], [fp[2], fp[3]], [fp[0], fp[3]]]) @ r.T
         rx0, ry0, rx1, ry1 = c[:, 0].min(), c[:, 1].min(), c[:, 0].max(), c[:, 1].max()
         if side in ("S", "N"):
@@ -173,7 +173,7 @@ def _place_wall(state: _RoomState, g: Group, rng: np.random.Generator, corner: b
         items = g.placed(float(ox), float(oy), yaw)
         clear = None
         if g.front_clear > 0:
-            r = _rot(yaw)
+            r = rot90(yaw)
             c = np.array([[fp[0], fp[3]], [fp[2], fp[3]], [fp[2], fp[3] + g.front_clear], [fp[0], fp[3] + g.front_clear]]) @ r.T
             clear = np.array([c[:, 0].min() + ox, c[:, 1].min() + oy, c[:, 0].max() + ox, c[:, 1].max() + oy])
         if state.fits(items, clear):
@@ -182,14 +182,14 @@ def _place_wall(state: _RoomState, g: Group, rng: np.random.Generator, corner: b
     return False
 
 
-def _place_centre(state: _RoomState, g: Group, rng: np.random.Generator, margin: float = 0.5) -> bool:
+def place_centre(state: RoomState, g: Group, rng: np.random.Generator, margin: float = 0.5) -> bool:
     """Place a free-standing group (a dining table with chairs) away from the walls."""
     fp = g.footprint()
     ix = state.interior
     long_x = (ix[2] - ix[0]) >= (ix[3] - ix[1])
     for k in range(16):
         yaw = 0 if (long_x == (k % 4 != 3)) else 90
-        r = _rot(yaw)
+        r = rot90(yaw)
         c = np.array([[fp[0], fp[1]], [fp[2], fp[1]], [fp[2], fp[3]], [fp[0], fp[3]]]) @ r.T
         rx0, ry0, rx1, ry1 = c[:, 0].min(), c[:, 1].min(), c[:, 0].max(), c[:, 1].max()
         lox, hix = ix[0] + margin - rx0, ix[2] - margin - rx1
@@ -202,10 +202,10 @@ def _place_centre(state: _RoomState, g: Group, rng: np.random.Generator, margin:
             ox, oy = rng.uniform(lox, hix), rng.uniform(loy, hiy)
         ox, oy = float(np.round(ox, 3)), float(np.round(oy, 3))
         items = g.placed(ox, oy, yaw)
-        boxes = [_item_box(*it) for it in items]
+        boxes = [item_box(*it) for it in items]
         zone = np.array([min(b[0] for b in boxes) - margin, min(b[1] for b in boxes) - margin,
                          max(b[2] for b in boxes) + margin, max(b[3] for b in boxes) + margin])
-        if any(o[4] < NAV_IGNORE_ABOVE and o[5] > FLAT and _overlap2(zone, o) for o in state.bodies):
+        if any(o[4] < NAV_IGNORE_ABOVE and o[5] > FLAT and overlap2(zone, o) for o in state.bodies):
             continue
         if state.fits(items, None):
             state.commit(items, zone)
@@ -213,7 +213,7 @@ def _place_centre(state: _RoomState, g: Group, rng: np.random.Generator, margin:
     return False
 
 
-def _nav_ok(state: _RoomState, anchors: list[np.ndarray], openings: list[np.ndarray], res: float = 0.05) -> bool:
+def nav_ok(state: RoomState, anchors: list[np.ndarray], openings: list[np.ndarray], res: float = 0.05) -> bool:
     """Whether all doors of the room join one walkable region that reaches every receptacle."""
     ix = state.interior
     pad = 0.3
@@ -249,7 +249,7 @@ def _nav_ok(state: _RoomState, anchors: list[np.ndarray], openings: list[np.ndar
     main = (lab == labels.pop()) & (dist > AGENT_RADIUS + 0.08)
     for m, ox, oy, yaw in state.placed:
         if m.kind == "receptacle":
-            b = _item_box(m, ox, oy, yaw)
+            b = item_box(m, ox, oy, yaw)
             if not np.any(main & inside(b, AGENT_RADIUS + 0.27)):
                 return False
     return True
@@ -304,7 +304,8 @@ def _window_zones(interior: np.ndarray, windows: dict[str, list[tuple]]) -> list
 
 
 def furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generator, wall_h: float,
-            windows: dict[str, list[tuple]], program: Program) -> tuple[list[Placed], list[str]]:
+            windows: dict[str, list[tuple]], program: Program, fixed: tuple[np.ndarray, ...] = (),
+            dress: Callable[[RoomState, Callable[[], bool]], None] | None = None) -> tuple[list[Placed], list[str]]:
     """Place the room's furniture; retries with fewer optional pieces and smaller sizes.
 
     Returns the placed items (model, x, y, yaw in degrees; storey-relative metres) and the notes on what
@@ -325,6 +326,12 @@ def furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generato
     program : callable
         ``program(room_type, interior_width, interior_depth, rng, height_max)`` -> the room's groups as
         (factory, mode, required, probability) (``world/programs.py``); called once per attempt.
+    fixed : tuple of numpy.ndarray
+        Boxes (x0, y0, x1, y1, z0, z1; storey-relative metres) that stand in the room before its furniture: a
+        stairwell's flights, the opening of the flight from below and its railing.
+    dress : callable, optional
+        ``dress(state, nav)``: adds the room's clutter to the furnished state (``world/clutter.py``); ``nav()``
+        tells whether the room is still walkable. Not drawn from `rng`.
     """
     t = 0.5 * WALL_T + SKIRTING[0] + 0.003
     interior = np.array([room.x0 + t, room.y0 + t, room.x1 - t, room.y1 - t])
@@ -332,14 +339,15 @@ def furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generato
     keep, anchors, openings = _door_zones(room, doors)
     iw, idp = interior[2] - interior[0], interior[3] - interior[1]
     height_max = wall_h - 0.15
-    best: list[tuple[Model, float, float, int]] | None = None
+    best: RoomState | None = None
     attempts = 36
     for attempt in range(attempts):
         level = 0 if attempt < 10 else 1
         keep_opt = 1.0 if attempt < 20 else 0.0
         tolerate = attempt >= 28  # late attempts may skip a required piece that does not fit
         prog = program(room.type, iw, idp, rng, height_max)
-        state = _RoomState(interior, keep, windows=list(wzones))
+        state = RoomState(interior, keep, windows=list(wzones))
+        state.bodies += [np.asarray(b, dtype=np.float64) for b in fixed]
         ok = True
         skipped: list[str] = []
         last_failed = False
@@ -353,24 +361,28 @@ def furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generato
                 continue
             g = factory(rng, level)
             if mode == "centre":
-                placed = _place_centre(state, g, rng)
+                placed = place_centre(state, g, rng)
                 if not placed:
                     last_failed = True
                     continue
             else:
-                placed = _place_wall(state, g, rng, corner=(mode == "corner" and rng.random() < 0.7))
+                placed = place_wall(state, g, rng, corner=(mode == "corner" and rng.random() < 0.7))
             last_failed = False
             if not placed and required:
                 if not tolerate:
                     ok = False
                     break
                 skipped.append(g.items[0][0].label)
-        if ok and _nav_ok(state, anchors, openings):
+        if ok and nav_ok(state, anchors, openings):
             notes = [f"room {room.id} ({room.type}): no room for {', '.join(skipped)}"] if skipped else []
+            if dress is not None:
+                dress(state, lambda st=state: nav_ok(st, anchors, openings))
             return state.placed, notes
         if ok and best is None:
-            best = state.placed
-    return best or [], [f"room {room.id} ({room.type}): furniture placed without the navigation guarantee"]
+            best = state
+    if best is not None and dress is not None:  # only clutter that keeps out of the way (nav_ok is already false)
+        dress(best, lambda st=best: nav_ok(st, anchors, openings))
+    return (best.placed if best else []), [f"room {room.id} ({room.type}): furniture placed without the navigation guarantee"]
 
 
 def furniture_pieces(r: LA.PlanRoom, placed: list[tuple[Model, float, float, int]], fl: int, z0: float) -> list[Piece]:
@@ -381,7 +393,7 @@ def furniture_pieces(r: LA.PlanRoom, placed: list[tuple[Model, float, float, int
             kind, seed, lift = m.articulated  # type: ignore[attr-defined]
             out.append(Piece(m.label, r.id, fl, "receptacle", (), (), (kind, seed, (ox, oy, z0 + lift), yaw)))
             continue
-        rot2 = _rot(yaw)
+        rot2 = rot90(yaw)
         rot3 = np.eye(3)
         rot3[:2, :2] = rot2
         sup = tuple(

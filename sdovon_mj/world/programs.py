@@ -238,4 +238,41 @@ def program(rtype: str, iw: float, idp: float, rng: np.random.Generator, height_
             (_single(bs, 0.5), "corner", False, 0.3),
             (_single(FU.picture), "high", False, 0.7),
         ]
+    # the rooms of houses (``world/houseplan.py``)
+    if rtype == "hallway":
+        return [
+            (_single(FU.bench, 0.3), "wall", False, 0.3 if shortest >= 1.4 else 0.0),
+            (_single(FU.shoe_rack, 0.3), "wall", False, 0.3 if shortest >= 1.4 else 0.0),
+            (_single(FU.wall_shelf), "high", False, 0.4),
+        ]
+    if rtype == "entryway":
+        return [
+            (_single(FU.bench, 0.4), "wall", True, 1.0),
+            (_single(FU.shoe_rack, 0.3), "wall", False, 0.9),
+            (_single(FU.coat_rack), "corner", False, 0.8),
+            (_single(FU.wall_shelf), "high", False, 0.5),
+        ]
+    if rtype == "laundry room":
+        return [
+            (lambda r, lv: Group([(FU.washing_machine(r), 0.0, 0.0, 0), (FU.dryer(r), 0.62, 0.0, 0)], 0.7), "corner", True, 1.0),
+            (_single(lambda r: FU.shelving(r, height_max), 0.5), "wall", False, 0.8),
+            (_single(FU.wall_shelf), "high", False, 0.7),
+            (_single(FU.ironing_board, 0.2), "wall", False, 0.5),
+        ]
+    if rtype == "closet":
+        return [
+            (_single(lambda r: FU.shelving(r, height_max), 0.5), "corner", True, 1.0),
+            (_single(lambda r: FU.shelving(r, height_max), 0.5), "wall", False, 0.8),
+            (_single(FU.shoe_rack, 0.3), "wall", False, 0.5),
+        ]
+    if rtype == "garage":
+        return [
+            (_single(lambda r: FU.shelving(r, height_max), 0.5), "corner", True, 1.0),
+            (_single(FU.workbench, 0.8), "wall", False, 0.8),
+            (_single(FU.tool_cabinet, 0.6), "wall", False, 0.6),
+            (_single(lambda r: FU.shelving(r, height_max), 0.5), "wall", False, 0.7),
+            (_single(FU.wall_shelf), "high", False, 0.5),
+        ]
+    if rtype == "stairwell":
+        return [(_single(FU.wall_shelf), "high", False, 0.3)]
     raise ValueError(f"unknown room type {rtype!r}")

@@ -40,14 +40,17 @@ def _wall_pieces(lo: float, hi: float, openings: list[tuple[float, float, float,
     return [p for p in pieces if p[1] - p[0] > 1e-6 and p[3] - p[2] > 1e-6]
 
 
-def _windows(r: LA.PlanRoom, ext: dict[str, bool], wall_h: float, rng: np.random.Generator) -> dict[str, list[tuple]]:
-    """Choose windows on a room's exterior walls: side -> [(centre, half width, sill, top)] (storey-relative)."""
+def _windows(r: LA.PlanRoom, ext: dict[str, list[tuple[float, float]]], wall_h: float,
+             rng: np.random.Generator) -> dict[str, list[tuple]]:
+    """Choose windows on a room's outer walls (the longest outer stretch of each side): side -> [(centre, half width,
+    sill, top)] (storey-relative)."""
     out: dict[str, list[tuple]] = {}
     t = 0.5 * WALL_T
     for side in WALL_SIDES:
         if not ext[side]:
             continue
-        lo, hi = (r.x0 + t, r.x1 - t) if side in ("S", "N") else (r.y0 + t, r.y1 - t)
+        p, q = max(ext[side], key=lambda s_: s_[1] - s_[0])
+        lo, hi = p + t, q - t
         length = hi - lo
         if length < 1.6 or rng.random() < 0.25:
             continue
@@ -65,16 +68,23 @@ def _windows(r: LA.PlanRoom, ext: dict[str, bool], wall_h: float, rng: np.random
     return out
 
 
+Stretches = list[tuple[float, float]]  # intervals along one side of a room, plan metres
+Rect = tuple[float, float, float, float]  # x0, y0, x1, y1, plan metres
+
+
 @dataclass(frozen=True)
 class Site:
-    """Where a room's shell stands: its plan cell, storey index, floor height and wall height (metres), and which
-    of its sides ("S", "E", "N", "W") are outer walls of the home."""
+    """Where a room's shell stands: its plan cell, storey index, floor height and wall height (metres), the outer
+    stretches of each side ("S", "E", "N", "W": `exterior_sides`) and the openings cut from its floor and ceiling
+    (a stairwell's)."""
 
     room: LA.PlanRoom
     floor: int
     z0: float
     wall_h: float
-    ext: dict[str, bool]
+    ext: dict[str, Stretches]
+    floor_holes: tuple[Rect, ...] = ()
+    ceiling_holes: tuple[Rect, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -89,12 +99,86 @@ class Finish:
     frame_rgb: tuple[int, ...]
 
 
-def exterior(r: LA.PlanRoom, width: float, depth: float) -> dict[str, bool]:
-    """Return side -> whether that wall of the room is an outer wall of the apartment."""
-    return {"W": r.x0 <= 1e-6, "E": r.x1 >= width - 1e-6, "S": r.y0 <= 1e-6, "N": r.y1 >= depth - 1e-6}
+EPS = 1e-6
 
 
-def room_finish(r: LA.PlanRoom, ext: dict[str, bool], wall_h: float, rng: np.random.Generator) -> Finish:
+def exterior_sides(r: LA.PlanRoom, rooms: list[LA.PlanRoom]) -> dict[str, Stretches]:
+    """Return side -> the stretches of that side of the room that are outer walls (shared with no room of its storey).
+
+    A stretch is (lo, hi) along the side: x for the S and N sides, y for W and E. A side on the outline of an
+    apartment's rectangle is one whole stretch, an inner side none; the wings of a house have sides partly outside.
+    """
+    out: dict[str, Stretches] = {}
+    for side in WALL_SIDES:
+        along_x = side in ("S", "N")
+        line = {"S": r.y0, "N": r.y1, "W": r.x0, "E": r.x1}[side]
+        lo, hi = (r.x0, r.x1) if along_x else (r.y0, r.y1)
+        cover = []
+        for o in rooms:
+            if o.id == r.id or o.floor != r.floor:
+                continue
+            other = {"S": o.y1, "N": o.y0, "W": o.x1, "E": o.x0}[side]
+            if abs(other - line) < EPS:
+                cover.append((o.x0, o.x1) if along_x else (o.y0, o.y1))
+        free, a = [], lo
+        for c0, c1 in sorted(cover):
+            if c0 > a + EPS:
+                free.append((a, min(c0, hi)))
+            a = max(a, c1)
+        if hi > a + EPS:
+            free.append((a, hi))
+        out[side] = [(p, q) for p, q in free if q - p > EPS and q > lo + EPS and p < hi - EPS]
+    return out
+
+
+def _side_range(r: LA.PlanRoom, side: str) -> tuple[float, float]:
+    """Return (lo, hi) of a room side along it (x for S and N, y for W and E)."""
+    return (r.x0, r.x1) if side in ("S", "N") else (r.y0, r.y1)
+
+
+def _full(r: LA.PlanRoom, side: str, ext: dict[str, Stretches]) -> bool:
+    """Whether the whole side is an outer wall."""
+    lo, hi = _side_range(r, side)
+    return len(ext[side]) == 1 and abs(ext[side][0][0] - lo) < EPS and abs(ext[side][0][1] - hi) < EPS
+
+
+def _touches(stretches: Stretches, at: float) -> bool:
+    """Whether an outer stretch of a side reaches the corner at coordinate `at` (an end of that side)."""
+    return any(abs(p - at) < EPS or abs(q - at) < EPS for p, q in stretches)
+
+
+def _outer_span(r: LA.PlanRoom, side: str, ext: dict[str, Stretches], p: float, q: float) -> tuple[float, float]:
+    """Return the extent along the side of the outer half-slab over the outer stretch (p, q) of a partly outer side.
+
+    S and N walls take the corners: at a corner where the next side is outer too they reach out by half a wall; where
+    the stretch ends inside the side (a neighbour's wall meets it there) they stop half a wall short, the neighbour's
+    wall filling that corner. W and E walls always stop half a wall short of both ends.
+    """
+    t = 0.5 * WALL_T
+    if side not in ("S", "N"):
+        return p + t, q - t
+    corner = r.y0 if side == "S" else r.y1
+    a = p - t if (abs(p - r.x0) < EPS and _touches(ext["W"], corner)) else (p + t if p > r.x0 + EPS else p)
+    b = q + t if (abs(q - r.x1) < EPS and _touches(ext["E"], corner)) else (q - t if q < r.x1 - EPS else q)
+    return a, b
+
+
+def _minus(rect: Rect, holes: tuple[Rect, ...]) -> list[Rect]:
+    """Return `rect` less the holes as disjoint rectangles (strips below, above, left and right of each hole)."""
+    out = [rect]
+    for hx0, hy0, hx1, hy1 in holes:
+        nxt = []
+        for x0, y0, x1, y1 in out:
+            if hx0 >= x1 - EPS or hx1 <= x0 + EPS or hy0 >= y1 - EPS or hy1 <= y0 + EPS:
+                nxt.append((x0, y0, x1, y1))
+                continue
+            cx0, cy0, cx1, cy1 = max(x0, hx0), max(y0, hy0), min(x1, hx1), min(y1, hy1)
+            nxt += [(x0, y0, x1, cy0), (x0, cy1, x1, y1), (x0, cy0, cx0, cy1), (cx1, cy0, x1, cy1)]
+        out = [b for b in nxt if b[2] - b[0] > EPS and b[3] - b[1] > EPS]
+    return out
+
+
+def room_finish(r: LA.PlanRoom, ext: dict[str, Stretches], wall_h: float, rng: np.random.Generator) -> Finish:
     """Draw a room's floor, wall, skirting and window-frame colours and its windows (in this order)."""
     tiled = r.type in ("kitchen", "bathroom")
     fcol = FU.jitter((FLOOR_TILE if tiled else FLOOR_WOOD)[int(rng.integers(4))], rng, 5)
@@ -111,19 +195,29 @@ def floor_slab(site: Site, finish: Finish) -> Piece:
     """Return the room's floor slab (reaching under the outer walls; upper storeys fill up to the storey below)."""
     r, ext, fl, z0, wall_h = site.room, site.ext, site.floor, site.z0, site.wall_h
     t = 0.5 * WALL_T
-    fx0, fy0 = r.x0 - (t if ext["W"] else 0.0), r.y0 - (t if ext["S"] else 0.0)
-    fx1, fy1 = r.x1 + (t if ext["E"] else 0.0), r.y1 + (t if ext["N"] else 0.0)
+    full = {side: _full(r, side, ext) for side in WALL_SIDES}
+    fx0, fy0 = r.x0 - (t if full["W"] else 0.0), r.y0 - (t if full["S"] else 0.0)
+    fx1, fy1 = r.x1 + (t if full["E"] else 0.0), r.y1 + (t if full["N"] else 0.0)
     slab = 0.1 if fl == 0 else STOREY_HEIGHT - wall_h - 0.05
     material = "floor_tile" if finish.tiled else "floor_wood"
-    return Piece("floor", r.id, fl, "structure", ((S.box((fx0, fy0, z0 - slab), (fx1, fy1, z0)), finish.floor_rgb, material),))
+    rects = _minus((fx0, fy0, fx1, fy1), site.floor_holes)
+    for side in WALL_SIDES:  # under the outer half of partly outer walls
+        if ext[side] and not full[side]:
+            for p, q in ext[side]:
+                a, b = _outer_span(r, side, ext, p, q)
+                rects.append({"S": (a, r.y0 - t, b, r.y0), "N": (a, r.y1, b, r.y1 + t),
+                              "W": (r.x0 - t, a, r.x0, b), "E": (r.x1, a, r.x1 + t, b)}[side])
+    parts = tuple((S.box((x0, y0, z0 - slab), (x1, y1, z0)), finish.floor_rgb, material) for x0, y0, x1, y1 in rects)
+    return Piece("floor", r.id, fl, "structure", parts)
 
 
 def ceiling(site: Site) -> Piece:
     """Return the room's ceiling slab (2 cm thick, between the walls)."""
     r, fl, z0, wall_h = site.room, site.floor, site.z0, site.wall_h
     t = 0.5 * WALL_T
-    box = S.box((r.x0 + t, r.y0 + t, z0 + wall_h), (r.x1 - t, r.y1 - t, z0 + wall_h + 0.02))
-    return Piece("ceiling", r.id, fl, "structure", ((box, (248, 248, 246), "ceiling"),))
+    rects = _minus((r.x0 + t, r.y0 + t, r.x1 - t, r.y1 - t), site.ceiling_holes)
+    return Piece("ceiling", r.id, fl, "structure", tuple(
+        (S.box((x0, y0, z0 + wall_h), (x1, y1, z0 + wall_h + 0.02)), (248, 248, 246), "ceiling") for x0, y0, x1, y1 in rects))
 
 
 def wall_openings(side: str, doors: list[tuple[LA.PlanDoor, str]], windows: dict[str, list[tuple]],
@@ -140,8 +234,10 @@ def wall(site: Site, side: str, opens: list[tuple[float, float, float, float]], 
     t = 0.5 * WALL_T
     sd, sh = SKIRTING
     along_x = side in ("S", "N")  # S and N walls run along X, W and E walls along Y
+    full = _full(r, side, ext)
     if along_x:
-        lo, hi = r.x0 - (t if ext["W"] else 0.0), r.x1 + (t if ext["E"] else 0.0)
+        corner = r.y0 if side == "S" else r.y1
+        lo, hi = r.x0 - (t if _touches(ext["W"], corner) else 0.0), r.x1 + (t if _touches(ext["E"], corner) else 0.0)
         clip_lo, clip_hi = r.x0 + t, r.x1 - t
         c0, c1 = r.y0, r.y1
     else:
@@ -149,11 +245,13 @@ def wall(site: Site, side: str, opens: list[tuple[float, float, float, float]], 
         clip_lo, clip_hi = lo + sd, hi - sd
         c0, c1 = r.x0, r.x1
     if side in ("S", "W"):  # across the wall: slab [a0, a1], skirting [k0, k1] on the room side
-        a0, a1 = c0 - (t if ext[side] else 0.0), c0 + t
+        a0, a1 = c0 - (t if full else 0.0), c0 + t
         k0, k1 = a1, a1 + sd
+        o0, o1 = c0 - t, c0  # the outer half of a partly outer wall
     else:
-        a0, a1 = c1 - t, c1 + (t if ext[side] else 0.0)
+        a0, a1 = c1 - t, c1 + (t if full else 0.0)
         k0, k1 = a0 - sd, a0
+        o0, o1 = c1, c1 + t
 
     def box(u0: float, u1: float, v0: float, v1: float, za: float, zb: float) -> S.Mesh:
         """Return the box spanning [u0, u1] along the wall, [v0, v1] across it and [za, zb] in Z."""
@@ -165,6 +263,11 @@ def wall(site: Site, side: str, opens: list[tuple[float, float, float, float]], 
         a2, b2 = max(a, clip_lo), min(b, clip_hi)
         if za <= z0 + 1e-9 and b2 - a2 > 1e-6:
             parts.append((box(a2, b2, k0, k1, z0, z0 + sh), finish.skirting_rgb, "wood"))
+    if ext[side] and not full:
+        for p, q in ext[side]:
+            a, b = _outer_span(r, side, ext, p, q)
+            for u0, u1, za, zb in _wall_pieces(a, b, [o for o in opens if a < o[0] < b], z0, z0 + wall_h):
+                parts.append((box(u0, u1, o0, o1, za, zb), finish.wall_rgb, "wall"))
     return Piece("wall", r.id, fl, "structure", tuple(parts))
 
 

@@ -19,10 +19,11 @@ import tempfile
 from pathlib import Path
 
 from ...store import user_cache_dir
-from ..apartment import generate_apartment
+from ..home import generate_apartment
 from ..artplace import remove_articulated, write_articulated
 from ..files import dumps_json, write_bytes
 from ..model import Apartment
+from ..presets import preset
 from .glb import glb_bytes
 from .habitat import write_habitat
 from .hm3d import semantic_colour, write_hm3d
@@ -32,9 +33,9 @@ from .scannet import ply_bytes, write_scannet
 MODES = ("clean", "scan", "hm3d", "mp3d", "habitat")
 
 
-def default_name(seed: int) -> str:
-    """Return the default file stem of an apartment."""
-    return f"apartment_{int(seed):04d}"
+def default_name(seed: int, preset_name: str = "apartment") -> str:
+    """Return the default file stem of a home: ``apartment_<seed:04d>``, ``house_<seed:04d>``."""
+    return f"{preset(preset_name).stem}_{int(seed):04d}"
 
 
 def write_apartment(apartment: Apartment, out_dir: str | os.PathLike[str], mode: str = "clean", name: str | None = None,
@@ -53,7 +54,7 @@ def write_apartment(apartment: Apartment, out_dir: str | os.PathLike[str], mode:
     mode : str
         "clean" (GLB, +Y up), "scan" (PLY, +Z up, ScanNet labels), "hm3d", "mp3d" or "habitat".
     name : str, optional
-        File stem (default: ``apartment_<seed:04d>``).
+        File stem (default: `default_name`, ``apartment_<seed:04d>`` or ``house_<seed:04d>``).
     noise_sigma : float
         Scan mode: surface noise std along the normals, metres.
     max_faces : int
@@ -62,7 +63,7 @@ def write_apartment(apartment: Apartment, out_dir: str | os.PathLike[str], mode:
     if mode not in MODES:
         raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
     out = Path(out_dir)
-    name = name or default_name(apartment.seed)
+    name = name or default_name(apartment.seed, apartment.preset)
     if mode == "hm3d":
         return write_hm3d(apartment, out, name)
     if mode == "habitat":

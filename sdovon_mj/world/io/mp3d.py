@@ -13,7 +13,8 @@ from .glb import glb_bytes
 
 
 MP3D_REGION_CODES = {"bathroom": "a", "bedroom": "b", "closet": "c", "dining room": "d", "kitchen": "k",
-                     "living room": "l", "office": "o", "hallway": "h", "laundry room": "j", "toilet": "t"}
+                     "living room": "l", "office": "o", "hallway": "h", "laundry room": "j", "toilet": "t",
+                     "entryway": "e", "garage": "g", "stairwell": "s"}
 
 
 def write_mp3d(apartment: Apartment, out_dir: str | os.PathLike[str], name: str) -> Path:
