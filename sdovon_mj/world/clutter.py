@@ -17,8 +17,9 @@ placed in this order once its furniture stands (`dress`):
   boxes and bags on closet shelves), at most a third of a surface's area.
 
 Each item is tried once (a few spots) and left out when it does not fit; a floor item that would cut the room's
-walking region (`placement.nav_ok`) is taken back. Labels are those of the semantic priors' table and never an
-object-library category, so a goal category names only placed objects. Everything is drawn from the room's own
+walking region (`placement.nav_ok`) is taken back. Labels are those of the semantic priors' table (its fixtures
+are structure: no evidence of a region) and never an object-library category, so a goal category names only placed
+objects. Everything is drawn from the room's own
 clutter generator: the furniture of a room does not depend on its clutter.
 """
 
@@ -201,6 +202,9 @@ SMALL: dict[str, tuple[tuple[float, float], tuple[float, float], tuple[float, fl
     "hair dryer": ((0.18, 0.24), (0.08, 0.1), (0.2, 0.26), ((40, 40, 44), (230, 230, 228), (200, 80, 120)), "box"),
     "cosmetics": ((0.04, 0.08), (0.03, 0.06), (0.08, 0.14), PLASTIC + ((200, 170, 150),), "box"),
     "comb": ((0.15, 0.2), (0.03, 0.04), (0.01, 0.02), PLASTIC, "box"),
+    "pot": ((0.2, 0.26), (0.2, 0.26), (0.12, 0.18), METALS + ((40, 40, 44),), "round"),
+    "pan": ((0.24, 0.3), (0.24, 0.3), (0.04, 0.06), ((40, 40, 44),) + METALS[:1], "round"),
+    "backpack": ((0.28, 0.34), (0.16, 0.22), (0.38, 0.48), ((40, 60, 110), (120, 40, 40), (50, 50, 54), (70, 110, 70)), "box"),
 }
 
 
@@ -235,27 +239,29 @@ class Item:
 
 
 _W, _H, _F, _C, _S = "wall", "high", "flat", "corner", "surface"
-_COMMON = (Item("picture", _H, 1, 3), Item("light", _H, 0, 2, 0.6))
+_COMMON = (Item("picture", _H, 2, 4), Item("light", _H, 1, 2, 0.7))
 KITS: dict[str, tuple[Item, ...]] = {
     "living room": _COMMON + (Item("picture", _H, 1, 2), Item("clock", _H, 0, 1), Item("speaker", _W, 0, 2),
-                              Item("plant", _C, 1, 2), Item("armchair", _W, 0, 1, 0.7), Item("rug", _F, 0, 1),
+                              Item("plant", _W, 1, 2), Item("armchair", _W, 0, 1, 0.7), Item("rug", _F, 0, 1),
                               Item("basket", _C, 0, 1, 0.5), Item("candle holder", _S, 1, 2, 0.7, ("shelf", "bookshelf", "tv stand")),
                               Item("picture frame", _S, 1, 3, 0.8, ("shelf", "bookshelf", "dresser", "coffee table")),
                               Item("magazine", _S, 0, 2, 0.7, ("coffee table",)), Item("board game", _S, 0, 1, 0.5, ("bookshelf", "shelf"))),
-    "kitchen": _COMMON + (Item("clock", _H, 0, 1), Item("trash can", _W, 1, 2), Item("plant", _C, 0, 1, 0.5),
+    "kitchen": _COMMON + (Item("clock", _H, 0, 1), Item("trash can", _W, 1, 2), Item("plant", _W, 0, 1, 0.5),
                           Item("kettle", _S, 1, 1, 0.8, ("counter",)), Item("toaster", _S, 0, 1, 0.6, ("counter",)),
                           Item("coffee maker", _S, 0, 1, 0.6, ("counter",)), Item("jar", _S, 1, 3, 0.8, ("counter", "shelf")),
-                          Item("cutting board", _S, 0, 1, 0.6, ("counter",)), Item("rug", _F, 0, 1, 0.4)),
-    "dining room": _COMMON + (Item("picture", _H, 0, 2), Item("clock", _H, 0, 1), Item("plant", _C, 1, 2),
+                          Item("cutting board", _S, 0, 1, 0.6, ("counter",)), Item("rug", _F, 0, 1, 0.4),
+                          Item("pot", _S, 0, 2, 0.7, ("counter", "shelf")), Item("pan", _S, 0, 1, 0.6, ("counter",))),
+    "dining room": _COMMON + (Item("picture", _H, 0, 2), Item("clock", _H, 0, 1), Item("plant", _W, 1, 2),
                               Item("rug", _F, 0, 1, 0.3), Item("candle holder", _S, 1, 2, 0.8, ("table", "dresser", "shelf")),
                               Item("jar", _S, 0, 2, 0.6, ("dresser", "shelf", "bookshelf"))),
-    "bedroom": _COMMON + (Item("mirror", _H, 0, 1), Item("light", _H, 0, 2, 0.5), Item("plant", _C, 0, 1, 0.6),
+    "bedroom": _COMMON + (Item("mirror", _H, 0, 1), Item("light", _H, 0, 2, 0.5), Item("plant", _W, 0, 1, 0.6),
                           Item("basket", _C, 0, 1, 0.6), Item("box", _W, 0, 2, 0.5), Item("rug", _F, 0, 1, 0.5),
                           Item("jewelry box", _S, 0, 1, 0.6, ("dresser", "nightstand")),
                           Item("picture frame", _S, 1, 2, 0.8, ("nightstand", "dresser", "shelf")),
                           Item("tissue box", _S, 0, 1, 0.6, ("nightstand",)), Item("clothes", _S, 0, 2, 0.6, ("bed", "dresser")),
-                          Item("toy", _S, 0, 2, 0.4, ("shelf", "bookshelf", "desk")), Item("bag", _C, 0, 1, 0.5)),
-    "office": _COMMON + (Item("clock", _H, 0, 1), Item("trash can", _W, 1, 1), Item("plant", _C, 0, 1, 0.7),
+                          Item("toy", _S, 0, 2, 0.4, ("shelf", "bookshelf", "desk")), Item("bag", _C, 0, 1, 0.5),
+                          Item("backpack", _C, 0, 1, 0.5)),
+    "office": _COMMON + (Item("clock", _H, 0, 1), Item("trash can", _W, 1, 1), Item("plant", _W, 0, 1, 0.7),
                          Item("box", _W, 0, 2, 0.5), Item("printer", _S, 0, 1, 0.6, ("desk", "shelf", "dresser")),
                          Item("globe", _S, 0, 1, 0.4, ("bookshelf", "shelf", "desk")),
                          Item("picture frame", _S, 0, 2, 0.7, ("desk", "bookshelf", "shelf")), Item("rug", _F, 0, 1, 0.4)),
@@ -267,9 +273,9 @@ KITS: dict[str, tuple[Item, ...]] = {
                  Item("toilet paper", _S, 0, 2, 0.7, ("shelf",)), Item("hair dryer", _S, 0, 1, 0.5, ("shelf", "counter")),
                  Item("cosmetics", _S, 1, 3, 0.8, ("counter", "shelf")), Item("comb", _S, 0, 1, 0.6, ("counter", "shelf"))),
     "hallway": (Item("picture", _H, 3, 6), Item("light", _H, 2, 4), Item("mirror", _H, 0, 1, 0.5),
-                Item("plant", _C, 1, 2), Item("rug", _F, 1, 2), Item("coat rack", _C, 0, 1, 0.3), Item("box", _W, 0, 1, 0.3),
+                Item("plant", _W, 1, 2), Item("rug", _F, 1, 2), Item("coat rack", _C, 0, 1, 0.3), Item("box", _W, 0, 1, 0.3),
                 Item("clock", _H, 0, 1, 0.5)),
-    "entryway": (Item("picture", _H, 1, 2), Item("mirror", _H, 1, 1), Item("light", _H, 0, 1), Item("plant", _C, 0, 1),
+    "entryway": (Item("picture", _H, 1, 2), Item("mirror", _H, 1, 1), Item("light", _H, 0, 1), Item("plant", _W, 0, 1),
                  Item("rug", _F, 1, 1), Item("umbrella stand", _C, 1, 1, 0.8), Item("bag", _S, 0, 2, 0.7, ("bench",)),
                  Item("hat", _S, 0, 1, 0.6, ("bench", "shelf"))),
     "laundry room": (Item("light", _H, 0, 1), Item("laundry basket", _W, 1, 2), Item("trash can", _W, 0, 1, 0.5),
@@ -278,11 +284,12 @@ KITS: dict[str, tuple[Item, ...]] = {
                      Item("clothes", _S, 0, 1, 0.5, ("shelf", "counter")), Item("bath mat", _F, 0, 1, 0.5)),
     "closet": (Item("box", _S, 2, 4, 1.0, ("shelf",)), Item("bag", _S, 1, 2, 0.8, ("shelf",)),
                Item("hat", _S, 0, 2, 0.7, ("shelf",)), Item("clothes", _S, 1, 3, 0.9, ("shelf",)),
-               Item("basket", _W, 0, 1, 0.6), Item("box", _W, 0, 2, 0.7)),
+               Item("basket", _W, 0, 1, 0.6), Item("box", _W, 0, 2, 0.7), Item("backpack", _C, 0, 1, 0.5)),
     "garage": (Item("box", _W, 2, 4), Item("trash can", _W, 1, 2), Item("box", _S, 2, 4, 1.0, ("shelf",)),
                Item("power drill", _S, 0, 1, 0.7, ("table", "shelf")), Item("spray bottle", _S, 0, 2, 0.6, ("shelf", "table")),
                Item("basket", _C, 0, 1, 0.5), Item("light", _H, 1, 2)),
-    "stairwell": (Item("picture", _H, 1, 3), Item("light", _H, 1, 2), Item("plant", _C, 0, 1, 0.6)),
+    "stairwell": (Item("picture", _H, 2, 4), Item("light", _H, 1, 2), Item("plant", _W, 0, 1, 0.6),
+                  Item("clock", _H, 0, 1, 0.5)),
 }
 WINDOW_CURTAINS = 0.8  # probability that a window has curtains (two panels)
 WINDOW_RADIATOR = {"bathroom": 0.5, "kitchen": 0.6, "garage": 0.0, "closet": 0.0}  # else 0.7
@@ -461,7 +468,7 @@ def _on_surface(state: PL.RoomState, item: Item, rng: np.random.Generator, used:
         k = int(rng.integers(len(surfaces)))
         h, r, head = surfaces[k]
         m = small_prop(item.label, rng, h)
-        if m.height - h > head - 0.03 or r[2] - r[0] < m.width + 0.04 or r[3] - r[1] < m.depth + 0.04:
+        if m.height - h > head - 0.03 or r[2] - r[0] < m.width + 0.05 or r[3] - r[1] < m.depth + 0.05:
             continue
         taken = used.setdefault(k, [])
         if sum((b[2] - b[0]) * (b[3] - b[1]) for b in taken) + m.width * m.depth > (r[2] - r[0]) * (r[3] - r[1]) / 3:
