@@ -15,13 +15,16 @@ process that ran it, as recorded in timings.json. A second run measures a scan-m
 
 With ``--full 3k`` (8 scenes x 45 variants) or ``--full 10k`` (25 scenes x 45 variants), 12 categories,
 the bench runs the full-size job itself (no scan run) and prints the measured wall time beside the
-extrapolation from the same run's per-stage seconds. ``--profile N`` (default 8) re-runs the observe,
+extrapolation from the same run's per-stage seconds. ``--set world.preset=house`` runs it on the default
+world's houses (8-16 rooms over their seeded 1-3 storeys, docs/world.md) instead of one-storey apartments, and
+prints the houses' statistics (rooms, storeys, navigable area, instances per room, geodesic quartiles). ``--profile N`` (default 8) re-runs the observe,
 perceive, place and episodes stages of the first scene / variant under cProfile on a copy of the job
 and prints each stage's top N functions by own time (0: skip).
 
     python bench/bench_generate.py                      # 2 scenes x 6 variants + the scan apartment
     python bench/bench_generate.py --scenes 1 --variants 2 --no-scan    # quicker
     python bench/bench_generate.py --full 3k            # the SD-OVON-3k-size job, measured (idle machine!)
+    python bench/bench_generate.py --full 3k --set world.preset=house    # the same on houses
 """
 
 from __future__ import annotations
@@ -48,11 +51,17 @@ CATEGORIES = ["mug", "bowl", "plate", "book", "bottle", "apple", "pillow", "lapt
               "remote"]
 
 
+def house_preset(args: argparse.Namespace) -> bool:
+    """Whether the job's homes are houses (``--set world.preset=house``)."""
+    return any(x.replace(" ", "") == "world.preset=house" for x in args.set)
+
+
 def bench_config(args: argparse.Namespace, scene_seeds: list[int], k_v: int):
-    """Return the RunConfig of the scaled job."""
+    """Return the RunConfig of the scaled job (apartments of one storey; houses of their seeded 1-3 storeys)."""
     from sdovon_mj.config import load_config
 
-    sets = [f"world.scene_seeds={scene_seeds}", "world.floors=1", "world.object_variants=1",
+    floors = "world.floors=0" if house_preset(args) else "world.floors=1"
+    sets = [f"world.scene_seeds={scene_seeds}", floors, "world.object_variants=1",
             f"world.object_categories={CATEGORIES[: args.categories]}", f"observe.width={args.width}",
             f"observe.height={args.height}", f"place.k_v={k_v}", f"episodes.k_e={args.k_e}", "name=bench-generate"]
     return load_config(args.config, sets + list(args.set))
@@ -230,6 +239,10 @@ def main() -> None:
               f"(ideal scaling, {FULL['variants']} variants): {full_cpu / 60 / args.jobs:.1f} min; "
               f"goal: < {12 if args.full == '3k' else 30} min")
     print(f"peak memory, any stage: {max(peak.values()):.0f} MiB (main process {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB)")
+    if house_preset(args):
+        from sdovon_mj.stats import dataset_statistics, homes_table
+
+        print("\nthe houses (sdovon-mj show RUN --stats):\n" + homes_table(dataset_statistics(out)))
     print(f"load average while running (1, 5, 15 min): {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs")
     episode_breakdown(out, cfg, args.breakdown)
     if args.profile > 0:
@@ -239,13 +252,13 @@ def main() -> None:
         return
     # ---- peak memory of a scan-mode apartment of ~500k triangles through the scene pipeline
     from sdovon_mj.pipeline import peak_rss_mb, reset_peak_rss
-    from sdovon_mj.world import generate_apartment, write_apartment
+    from sdovon_mj.world import generate_home, write_apartment
 
     scan_dir = work / "scan_input"
     reset_peak_rss()
     t0 = time.perf_counter()
-    mesh = write_apartment(generate_apartment(0, floors=1), scan_dir, mode="scan", name="scan_0000",
-                           max_faces=args.scan_faces)
+    home = generate_home(0, "house") if house_preset(args) else generate_home(0, "apartment", floors=1)
+    mesh = write_apartment(home, scan_dir, mode="scan", name="scan_0000", max_faces=args.scan_faces)
     write_s, write_mb = time.perf_counter() - t0, peak_rss_mb()
     import trimesh
 

@@ -61,11 +61,12 @@ class AgentConfig:
 
 @dataclass(frozen=True)
 class WorldConfig:
-    """The embedded default world: procedural apartments and objects."""
+    """The embedded default world: procedural homes (apartments or houses: docs/world.md) and objects."""
 
-    scene_seeds: tuple[int, ...] = _p((0,), "-", "seeds of the default apartments used as scenes (k_s = len)", "k_s", ge=0,min_len=1)
+    preset: str = _p("apartment", "-", "the homes used as scenes: apartment (3-6 rooms on 1-2 storeys) or house (8-16 rooms on 1-3 storeys with stairs, hallways, garage, clutter)", choices=("apartment","house"))
+    scene_seeds: tuple[int, ...] = _p((0,), "-", "seeds of the default homes used as scenes (k_s = len)", "k_s", ge=0,min_len=1)
     scene_mode: str = _p("clean", "-", "clean (artist-like GLB) or scan (noisy fused PLY, ScanNet style)", choices=("clean","scan"))
-    floors: int = _p(0, "-", "storeys per apartment: 1, 2, or 0 for the seeded choice", choices=(0,1,2))
+    floors: int = _p(0, "-", "storeys per home: 1, 2 (3: houses), or 0 for the seeded choice", choices=(0,1,2,3))
     object_seed: int = _p(0, "-", "seed of the procedural object library", ge=0)
     object_variants: int = _p(3, "-", "shape variants per object category", ge=1)
     object_categories: tuple[str, ...] = _p((), "-", "restrict the object library to these categories (empty = all)")
@@ -561,6 +562,9 @@ def check_cross_fields(cfg: RunConfig, source: str = "") -> None:
          "the part state probabilities must not all be 0")
     need(len(pc.part_ajar) == 2 and 0 <= pc.part_ajar[0] <= pc.part_ajar[1] <= 1, "'place.part_ajar'",
          f"must be two fractions 0 <= lo <= hi <= 1, got {list(pc.part_ajar)}")
+    w = cfg.world
+    need(w.floors != 3 or w.preset == "house", "'world.floors', 'world.preset'",
+         f"3 storeys are a house's, not an {w.preset}'s (apartments have 1 or 2)")
     e = cfg.episodes
     need(e.min_start_distance < e.max_start_distance, "'episodes.min_start_distance', 'episodes.max_start_distance'",
          f"min_start_distance ({e.min_start_distance:g} m) must be below max_start_distance ({e.max_start_distance:g} m)")

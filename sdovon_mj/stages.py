@@ -174,7 +174,9 @@ def scene_inputs(store: Store, cfg: RunConfig) -> dict[str, str]:
     """Return scene name -> input file ('' for a default-world apartment)."""
     inputs = store.read_json("inputs.json")
     if not inputs["scenes"]:
-        return {f"apt_{seed:04d}": "" for seed in cfg.world.scene_seeds}
+        from .world.presets import preset
+
+        return {f"{preset(cfg.world.preset).scene}_{seed:04d}": "" for seed in cfg.world.scene_seeds}
     out: dict[str, str] = {}
     for path in inputs["scenes"]:
         name = _safe_name(re.sub(r"\.(scene_instance|scene_dataset_config|basis)$", "",
@@ -336,19 +338,19 @@ def _extra_digests(conv: Any, path: Path) -> list[list[str]]:
 
 
 def _world_scene(ctx: StageContext) -> list[str]:
-    """Write a default-world apartment as an input file."""
-    from .world import generate_apartment, write_apartment
+    """Write a default-world home (the ``world.preset``'s) as an input file."""
+    from .world import generate_home, write_apartment
 
     w = ctx.cfg.world
     rel_dir = ctx.key("world:scene")
-    apt = generate_apartment(_apartment_seed(ctx.scene), floors=w.floors or None, articulated=w.articulated)
+    apt = generate_home(_apartment_seed(ctx.scene), w.preset, floors=w.floors or None, articulated=w.articulated)
     mesh = write_apartment(apt, ctx.store.path(rel_dir), mode=w.scene_mode, name=ctx.scene)
     return sorted(ctx.store.rel(p) for p in ctx.store.path(rel_dir).rglob("*")
                   if p.is_file() and not p.name.startswith(".")) or [ctx.store.rel(mesh)]
 
 
 def _apartment_seed(scene: str) -> int:
-    """Return the apartment seed of a default-world scene name (``apt_<seed>``)."""
+    """Return the home seed of a default-world scene name (``apt_<seed>``, ``house_<seed>``)."""
     return int(scene.split("_")[-1])
 
 
@@ -604,7 +606,8 @@ _DECLARED = [
           _objects, extra=_objects_extra, after=("world:objects",)),
     Stage("world:scene", "scene", "inputs/scenes/{scene}", (), ("world.floors", "world.scene_mode"),
           "a default-world apartment as an input file (only for default-world scenes)",
-          _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)] + (["articulated"] if ctx.cfg.world.articulated else []), applies=lambda ctx: not ctx.scene_source()),
+          _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)] + (["articulated"] if ctx.cfg.world.articulated else [])
+          + ([ctx.cfg.world.preset] if ctx.cfg.world.preset != "apartment" else []), applies=lambda ctx: not ctx.scene_source()),
     Stage("convert", "scene", "scenes/{scene}/convert", (), ("convert",),
           "scenes/<scene>/scene.json (SceneAsset), its MJCF and mesh sidecar",
           _convert, extra=lambda ctx: _convert_extra(converter(), scene_file(ctx)),

@@ -138,6 +138,20 @@ def rejection_key(p: Placement) -> str:
     return f"{p.status}: {cause}" if cause else p.status
 
 
+def _quartiles(values: Iterable[float]) -> list[float]:
+    """Return the [25 %, 50 %, 75 %] quartiles of values (linear interpolation; zeros if empty)."""
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+    return [float(q) for q in np.percentile(v, [25, 50, 75])] if v.size else [0.0, 0.0, 0.0]
+
+
+def _room_instances(scene: SceneAsset | None) -> list[int]:
+    """Return the labelled instances of each room of a scene (ground truth: each instance's room), room by room."""
+    if scene is None or not scene.rooms:
+        return []
+    per = Counter(int(i.room) for i in scene.instances)
+    return [int(per.get(int(r.id), 0)) for r in scene.rooms]
+
+
 def _summary(values: Iterable[float]) -> dict[str, float]:
     """Return mean/min/max of values (zeros if empty)."""
     v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
@@ -245,6 +259,7 @@ def _scene_stats(scene_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
     planes_src, planes = _scene_planes(scene_dir, scene, inst_label)
     region_labels, region_backends = _scene_regions(scene_dir)
     variants = _scene_variants(scene_dir, {pid: label for pid, label, _ in planes}, inst_label)
+    per_room = _room_instances(scene)
     stats = {
         "name": scene.name if scene is not None else scene_dir.name,
         "floors": len(scene.floors) if scene is not None else len(navmaps),
@@ -262,8 +277,11 @@ def _scene_stats(scene_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
         "variants": sum(1 for v in variants if v["has_variant"]),
         "placed_objects": sum(1 for v in variants for p in v["placements"] if p.status == "resting"),
         "episodes": sum(len(v["episodes"]) for v in variants),
+        "instances_per_room": _ratio(sum(per_room), len(per_room)),
+        "room_instances_median": float(np.median(per_room)) if per_room else 0.0,
+        "geodesic_quartiles_m": _quartiles(float(e.geodesic_distance) for v in variants for e in v["episodes"]),
     }
-    raw = {"planes": planes, "variants": variants, "regions": region_labels}
+    raw = {"planes": planes, "variants": variants, "regions": region_labels, "room_instances": per_room}
     return stats, raw
 
 
@@ -369,6 +387,7 @@ def _totals(scenes: list[dict[str, Any]], t: _Tally, objects: list[ObjectAsset])
         "goal_categories": len(t.goal_cat),
         "mean_episodes_per_variant": _ratio(n_eps, t.n_variants_with_eps),
         "mean_placed_objects_per_variant": _ratio(sum(t.objs_per_variant), len(t.objs_per_variant)),
+        "geodesic_quartiles_m": _quartiles(t.geo),
     }
 
 
@@ -405,6 +424,41 @@ def _episode_formula(scenes: list[dict[str, Any]], t: _Tally, cfg: dict[str, Any
             "k_e_config": cfg.get("k_e", 0), "k_v_config": cfg.get("k_v", 0)}
 
 
+def _homes(scenes: list[dict[str, Any]], raws: list[dict[str, Any]]) -> dict[str, Any]:
+    """Return the medians over the scenes of their size (rooms, storeys, navigable m^2), clutter (labelled instances
+    per room: each scene's mean) and episode length (each scene's median start-to-goal geodesic), and the median
+    room's labelled instances over every room of every scene."""
+    def med(key: str) -> float:
+        v = [float(x[key]) for x in scenes]
+        return float(np.median(v)) if v else 0.0
+
+    rooms = [n for r in raws for n in r["room_instances"]]
+    geo = [float(x["geodesic_quartiles_m"][1]) for x in scenes if x["episodes"]]
+    return {"scenes": len(scenes), "rooms_median": med("rooms"), "floors_median": med("floors"),
+            "navigable_area_m2_median": med("navigable_area_m2"), "instances_per_room_median": med("instances_per_room"),
+            "room_instances_median": float(np.median(rooms)) if rooms else 0.0,
+            "geodesic_median_m": float(np.median(geo)) if geo else 0.0}
+
+
+def homes_table(stats: dict) -> str:
+    """Return a plain-text table of the scenes' size, clutter and episode lengths, and their medians (the homes of
+    the default world's presets: docs/world.md)."""
+    head = ("scene", "storeys", "rooms", "navigable m2", "inst/room", "median room", "episodes", "geodesic m q1 / q2 / q3")
+    rows = [(s_["name"], str(s_["floors"]), str(s_["rooms"]), f"{s_['navigable_area_m2']:.1f}", f"{s_['instances_per_room']:.1f}",
+             f"{s_['room_instances_median']:.1f}", str(s_["episodes"]),
+             " / ".join(f"{q:.2f}" for q in s_["geodesic_quartiles_m"])) for s_ in stats["scenes"]]
+    h = stats["homes"]
+    q = stats["totals"]["geodesic_quartiles_m"]
+    rows.append(("median of scenes", f"{h['floors_median']:g}", f"{h['rooms_median']:g}", f"{h['navigable_area_m2_median']:.1f}",
+                 f"{h['instances_per_room_median']:.1f}", f"{h['room_instances_median']:.1f} (all rooms)",
+                 str(stats["totals"]["episodes"]), f"{h['geodesic_median_m']:.2f} (scene medians)"))
+    rows.append(("all episodes", "", "", "", "", "", str(stats["totals"]["episodes"]), " / ".join(f"{x:.2f}" for x in q)))
+    widths = [max(len(r[k]) for r in rows + [head]) for k in range(len(head))]
+    line = "  ".join("-" * w for w in widths)
+    fmt = lambda r: "  ".join(c.ljust(w) if k == 0 else c.rjust(w) for k, (c, w) in enumerate(zip(r, widths)))  # noqa: E731
+    return "\n".join([fmt(head), line] + [fmt(r) for r in rows[:-2]] + [line] + [fmt(r) for r in rows[-2:]])
+
+
 def _library(objects: list[ObjectAsset]) -> dict[str, Any]:
     """Return the object library by source (instances, categories) and its category counts."""
     lib_sources: dict[str, dict[str, Any]] = {}
@@ -437,6 +491,7 @@ def dataset_statistics(run_root: Path) -> dict:
     cfg = _config_info(root)
     t = _tally([r for _, r in per_scene])
     return _round({
+        "homes": _homes(scenes, [r for _, r in per_scene]),
         "dataset": cfg.get("name", "sdovon"),
         "totals": _totals(scenes, t, objects),
         "episodes": _episode_summaries(t),
@@ -514,6 +569,7 @@ def statistics_markdown(stats: dict) -> str:
         ["Scene", "Floors", "Navigable area (m^2)", "Receptacle planes", "Regions", "Variants", "Placed objects", "Episodes"],
         [[s["name"], s["floors"], s["navigable_area_m2"], f"{s['receptacle_planes']} ({s['receptacle_planes_source']})", s["regions"],
           s["variants"], s["placed_objects"], s["episodes"]] for s in stats["scenes"]] or [["(none)", 0, 0.0, 0, 0, 0, 0, 0]]), ""]
+    parts += ["## Homes: size, clutter, episode length", "", "```", homes_table(stats), "```", ""]
     return "\n".join(parts)
 
 

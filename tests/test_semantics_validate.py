@@ -151,7 +151,7 @@ def test_default_world_labels_are_all_in_the_table():
         key = pri.resolve(lab, embed=False)
         assert key is not None and pri.labels[key]["regions"], lab
     # structure labels resolve too (region maps and agents look every detected label up; no embedding needed)
-    from sdovon_mj.world.apartment import STRUCTURE_LABELS
+    from sdovon_mj.world import STRUCTURE_LABELS
 
     for lab in STRUCTURE_LABELS:
         assert pri.resolve(lab, embed=False) is not None, lab

@@ -320,3 +320,32 @@ def test_placement_top_pairs_exact_on_a_hand_made_run(tmp_path):
     assert got["ceiling"] == pytest.approx(1.0 / ((4 * 2 / 6 + 3 / 6) / 5))
     two = placement_top_pairs(tmp_path, k=2)  # the sink joins both categories' top 2
     assert two["on_top_k"] == 4 and two["random_share"] == pytest.approx((3 * 3 / 6 + 2 * 4 / 6) / 5)
+
+
+def test_homes_statistics_rooms_clutter_and_geodesic_quartiles(tmp_path: Path) -> None:
+    """Per scene: labelled instances per room (mean and median room) and the episodes' geodesic quartiles; over the
+    scenes: their medians (what `sdovon-mj show RUN --stats` prints for the default world's houses)."""
+    from sdovon_mj.records import Room
+    from sdovon_mj.stats import homes_table
+
+    root = build_fake_run(tmp_path / "run")
+    sq = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    for name, per_room in (("apt_a", (3, 1, 2)), ("apt_b", (4, 4))):
+        insts = [SemanticInstance(id=k, label="wall", room=r) for k, r in
+                 enumerate(r for r, n in enumerate(per_room) for _ in range(n))]
+        rooms = [Room(id=r, type="bedroom", floor=0, polygon=sq) for r in range(len(per_room))]
+        save_json(SceneAsset(name=name, mjcf=f"scenes/{name}/scene.xml", floors=[Floor(0, 0.0)], instances=insts, rooms=rooms),
+                  root / "scenes" / name / "scene.json")
+    s = dataset_statistics(root)
+    a, b = s["scenes"]
+    assert (a["rooms"], a["instances_per_room"], a["room_instances_median"]) == (3, 2.0, 2.0)
+    assert (b["rooms"], b["instances_per_room"], b["room_instances_median"]) == (2, 4.0, 4.0)
+    assert a["geodesic_quartiles_m"] == [2.25, 3.5, 4.75]  # episodes 1, 2, 3, 4, 5, 6 m
+    assert b["geodesic_quartiles_m"] == [0.0, 0.0, 0.0] and s["totals"]["geodesic_quartiles_m"] == [2.25, 3.5, 4.75]
+    h = s["homes"]
+    assert (h["scenes"], h["rooms_median"], h["instances_per_room_median"]) == (2, 2.5, 3.0)
+    assert h["room_instances_median"] == 3.0  # rooms of 3, 1, 2, 4, 4 instances
+    assert h["geodesic_median_m"] == 3.5  # only scenes with episodes
+    table = homes_table(s).splitlines()
+    assert table[0].split()[:3] == ["scene", "storeys", "rooms"] and len(table) == 2 + 2 + 1 + 2
+    assert table[-2].startswith("median of scenes") and "3.50 (scene medians)" in table[-2]

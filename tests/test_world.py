@@ -392,3 +392,57 @@ def test_object_bytes_are_deterministic(tmp_path: Path) -> None:
     assert alone[0].read_bytes() == [p for p in a if p.parent.name == "teapot_0"][0].read_bytes()
     # another seed gives other shapes
     assert not np.allclose(generate_object("mug", 0, 7).dims, generate_object("mug", 0, 8).dims)
+
+
+# ------------------------------------------------------------------------------------------------
+# the world's modules
+
+
+def _world_imports() -> dict[str, set[str]]:
+    """Return world module -> the world modules it imports, lazy imports inside functions included.
+
+    Modules are named relative to the package (``io.glb``; a package's ``__init__`` by the package: ``io``, ``""``).
+    ``from . import x`` and ``from .io import glb`` name the module x / io.glb when it is one, else its package.
+    """
+    import ast
+
+    root = Path(__file__).resolve().parents[1] / "sdovon_mj" / "world"
+    mods = {}
+    for p in root.rglob("*.py"):
+        parts = p.relative_to(root).with_suffix("").parts
+        mods[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
+    out: dict[str, set[str]] = {m: set() for m in mods}
+    for name, path in mods.items():
+        pkg = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.level:
+                base = [x for x in pkg.split(".") if x]
+                base = base[: len(base) - (node.level - 1)] if node.level > 1 else base
+                if node.level - 1 > len([x for x in pkg.split(".") if x]):
+                    continue  # above the world package
+                target = ".".join(base + ([node.module] if node.module else []))
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("sdovon_mj.world"):
+                target = node.module[len("sdovon_mj.world"):].lstrip(".")
+            else:
+                continue
+            for a in node.names:
+                sub = f"{target}.{a.name}".lstrip(".")
+                hit = sub if sub in mods else target
+                if hit in mods and hit != name:
+                    out[name].add(hit)
+    return out
+
+
+def test_world_modules_import_no_circle() -> None:
+    g = _world_imports()
+    assert {"model", "layout", "structure", "placement", "programs", "assembly", "io", "io.glb"} <= set(g)
+    # depth-first search for a path back to the start (lazy imports count: they are edges too)
+    for start in sorted(g):
+        stack, seen = [(start, (start,))], set()
+        while stack:
+            node, path = stack.pop()
+            for nxt in sorted(g[node]):
+                assert nxt != start, f"import circle: {' -> '.join(path + (nxt,))}"
+                if nxt not in seen:
+                    seen.add(nxt)
+                    stack.append((nxt, path + (nxt,)))

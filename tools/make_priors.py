@@ -65,6 +65,8 @@ FURN = {
  "floor": ("structure", ""), "ceiling": ("structure", ""), "stairs": ("structure", "H6 L2"), "light": ("structure", ""),
  "ceiling light": ("structure", ""), "picture": ("furniture", "L7 B5 D5 H5 O4 T1"), "clothes": ("object", "B9 C9 U8 T3"),
  "speaker": ("object", "L9 O5 B4"), "wine rack": ("furniture", "D8 K8 L3"), "trash can": ("object", "K9 T7 O6 B3 L3 U4"),
+ # fixtures of every room (the default world's houses carry them, as scans label them): no evidence of a region
+ "light switch": ("structure", ""), "outlet": ("structure", ""), "vent": ("structure", ""), "smoke detector": ("structure", ""),
 }
 # manipulable objects: label -> (regions, receptacles)
 OBJ = {

@@ -9,12 +9,20 @@ height. Peaks of the area-by-height histogram (window ``floor_cluster_tol``) wit
 - the lowest candidate is a floor;
 - a higher candidate must lie at least ``MIN_STOREY_HEIGHT`` above the last accepted floor (beds,
   counters and table tops are large horizontal areas too, but lie within a storey), and
-- it must carry walls: vertical surface area in the band ``[h + 0.3, h + agent_height]`` above it
-  (the top of a roof slab is a large upward area at storey spacing, but nothing stands on it).
+- it must carry walls: vertical surface area in the band ``[h + 0.3, h + agent_height]`` standing on it
+  (the top of a roof slab is a large upward area at storey spacing, but nothing stands on it), and
+- its area must hold together: one connected patch of at least ``min_floor_area`` (`_free_patch`).
+
+The last two are read on a 10 cm grid of the candidate's upward faces less the cells capped right above (a ceiling
+slab's top under the next storey's floor slab); walls count where they stand on the rest, one cell in from its
+edge. A house needs both: twenty door-frame heads and door leaves at 2.05 m add up to more than ``min_floor_area``
+with the storey's walls rising past them, and the ceiling tops of its single-storey wings are large, uncapped and
+surrounded by the upper storey's walls; taken as floors, either would hide the real storey above.
 """
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from ..config import AgentConfig, ObserveConfig
@@ -102,16 +110,56 @@ def find_floors(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveConfig, age
         if floors:
             if h - floors[-1].height < MIN_STOREY_HEIGHT:
                 continue
-            # walls must rise above a higher floor, inside its footprint
-            sel = up & (np.abs(centre[:, 2] - h) <= tol / 2)
-            pts = v[f[sel]].reshape(-1, 3)[:, :2]
-            lo, hi = pts.min(axis=0) - 0.5, pts.max(axis=0) + 0.5
+            # one patch of floor, not capped right above, with walls standing on it
+            free, gl, res = _free_patch(v, f, sel, down & (centre[:, 2] > h + BIN) & (centre[:, 2] <= h + cfg.h_map))
+            if free.sum() * res * res < cfg.min_floor_area:
+                continue
             z0, z1 = h + 0.3, h + max(agent.height, 0.6)
-            wall = _band_area(v, f, vertical & _spans(v, f, z0, z1), z0, z1, lo, hi)
-            if wall < MIN_WALL_AREA:
+            band = vertical & _spans(v, f, z0, z1)
+            cells = np.floor((v[f[band]][:, :, :2].mean(axis=1) - gl) / res).astype(int)
+            inner = cv2.erode(free.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+            ok = (cells >= 0).all(axis=1) & (cells[:, 0] < free.shape[1]) & (cells[:, 1] < free.shape[0])
+            on = np.zeros(len(cells), dtype=bool)
+            on[ok] = inner[cells[ok, 1], cells[ok, 0]]
+            band[np.flatnonzero(band)[~on]] = False
+            if _band_area(v, f, band, z0, z1, np.full(2, -np.inf), np.full(2, np.inf)) < MIN_WALL_AREA:
                 continue
         floors.append(Floor(index=len(floors), height=round(float(h), 4), area=round(float(a), 4)))
     return floors
+
+
+def _raster(grid: np.ndarray, tri: np.ndarray, lo: np.ndarray, res: float) -> None:
+    """Mark the cells of `grid` (rows along +Y) that triangles (K, 3, 3) cover: larger ones filled, smaller ones by
+    their centroid (a scan's 5 cm triangles tile a 10 cm grid)."""
+    xy = tri[:, :, :2]
+    big = (xy.max(axis=1) - xy.min(axis=1)).max(axis=1) > res
+    for t in xy[big]:
+        cv2.fillConvexPoly(grid, np.round((t - lo) / res * 16).astype(np.int32), 1, lineType=cv2.LINE_8, shift=4)
+    c = np.floor((xy[~big].mean(axis=1) - lo) / res).astype(int)
+    ok = (c >= 0).all(axis=1) & (c[:, 0] < grid.shape[1]) & (c[:, 1] < grid.shape[0])
+    grid[c[ok, 1], c[ok, 0]] = 1
+
+
+def _free_patch(v: np.ndarray, f: np.ndarray, sel: np.ndarray, lid: np.ndarray,
+                res: float = 0.1) -> tuple[np.ndarray, np.ndarray, float]:
+    """Return the largest 8-connected patch (bool grid, rows along +Y) of the faces `sel` less the cells under the
+    faces `lid`, the grid's origin (world XY) and its cell size."""
+    tri = v[f[sel]]
+    lo = tri[:, :, :2].reshape(-1, 2).min(axis=0) - res
+    hi = tri[:, :, :2].reshape(-1, 2).max(axis=0) + res
+    shape = np.ceil((hi - lo) / res).astype(int) + 1
+    if shape[0] * shape[1] > 20_000_000:  # a scene this large at 10 cm: keep the candidate's own test only
+        return np.ones((1, 1), dtype=bool), lo, float(np.sqrt(1e9))
+    surf = np.zeros((shape[1], shape[0]), dtype=np.uint8)
+    _raster(surf, tri, lo, res)
+    cap = np.zeros_like(surf)
+    if lid.any():
+        _raster(cap, v[f[lid]], lo, res)
+    free = (surf > 0) & (cap == 0)
+    n, lab, stats, _c = cv2.connectedComponentsWithStats(free.astype(np.uint8), connectivity=8)
+    if n <= 1:
+        return np.zeros_like(free), lo, res
+    return lab == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA])), lo, res
 
 
 def _spans(v: np.ndarray, f: np.ndarray, z0: float, z1: float) -> np.ndarray:

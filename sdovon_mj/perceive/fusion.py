@@ -200,10 +200,16 @@ class InstanceFuser:
             self._sem[key] = label_similarity(a, b, self.cfg.label_similarity)
         return self._sem[key]
 
-    def similarity(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Return the fused instances' box corners (F, 3) each (read once per view or consolidation pass)."""
+        return np.array([f.lo for f in self.fused]), np.array([f.hi for f in self.fused])
+
+    def similarity(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                   bounds: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Return phi(inst, j) for every fused j (-inf where the boxes are too far apart to overlap).
 
-        ``world``, when given, is the instance's (world points, their min, their max) already computed.
+        ``world``, when given, is the instance's (world points, their min, their max) already computed;
+        ``bounds`` the fused boxes (`_bounds`) of the map as it is.
         """
         cfg = self.cfg
         phi = np.full(len(self.fused), -np.inf)
@@ -211,8 +217,7 @@ class InstanceFuser:
             return phi
         p, p_lo, p_hi = world if world is not None else _world(inst)
         lo, hi = p_lo - cfg.overlap_radius, p_hi + cfg.overlap_radius
-        flo = np.array([f.lo for f in self.fused])
-        fhi = np.array([f.hi for f in self.fused])
+        flo, fhi = bounds if bounds is not None else self._bounds()
         near = ~(np.any(flo > hi, axis=1) | np.any(fhi < lo, axis=1))
         for j in np.nonzero(near)[0]:
             f = self.fused[j]
@@ -227,8 +232,9 @@ class InstanceFuser:
             embed_labels(sorted({i.label for i in instances} | {f.label for f in self.fused}))
         matches = []
         worlds = [_world(inst) for inst in instances]
+        bounds = self._bounds() if self.fused else None  # the map before the view
         for inst, w in zip(instances, worlds):
-            phi = self.similarity(inst, w)
+            phi = self.similarity(inst, w, bounds)
             j = int(np.argmax(phi)) if len(phi) else -1
             matches.append(j if j >= 0 and phi[j] >= self.cfg.phi_min else -1)
         out = []
@@ -241,28 +247,42 @@ class InstanceFuser:
         return out
 
     def consolidate(self) -> int:
-        """Merge fused instances into one another with the same test (fragments whose link was seen later); return merges."""
+        """Merge fused instances into one another with the same test (fragments whose link was seen later); return merges.
+
+        Pass after pass, the smallest instance that has a bigger one to merge into merges, and the pass starts
+        again. An instance found with none keeps that finding until a merge grows an instance near it (nothing
+        else its test reads changes), so a pass re-tests only those: a house fuses a thousand instances.
+        """
         merges = 0
         changed = True
+        settled: dict[int, _Fused] = {}  # id -> instances with nothing to merge into, in the map as it is
+        r = self.cfg.overlap_radius
         while changed and len(self.fused) > 1:
             changed = False
             order = sorted(range(len(self.fused)), key=lambda j: (len(self.fused[j].keys), j))
+            sizes = np.array([len(f.keys) for f in self.fused])
+            index = np.arange(len(self.fused))
+            bounds = self._bounds()
             for i in order:
                 small = self.fused[i]
+                if id(small) in settled:
+                    continue
                 probe = Instance(id=-1, label=small.label, points=small.points.astype(np.float32), center=np.zeros(3))
-                phi = self.similarity(probe)
+                phi = self.similarity(probe, bounds=bounds)
                 phi[i] = -np.inf
                 # Only merge into a bigger instance, so every pass strictly shrinks the list.
-                for j in range(len(self.fused)):
-                    if len(self.fused[j].keys) < len(small.keys) or (len(self.fused[j].keys) == len(small.keys) and j < i):
-                        phi[j] = -np.inf
+                phi[(sizes < sizes[i]) | ((sizes == sizes[i]) & (index < i))] = -np.inf
                 j = int(np.argmax(phi))
                 if phi[j] >= self.cfg.phi_min:
-                    self.fused[j].merge(small)
+                    target = self.fused[j]
+                    target.merge(small)
                     del self.fused[i]
                     merges += 1
                     changed = True
+                    lo, hi = target.lo - 2 * r, target.hi + 2 * r  # whose test may now find the grown instance
+                    settled = {k: f for k, f in settled.items() if np.any(f.lo > hi) or np.any(f.hi < lo)}
                     break
+                settled[id(small)] = small
         return merges
 
     def instances(self) -> list[Instance]:

@@ -1,11 +1,11 @@
 """Articulated furniture in the default apartments (``world.articulated``): placement proxies and the written pieces.
 
-With the switch on, the room programs (``world/apartment.py``) draw some pieces as articulated ones: kitchens get a
+With the switch on, the room programs (``world/programs.py``) draw some pieces as articulated ones: kitchens get a
 base cabinet with hinged doors (a microwave on its top) and an articulated fridge, bedrooms an articulated dresser
 and wardrobe, living/dining rooms and offices articulated dressers, bathrooms often a base cabinet. During layout an articulated piece is a
 :func:`proxy` (a furniture `Model` with the piece's bounding box and no visible parts) that the room placement
 treats like any other piece; it adds no triangles to the apartment mesh. Its instance id, pose and seed are kept
-as an :class:`ArticulatedInstance` in ``Apartment.articulated``.
+as an :class:`~sdovon_mj.world.model.ArticulatedInstance` in ``Apartment.articulated``.
 
 :func:`write_articulated` writes, beside the scene file, ``<name>.articulated/<kind>_<id>/<kind>_<id>.urdf`` (+
 ``meshes/``) built by ``world.articulated.BUILDERS`` from the piece's own seed, and the sidecar
@@ -17,31 +17,19 @@ URDF path (relative to the sidecar), world pose (position of the URDF root frame
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from . import shapes as S
 from .articulated import BUILDERS, draw_size
+from .files import dumps_json, num
 from .furniture import Model
+from .model import ArticulatedInstance
 
 FORMAT = "sdovon-articulated/1"
 LABELS = {"cabinet": "cabinet", "dresser": "dresser", "wardrobe": "wardrobe", "fridge": "fridge",
           "microwave": "microwave"}
-
-
-@dataclass(frozen=True)
-class ArticulatedInstance:
-    """An articulated piece placed in an apartment: instance id, builder kind and seed, world pose, room, storey."""
-
-    id: int
-    kind: str
-    seed: int
-    position: tuple[float, float, float]  # world position of the URDF root frame, m (Z up)
-    yaw: int  # degrees about +Z (0, 90, 180, 270)
-    room: int
-    floor: int
 
 
 def proxy(kind: str, rng: np.random.Generator, lift: float = 0.0) -> Model:
@@ -65,11 +53,6 @@ def is_proxy(m: Model) -> bool:
     return getattr(m, "articulated", None) is not None
 
 
-def _num(x: float) -> float:
-    """Round a coordinate for JSON (6 decimals, no negative zero)."""
-    return float(round(float(x), 6)) + 0.0
-
-
 def write_articulated(pieces: tuple[ArticulatedInstance, ...] | list[ArticulatedInstance], out_dir: str | os.PathLike[str],
                       name: str, labels: dict[int, str]) -> list[Path]:
     """Write each piece's URDF + meshes and the ``<name>.articulated.json`` sidecar into `out_dir`; return the files.
@@ -77,7 +60,6 @@ def write_articulated(pieces: tuple[ArticulatedInstance, ...] | list[Articulated
     `labels` maps instance id -> label (the apartment's instance labels). Nothing is written for no pieces.
     """
     from ..store import atomic_write_text
-    from .io import dumps_json
 
     if not pieces:
         return []
@@ -92,10 +74,10 @@ def write_articulated(pieces: tuple[ArticulatedInstance, ...] | list[Articulated
         entries.append({
             "id": int(p.id), "kind": p.kind, "label": labels.get(p.id, LABELS[p.kind]), "room": int(p.room),
             "floor": int(p.floor), "urdf": model.urdf.relative_to(out).as_posix(),
-            "position": [_num(v) for v in p.position], "yaw": int(p.yaw),
-            "size": [_num(model.width), _num(model.depth), _num(model.height)],
+            "position": [num(v) for v in p.position], "yaw": int(p.yaw),
+            "size": [num(model.width), num(model.depth), num(model.height)],
             "joints": list(model.joints),
-            "interiors": [{"height": _num(i.height), "polygon": [[_num(a), _num(b)] for a, b in i.polygon],
+            "interiors": [{"height": num(i.height), "polygon": [[num(a), num(b)] for a, b in i.polygon],
                            "joint": i.joint, "link": i.link} for i in model.interiors],
         })
     sidecar = out / f"{name}.articulated.json"

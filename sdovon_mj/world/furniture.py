@@ -671,3 +671,133 @@ def rug(rng: np.random.Generator, width: float, depth: float) -> Model:
     m.add(S.rounded_box((-0.5 * width, 0.0, 0.0), (0.5 * width, depth, 0.006), 0.003, 3), jitter(base, rng, 25), "fabric")
     m.add(S.rounded_box((-0.5 * width + 0.08, 0.08, 0.0), (0.5 * width - 0.08, depth - 0.08, 0.008), 0.003, 3), base, "fabric")
     return m
+
+
+# ------------------------------------------------------------------------------------------------
+# furniture of the rooms only houses have (entryways, hallways, laundry rooms, closets, garages)
+
+
+def bench(rng: np.random.Generator) -> Model:
+    """A hall bench: a seat board (~0.46 m) on two side panels, a shelf for shoes below."""
+    w, d, h = u(rng, 0.8, 1.2), u(rng, 0.32, 0.4), u(rng, 0.44, 0.48)
+    wood = pick(rng, WOODS)
+    m = Model("bench", "receptacle", [], w, d, h)
+    x0, x1 = -0.5 * w, 0.5 * w
+    m.add(S.box((x0, 0.0, 0.0), (x0 + 0.03, d, h - 0.03)), wood, "wood")
+    m.add(S.box((x1 - 0.03, 0.0, 0.0), (x1, d, h - 0.03)), wood, "wood")
+    m.add(S.box((x0 + 0.03, 0.02, 0.1), (x1 - 0.03, d - 0.02, 0.12)), jitter(wood, rng, 8), "wood")
+    m.add(S.box((x0, 0.0, h - 0.03), (x1, d, h)), wood, "wood")
+    m.supports.append((h, rect(x0, 0.0, x1, d)))
+    return m
+
+
+def coat_rack(rng: np.random.Generator) -> Model:
+    """A standing coat rack: a round base, a pole (1.7-1.85 m) and four hooks."""
+    h, r = u(rng, 1.7, 1.85), 0.2
+    m = Model("coat rack", "furniture", [], 2 * r, 2 * r, h)
+    c = pick(rng, WOODS + METALS)
+    m.add(S.cylinder(0.18, 0.0, 0.03, 16, (0.0, r)), c, "wood")
+    m.add(S.cylinder(0.018, 0.03, h, 10, (0.0, r)), c, "wood")
+    for dx, dy in ((0.12, 0.0), (-0.12, 0.0), (0.0, 0.12), (0.0, -0.12)):
+        m.add(S.box((min(0.0, dx) - 0.01, r + min(0.0, dy) - 0.01, h - 0.12), (max(0.0, dx) + 0.01, r + max(0.0, dy) + 0.01,
+                                                                               h - 0.1)), c, "wood")
+    return m
+
+
+def shoe_rack(rng: np.random.Generator) -> Model:
+    """A low open shoe rack with two or three slatted levels (~0.5 m)."""
+    w, d, h = u(rng, 0.6, 1.0), u(rng, 0.28, 0.34), u(rng, 0.45, 0.6)
+    c = pick(rng, WOODS + METALS)
+    m = Model("shoe rack", "furniture", [], w, d, h)
+    x0, x1 = -0.5 * w, 0.5 * w
+    m.add(S.box((x0, 0.0, 0.0), (x0 + 0.02, d, h)), c, "wood")
+    m.add(S.box((x1 - 0.02, 0.0, 0.0), (x1, d, h)), c, "wood")
+    levels = 3 if h > 0.52 else 2
+    for k in range(levels):
+        z = 0.05 + k * (h - 0.07) / (levels - 1)
+        m.add(S.box((x0 + 0.02, 0.0, z), (x1 - 0.02, d, z + 0.02)), jitter(c, rng, 6), "wood")
+    return m
+
+
+def umbrella_stand(rng: np.random.Generator) -> Model:
+    """A cylindrical umbrella stand (~0.5 m)."""
+    r, h = u(rng, 0.1, 0.14), u(rng, 0.45, 0.55)
+    m = Model("umbrella stand", "furniture", [], 2 * r, 2 * r, h)
+    m.add(S.cylinder(r, 0.0, h, 16, (0.0, r)), pick(rng, METALS + ((140, 40, 40), (40, 60, 90))), "metal")
+    return m
+
+
+def _appliance(rng: np.random.Generator, label: str) -> Model:
+    """A front-loading washing machine or dryer: a 0.6 m cube, its round door and a control strip."""
+    h = u(rng, 0.84, 0.88)
+    c = pick(rng, APPLIANCES[:2])
+    m = Model(label, "furniture", [], 0.6, 0.6, h)
+    m.add(S.chamfer_box((-0.3, 0.0, 0.0), (0.3, 0.58, h), 0.01), c, "metal")
+    door = S.transform(S.cylinder(0.2, 0.0, 0.02, 24), rot=S.rot_x(-0.5 * np.pi), shift=(0.0, 0.58, 0.4))
+    m.add(door, (90, 96, 104) if label == "washing machine" else jitter(c, rng, 8), "plain")
+    m.add(S.box((-0.28, 0.58, h - 0.12), (0.28, 0.6, h - 0.02)), jitter(c, rng, 6), "metal")
+    return m
+
+
+def washing_machine(rng: np.random.Generator) -> Model:
+    """A front-loading washing machine (see `_appliance`)."""
+    return _appliance(rng, "washing machine")
+
+
+def dryer(rng: np.random.Generator) -> Model:
+    """A tumble dryer (see `_appliance`)."""
+    return _appliance(rng, "dryer")
+
+
+def ironing_board(rng: np.random.Generator) -> Model:
+    """A folded ironing board standing against the wall (1.2-1.4 m, 4 cm thick)."""
+    h, w = u(rng, 1.2, 1.4), u(rng, 0.34, 0.4)
+    m = Model("ironing board", "furniture", [], w, 0.06, h)
+    m.add(S.box((-0.5 * w, 0.0, 0.0), (0.5 * w, 0.04, h)), pick(rng, FABRICS + LINENS), "fabric")
+    m.add(S.box((-0.04, 0.04, 0.05), (0.04, 0.06, h - 0.1)), METALS[0], "metal")
+    return m
+
+
+def shelving(rng: np.random.Generator, height_max: float = 2.0) -> Model:
+    """A storage shelving unit (closets, garages): a bookshelf's carcass, labelled shelf."""
+    m = bookshelf(rng, height_max)
+    m.label = "shelf"
+    return m
+
+
+def workbench(rng: np.random.Generator) -> Model:
+    """A garage workbench: a thick top (~0.9 m) on four legs with a low shelf."""
+    w, d, h = u(rng, 1.4, 2.0), u(rng, 0.6, 0.7), u(rng, 0.88, 0.94)
+    wood = pick(rng, WOODS[:4])
+    m = Model("table", "receptacle", [], w, d, h)
+    x0, x1 = -0.5 * w, 0.5 * w
+    _legs(m, x0, 0.0, x1, d, h - 0.05, 0.07, jitter(wood, rng, 10))
+    m.add(S.box((x0 + 0.07, 0.05, 0.15), (x1 - 0.07, d - 0.05, 0.17)), jitter(wood, rng, 10), "wood")
+    m.add(S.box((x0, 0.0, h - 0.05), (x1, d, h)), wood, "wood")
+    m.supports.append((h, rect(x0, 0.0, x1, d)))
+    return m
+
+
+def tool_cabinet(rng: np.random.Generator) -> Model:
+    """A metal tool cabinet with drawers (~1 m), not a receptacle."""
+    w, d, h = u(rng, 0.6, 0.9), u(rng, 0.45, 0.5), u(rng, 0.9, 1.1)
+    c = pick(rng, ((170, 40, 40), (60, 60, 64), (40, 70, 120)))
+    m = Model("cabinet", "furniture", [], w, d, h)
+    m.add(S.box((-0.5 * w, 0.0, 0.0), (0.5 * w, d - 0.015, h)), c, "metal")
+    _drawer_fronts(m, -0.5 * w + 0.02, 0.5 * w - 0.02, 0.05, h - 0.03, d - 0.015, 5, 1, jitter(c, rng, 10), METALS[0], "metal")
+    return m
+
+
+def armchair(rng: np.random.Generator) -> Model:
+    """An upholstered armchair: a base, a seat cushion (~0.45 m), arms and a back."""
+    w, d = u(rng, 0.75, 0.9), u(rng, 0.75, 0.85)
+    fab = pick(rng, FABRICS)
+    m = Model("armchair", "furniture", [], w, d, 0.85)
+    x0, x1 = -0.5 * w, 0.5 * w
+    m.add(S.rounded_box((x0, 0.0, 0.08), (x1, d, 0.4), 0.02, 2), fab, "fabric")
+    m.add(S.rounded_box((x0 + 0.12, 0.2, 0.4), (x1 - 0.12, d - 0.02, 0.48), 0.02, 2), jitter(fab, rng, 8), "fabric")
+    m.add(S.rounded_box((x0, 0.0, 0.4), (x1, 0.2, 0.85), 0.03, 2), fab, "fabric")
+    for a in (x0, x1 - 0.12):
+        m.add(S.rounded_box((a, 0.2, 0.4), (a + 0.12, d, 0.62), 0.02, 2), fab, "fabric")
+    _legs(m, x0 + 0.04, 0.04, x1 - 0.04, d - 0.04, 0.08, 0.04, pick(rng, WOODS))
+    return m

@@ -1,8 +1,9 @@
-"""Seeded floor plans: room types, a rectangular footprint cut into rooms, and doorways.
+"""Seeded floor plans: the plan records, and the apartments' plans (a rectangular footprint cut into rooms).
 
 Rooms are axis-aligned cells whose edges are wall centre lines. Each storey of an apartment is a
 partition of the same rectangular footprint (origin at its south-west corner). Doors join rooms
 of one storey along a spanning tree of the room adjacency graph (the living room is the hub).
+Houses (wings, hallways, stairwells) are planned in ``world/houseplan.py`` into the same records.
 """
 
 from __future__ import annotations
@@ -31,6 +32,9 @@ DOOR_OPENING = 1.0  # wall opening incl. 5 cm jambs -> 0.9 m clear
 DOOR_HEIGHT = 2.05  # opening incl. 5 cm head -> 2.0 m clear
 DOOR_MARGIN = 0.3  # minimum distance of an opening from the end of the shared wall
 GRID = 0.05
+WALL_T = 0.1  # wall thickness (two 5 cm room-side slabs back to back)
+SKIRTING = (0.012, 0.08)  # skirting board depth and height
+STOREY_HEIGHT = 3.0  # floor-to-floor height of a home of several storeys
 
 
 @dataclass
@@ -63,6 +67,30 @@ class PlanDoor:
     centre: float
     width: float = DOOR_OPENING
     height: float = DOOR_HEIGHT
+
+
+@dataclass(frozen=True)
+class Flight:
+    """A straight flight of stairs from storey `floor` up to `floor` + 1 (plan metres, storey-relative)."""
+
+    floor: int
+    lane: tuple[float, float, float, float]  # x0, y0, x1, y1 of its footprint
+    rises: str  # the side it climbs towards: "E", "W", "N" or "S"
+    risers: int = 17
+    room: int = -1  # the stairwell room it stands in (storey `floor`)
+    arrives: int = -1  # the stairwell room it arrives in (storey `floor` + 1)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A seeded floor plan: storeys, wall height (m), rooms, doors, stair flights and the footprint's shape."""
+
+    storeys: int
+    wall_h: float
+    rooms: list[PlanRoom]
+    doors: list[PlanDoor]
+    flights: list[Flight]
+    shape: str = "rectangle"
 
 
 def snap(v: float, step: float = GRID) -> float:
@@ -283,3 +311,29 @@ def plan(rng: np.random.Generator, types_per_floor: list[list[str]]) -> tuple[fl
         if ok:
             return width, depth, rooms, doors
     raise RuntimeError("no valid floor plan found")
+
+
+def room_doors(room: PlanRoom, doors: list[PlanDoor]) -> list[tuple[PlanDoor, str]]:
+    """Return the doors of a room with the side of the room they are on (S, E, N, W)."""
+    out = []
+    for d in doors:
+        if room.id not in (d.room_a, d.room_b):
+            continue
+        if d.vertical:
+            side = "W" if abs(d.line - room.x0) < 1e-6 else "E"
+        else:
+            side = "S" if abs(d.line - room.y0) < 1e-6 else "N"
+        out.append((d, side))
+    return out
+
+
+def plan_apartment(seed: int, floors: int | None = None) -> Plan:
+    """Draw the storey count (1, 2 or None for the seeded choice, ~30% two), wall height, room types and floor
+    plan of the apartment `seed`."""
+    rng = np.random.default_rng([int(seed), 0])
+    two = rng.random() < 0.3
+    nfl = int(floors) if floors else (2 if two else 1)
+    wall_h = snap(rng.uniform(2.5, 2.8))
+    types = choose_room_types(rng, int(seed), nfl)
+    _width, _depth, rooms, doors = plan(rng, types)
+    return Plan(nfl, wall_h, rooms, doors, [])
