@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 from pathlib import Path
 from string import Template
+from typing import Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -80,9 +81,10 @@ def clean_part(part: Part) -> Part | None:
 class AssetWriter:
     """Collects meshes, textures and materials for one MJCF file and writes them under assets/."""
 
-    def __init__(self, assets_dir: Path, texture_max_size: int = 1024) -> None:
+    def __init__(self, assets_dir: Path, texture_max_size: int = 1024, texture_cache: Path | None = None) -> None:
         self.assets_dir = Path(assets_dir)
         self.texture_max_size = texture_max_size
+        self.texture_cache = texture_cache  # PNGs by image content (`png_file`): a texture shared by scenes is encoded once
         self.lines: list[str] = []
         self._textures: dict[int, str] = {}
         self._materials: dict[str, str] = {}
@@ -119,7 +121,7 @@ class AssetWriter:
             tex = self._textures.get(id(mat.image))
             if tex is None:
                 tex = f"texture_{len(self._textures)}"
-                atomic_write_bytes(self.assets_dir / f"{tex}.png", to_png_bytes(mat.image, self.texture_max_size))
+                png_file(mat.image, self.assets_dir / f"{tex}.png", self.texture_max_size, self.texture_cache)
                 self.lines.append(f'    <texture name="{tex}" type="2d" file="{tex}.png"/>')
                 self._textures[id(mat.image)] = tex
             self.lines.append(f'    <material name="{name}" texture="{tex}" rgba="{rgba}" specular="0.2" shininess="0.2"/>')
@@ -132,6 +134,29 @@ class AssetWriter:
     def xml(self) -> str:
         """Return the <asset> children as XML lines."""
         return "\n".join(self.lines)
+
+
+def png_file(image: Any, dst: Path, max_size: int, cache: Path | None = None) -> Path:
+    """Write a texture image as PNG at `dst` (`to_png_bytes`); with a cache folder, through it: the PNG of an image
+    (keyed by its decoded pixels and `max_size`) is encoded once and hard-linked (else copied) to each `dst`."""
+    if cache is None:
+        atomic_write_bytes(dst, to_png_bytes(image, max_size))
+        return dst
+    import hashlib
+    import os
+    import shutil
+
+    h = hashlib.sha256(f"{image.mode}|{image.size}|{max_size}|".encode())
+    h.update(image.tobytes())
+    cached = cache / f"{h.hexdigest()[:32]}.png"
+    if not cached.is_file():
+        atomic_write_bytes(cached, to_png_bytes(image, max_size))
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        os.link(cached, dst)
+    except OSError:
+        shutil.copy2(cached, dst)
+    return dst
 
 
 def render_template(template: str, out: Path, **values: str) -> str:
