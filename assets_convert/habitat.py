@@ -169,12 +169,14 @@ def _face_colours(part: Part) -> np.ndarray:
 def split_by_face_instance(part: Part, finst: np.ndarray) -> list[tuple[Part, int]]:
     """Split a part by per-face instance ids, keeping material, UVs and vertex colours."""
     out = []
-    for iid in np.unique(finst):
-        sel = part.faces[finst == iid]
+    finst = np.asarray(finst)
+    order = np.argsort(finst, kind="stable")  # each instance's faces in one run, in their original order
+    ids, starts = np.unique(finst[order], return_index=True)
+    for iid, a, b in zip(ids.tolist(), starts.tolist(), starts[1:].tolist() + [len(order)]):
+        sel = part.faces[order[a:b]]
         used = np.unique(sel)
-        remap = np.full(len(part.vertices), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        out.append((Part(part.vertices[used], remap[sel], part.material,
+        local = np.searchsorted(used, sel)  # vertex index within the piece (no array the size of the whole part)
+        out.append((Part(part.vertices[used], local, part.material,
                          None if part.uv is None else part.uv[used],
                          None if part.colors is None else part.colors[used], part.node), int(iid)))
     return out
@@ -197,12 +199,16 @@ def read_hm3d(path: str | Path, units: str | float = "auto", up: str = "auto") -
     missing: dict[str, int] = {}
     unlabeled = max((d["id"] for d in table.values()), default=0) + 1
     for sp in semantic.parts:
-        cols = _face_colours(sp)
-        hexes = np.array([f"{r:02X}{g:02X}{b:02X}" for r, g, b in cols])
-        for h in np.unique(hexes):
+        cols = _face_colours(sp).astype(np.int64)
+        keys = (cols[:, 0] << 16) | (cols[:, 1] << 8) | cols[:, 2]  # RRGGBB as an integer: one lookup per colour
+        uniq, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+        lut = np.empty(len(uniq), dtype=np.int64)
+        for j, key in enumerate(uniq.tolist()):
+            h = f"{key:06X}"
             if h not in table and h != UNANNOTATED:
-                missing[str(h)] = int(np.sum(hexes == h))
-        ids.append(np.array([table[h]["id"] if h in table else unlabeled for h in hexes], dtype=np.int64))
+                missing[h] = missing.get(h, 0) + int(counts[j])
+            lut[j] = table[h]["id"] if h in table else unlabeled
+        ids.append(lut[inverse.ravel()])
         cents.append(sp.vertices[sp.faces].mean(axis=1))
     if missing:
         shown = ", ".join(f"{h} ({n} triangles)" for h, n in sorted(missing.items())[:5])

@@ -330,7 +330,10 @@ class RunSummary:
         from . import stats
 
         st = stats.dataset_statistics(Path(self.run_root))
-        lines = [stats.summary_table(st), "", "seconds per stage (this run; 0 = skipped, already done):"]
+        lines = [stats.summary_table(st)]
+        if len(self.scenes) > 1:  # a dataset's scenes: one line each, a failed one with its cause
+            lines += ["", "per scene:"] + self.scene_lines(st)
+        lines += ["", "seconds per stage (this run; 0 = skipped, already done):"]
         for k, v in sorted(self.seconds.items(), key=lambda kv: -kv[1]):
             lines.append(f"  {k:<12} {v:8.2f}")
         fb = stats.llm_fallbacks(Path(self.run_root))
@@ -345,6 +348,23 @@ class RunSummary:
             if follow:
                 lines.append(f"  not run because of the failures above: {', '.join(follow)}")
         return "\n".join(lines)
+
+
+    def scene_lines(self, st: dict[str, Any]) -> list[str]:
+        """Return one line per scene of this run: its variants, placed objects and episodes, or why it failed."""
+        by_name = {sc.get("name"): sc for sc in st.get("scenes", [])}
+        failed: dict[str, str] = {}
+        for r in self.root_failures:
+            if r.spec.scene and r.spec.kind in ("scene", "variant"):
+                failed.setdefault(r.spec.scene, f"{r.spec.label}: {r.error}")
+        width = max(len(n) for n in self.scenes)
+        out = []
+        for name in self.scenes:
+            sc = by_name.get(name, {})
+            done = (f"{sc.get('variants', 0)} variants, {sc.get('placed_objects', 0)} objects, "
+                    f"{sc.get('episodes', 0)} episodes")
+            out.append(f"  {name:<{width}}  " + (f"FAILED {failed[name]}" if name in failed else done))
+        return out
 
 
 def package_versions() -> dict[str, str]:
