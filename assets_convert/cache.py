@@ -18,7 +18,7 @@ from typing import Any
 
 from sdovon_mj.store import CACHE_OFF, user_cache_dir
 
-CONVERTER_VERSION = "assets_convert-8"  # bump whenever the output of a conversion changes (8: no wall seconds in report.json)
+CONVERTER_VERSION = "assets_convert-9"  # bump whenever the output of a conversion changes (9: one MJCF material per look)
 
 
 def cache_root(cache_dir: str | Path | None = None) -> Path | None:

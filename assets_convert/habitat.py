@@ -32,7 +32,9 @@ from __future__ import annotations
 
 import csv
 import glob
+from collections import OrderedDict
 import io
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,7 +46,8 @@ from sdovon_mj.errors import InputError
 from sdovon_mj.geometry import points_in_polygon
 from sdovon_mj.records import Room
 
-from .load import Part, _gltf_json, display_path, load_mesh, read_json as _read_json, referenced_files, up_rotation
+from .naming import label_from_node
+from .load import LoadedMesh, Part, _gltf_json, display_path, load_mesh, read_json as _read_json, referenced_files, up_rotation
 
 SCENE_INSTANCE = ".scene_instance.json"
 DATASET_CONFIG = ".scene_dataset_config.json"
@@ -79,13 +82,15 @@ def layout_of(path: str | Path) -> str | None:
     """Return "hm3d", "mp3d", "habitat" or None (another reader) for a scene input path."""
     path = Path(path)
     low = path.name.lower()
-    if low.endswith(SCENE_INSTANCE) or low.endswith(DATASET_CONFIG):
+    if low.endswith((SCENE_INSTANCE, DATASET_CONFIG, STAGE_CONFIG)):
         return "habitat"
     base = _hm3d_base(path)
     if base is not None and (Path(f"{base}.semantic.glb").is_file() or Path(f"{base}.semantic.txt").is_file()):
         return "hm3d"
     if _mp3d_base(path) is not None:
         return "mp3d"
+    if is_stage_member(path):  # a stage of a stage-only dataset (its config's frame and units apply)
+        return "habitat"
     return None
 
 
@@ -111,21 +116,7 @@ def input_files(path: str | Path) -> list[Path]:
         base = path.parent / path.stem
         return referenced_files(path) + [p for p in (Path(f"{base}_semantic.ply"), Path(f"{base}.house")) if p.is_file()]
     if layout == "habitat":
-        scene, ds = _scene_and_dataset(path)
-        reg = _Registry(ds)
-        files = [scene] + ([ds.path] if ds.path else []) + reg.config_files()
-        doc = _read_json(scene)
-        for inst in [doc.get("stage_instance") or {}, *(doc.get("object_instances") or [])]:
-            if inst.get("template_name"):
-                try:
-                    attrs, base = reg.resolve("stages" if inst is doc.get("stage_instance") else "objects",
-                                              str(inst["template_name"]), scene)
-                except InputError:
-                    continue
-                asset = base / str(attrs.get("render_asset", ""))
-                if asset.is_file():
-                    files.extend(referenced_files(asset))
-        return sorted(set(files))
+        return scene_files(path)
     return referenced_files(path)
 
 
@@ -178,12 +169,14 @@ def _face_colours(part: Part) -> np.ndarray:
 def split_by_face_instance(part: Part, finst: np.ndarray) -> list[tuple[Part, int]]:
     """Split a part by per-face instance ids, keeping material, UVs and vertex colours."""
     out = []
-    for iid in np.unique(finst):
-        sel = part.faces[finst == iid]
+    finst = np.asarray(finst)
+    order = np.argsort(finst, kind="stable")  # each instance's faces in one run, in their original order
+    ids, starts = np.unique(finst[order], return_index=True)
+    for iid, a, b in zip(ids.tolist(), starts.tolist(), starts[1:].tolist() + [len(order)]):
+        sel = part.faces[order[a:b]]
         used = np.unique(sel)
-        remap = np.full(len(part.vertices), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        out.append((Part(part.vertices[used], remap[sel], part.material,
+        local = np.searchsorted(used, sel)  # vertex index within the piece (no array the size of the whole part)
+        out.append((Part(part.vertices[used], local, part.material,
                          None if part.uv is None else part.uv[used],
                          None if part.colors is None else part.colors[used], part.node), int(iid)))
     return out
@@ -206,12 +199,16 @@ def read_hm3d(path: str | Path, units: str | float = "auto", up: str = "auto") -
     missing: dict[str, int] = {}
     unlabeled = max((d["id"] for d in table.values()), default=0) + 1
     for sp in semantic.parts:
-        cols = _face_colours(sp)
-        hexes = np.array([f"{r:02X}{g:02X}{b:02X}" for r, g, b in cols])
-        for h in np.unique(hexes):
+        cols = _face_colours(sp).astype(np.int64)
+        keys = (cols[:, 0] << 16) | (cols[:, 1] << 8) | cols[:, 2]  # RRGGBB as an integer: one lookup per colour
+        uniq, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+        lut = np.empty(len(uniq), dtype=np.int64)
+        for j, key in enumerate(uniq.tolist()):
+            h = f"{key:06X}"
             if h not in table and h != UNANNOTATED:
-                missing[str(h)] = int(np.sum(hexes == h))
-        ids.append(np.array([table[h]["id"] if h in table else unlabeled for h in hexes], dtype=np.int64))
+                missing[h] = missing.get(h, 0) + int(counts[j])
+            lut[j] = table[h]["id"] if h in table else unlabeled
+        ids.append(lut[inverse.ravel()])
         cents.append(sp.vertices[sp.faces].mean(axis=1))
     if missing:
         shown = ", ".join(f"{h} ({n} triangles)" for h, n in sorted(missing.items())[:5])
@@ -393,6 +390,11 @@ def read_mp3d(path: str | Path, units: str | float = "auto", up: str = "auto") -
 # ----------------------------------------------------------------------------------------------
 # Habitat scene datasets
 
+STAGE_CONFIG = ".stage_config.json"
+OBJECT_CONFIG = ".object_config.json"
+ASSET_SUFFIXES = (".glb", ".gltf", ".obj", ".ply")  # render assets a ``paths`` entry may register directly
+ANCESTORS = 4  # how many folders up from a scene file a dataset config is looked for
+
 
 @dataclass
 class _Dataset:
@@ -407,48 +409,155 @@ class _Dataset:
         return self.path.parent if self.path else Path(".")
 
 
+_REGISTRIES: dict[tuple[str, int, int], "_Registry"] = {}
+
+
+def _stat_key(path: Path) -> tuple[int, int]:
+    """Return (mtime_ns, size) of a file ((0, -1) when it is gone)."""
+    try:
+        st = path.stat()
+    except OSError:
+        return 0, -1
+    return st.st_mtime_ns, st.st_size
+
+
+def _registry(config: Path | None) -> "_Registry":
+    """Return the (per-process, memoised) registry of a dataset config: read again when the config or any template
+    config it read has changed since (files added under its ``paths`` are seen by a new process)."""
+    if config is None:
+        return _Registry(_Dataset(None, {}))
+    key = (str(config.resolve()), *_stat_key(config))
+    reg = _REGISTRIES.get(key)
+    if reg is not None and any(_stat_key(f) != k for f, k in reg.read.items()):
+        reg = None
+    if reg is None:
+        doc = _read_json(config)
+        if not isinstance(doc, dict):
+            raise InputError(display_path(config), "not a JSON object: not a Habitat scene dataset config")
+        reg = _REGISTRIES[key] = _Registry(_Dataset(config, doc))
+    return reg
+
+
+def dataset_members(config: str | Path) -> list[Path]:
+    """Return the scenes a scene dataset config holds, sorted: its scene instances; with none, its stages.
+
+    Datasets whose scenes are stages (HM3D's and MP3D's configs register ``<id>.basis.glb`` stages by glob and no
+    scene instance; Gibson's likewise) give one scene per stage: a registered render asset, or a ``*.stage_config.json``.
+    """
+    reg = _registry(Path(config))
+    scenes = reg.files("scene_instances", SCENE_INSTANCE)
+    if scenes:
+        return scenes
+    return sorted({p for p in reg.files("stages", STAGE_CONFIG) + reg.asset_files("stages")})
+
+
+def _registers(reg: "_Registry", path: Path) -> bool:
+    """Return whether a dataset registers `path` as a scene instance or a stage."""
+    rp = path.resolve()
+    return any(p.resolve() == rp for p in reg.files("scene_instances", SCENE_INSTANCE) + reg.files("stages", STAGE_CONFIG)
+               + reg.asset_files("stages"))
+
+
+def dataset_of(path: str | Path) -> Path | None:
+    """Return the scene dataset config a scene file belongs to, or None.
+
+    The config beside the file or in one of the `ANCESTORS` folders above it, nearest first, that registers it (a
+    folder with several, such as HSSD's ``hssd-hab`` and ``hssd-hab-uncluttered`` configs: the first in name order
+    that registers it); a scene instance that no config registers takes the nearest config (its templates may still
+    resolve there), a stage file none.
+    """
+    path = Path(path)
+    nearest = None
+    for anc in [path.parent, *path.parent.parents][:ANCESTORS]:
+        for cand in sorted(anc.glob(f"*{DATASET_CONFIG}")):
+            if nearest is None:
+                nearest = cand
+            try:
+                if _registers(_registry(cand), path):
+                    return cand
+            except InputError:
+                continue
+    return nearest if path.name.lower().endswith(SCENE_INSTANCE) else None
+
+
+def is_stage_member(path: str | Path) -> bool:
+    """Return whether a file is a stage that a dataset config above it registers (a scene of a stage-only dataset)."""
+    path = Path(path)
+    low = path.name.lower()
+    if not (low.endswith(STAGE_CONFIG) or path.suffix.lower() in ASSET_SUFFIXES) or low.endswith(".semantic.glb"):
+        return False
+    return dataset_of(path) is not None
+
+
 def _scene_and_dataset(path: Path) -> tuple[Path, _Dataset]:
-    """Return (scene instance file, its dataset config) for a scene-instance or dataset-config input."""
+    """Return (scene file, its dataset config) for a scene-instance, stage or dataset-config input."""
     if path.name.lower().endswith(DATASET_CONFIG):
-        ds = _Dataset(path, _read_json(path))
-        scenes = _Registry(ds).files("scene_instances", SCENE_INSTANCE)
+        scenes = dataset_members(path)
         if len(scenes) != 1:
-            listing = ", ".join(display_path(s.relative_to(path.parent)) for s in scenes) or "none"
-            raise InputError(display_path(path), f"holds {len(scenes)} scene instances ({listing}); pass one "
-                                                 f"*{SCENE_INSTANCE} file")
-        return scenes[0], ds
-    for anc in [path.parent, *path.parent.parents][:4]:
-        cands = sorted(anc.glob(f"*{DATASET_CONFIG}"))
-        if cands:
-            return path, _Dataset(cands[0], _read_json(cands[0]))
-    return path, _Dataset(None, {})
+            listing = ", ".join(display_path(s.relative_to(path.parent)) for s in scenes[:12]) or "none"
+            raise InputError(display_path(path), f"holds {len(scenes)} scenes ({listing}"
+                                                 f"{' ...' if len(scenes) > 12 else ''}); convert each of them (a "
+                                                 "folder or the config given to `generate --scenes` is expanded)")
+        return scenes[0], _registry(path).ds
+    config = dataset_of(path)
+    return path, _registry(config).ds
 
 
 class _Registry:
-    """The templates a dataset config registers (stages, objects, semantic configs) by handle."""
+    """The templates a dataset config registers (stages, objects, semantic configs) by handle (memoised)."""
 
-    SUFFIX = {"stages": ".stage_config.json", "objects": ".object_config.json",
+    SUFFIX = {"stages": STAGE_CONFIG, "objects": OBJECT_CONFIG,
               "semantic_scene_descriptor_instances": ".semantic_config.json"}
 
     def __init__(self, ds: _Dataset) -> None:
         self.ds = ds
+        self._files: dict[tuple[str, str], list[Path]] = {}
+        self._handles: dict[str, list[tuple[str, dict[str, Any], Path]]] = {}
+        self._resolved: dict[tuple[str, str], tuple[dict[str, Any], Path, Path | None]] = {}
+        self.read: dict[Path, tuple[int, int]] = {}  # template config files read -> (mtime_ns, size) when read
+
+    def _json(self, f: Path) -> Any:
+        """Read a template config file, recording its state (a later change makes `_registry` read again)."""
+        self.read[f] = _stat_key(f)
+        return _read_json(f)
+
+    def _entries(self, section: str, ext: str) -> list[str]:
+        sec = self.ds.doc.get(section) or {}
+        paths = sec.get("paths") if isinstance(sec, dict) else None
+        return [str(e) for e in (paths or {}).get(ext, [])] if isinstance(paths, dict) else []
 
     def files(self, section: str, suffix: str) -> list[Path]:
         """Return the config files a section's ``paths`` register (folders searched recursively, globs expanded)."""
-        sec = self.ds.doc.get(section) or {}
-        out: set[Path] = set()
-        for entry in (sec.get("paths") or {}).get(".json", []) if isinstance(sec, dict) else []:
-            pattern = str(self.ds.root / str(entry))
-            for hit in sorted(glob.glob(pattern)):
-                p = Path(hit)
-                if p.is_dir():
-                    out.update(q for q in p.rglob(f"*{suffix}") if q.is_file())
-                elif p.name.lower().endswith(suffix):
-                    out.add(p)
-        return sorted(out)
+        key = (section, suffix)
+        if key not in self._files:
+            out: set[Path] = set()
+            for entry in self._entries(section, ".json"):
+                for hit in sorted(glob.glob(str(self.ds.root / entry))):
+                    p = Path(hit)
+                    if p.is_dir():
+                        out.update(q for q in p.rglob(f"*{suffix}") if q.is_file())
+                    elif p.name.lower().endswith(suffix):
+                        out.add(p)
+            self._files[key] = sorted(out)
+        return self._files[key]
+
+    def asset_files(self, section: str) -> list[Path]:
+        """Return the render assets a section's ``paths`` register directly (``".glb": ["*/*.basis.glb"]``)."""
+        key = (section, "assets")
+        if key not in self._files:
+            out: set[Path] = set()
+            for ext in ASSET_SUFFIXES:
+                for entry in self._entries(section, ext):
+                    for hit in sorted(glob.glob(str(self.ds.root / entry))):
+                        p = Path(hit)
+                        found = p.rglob(f"*{ext}") if p.is_dir() else [p]
+                        out.update(q for q in found if q.is_file() and q.suffix.lower() == ext
+                                   and not q.name.lower().endswith((".semantic.glb", "_semantic.ply")))
+            self._files[key] = sorted(out)
+        return self._files[key]
 
     def config_files(self) -> list[Path]:
-        """Return every registered config file (for the cache key)."""
+        """Return every registered config file."""
         out: list[Path] = []
         for sec, suf in self.SUFFIX.items():
             out += self.files(sec, suf)
@@ -456,42 +565,137 @@ class _Registry:
 
     def handles(self, section: str) -> list[tuple[str, dict[str, Any], Path]]:
         """Return (handle, attributes, folder of relative paths) of a section's templates, in registration order."""
+        if section in self._handles:
+            return self._handles[section]
         sec = self.ds.doc.get(section) or {}
         defaults = dict(sec.get("default_attributes") or {}) if isinstance(sec, dict) else {}
         out = []
         for f in self.files(section, self.SUFFIX[section]):
-            attrs = {**defaults, **_read_json(f)}
+            attrs = {**defaults, **self._json(f), "__file__": f}
             out.append((f.relative_to(self.ds.root).as_posix(), attrs, f.parent))
+        if section == "stages":  # render assets registered as stages: the defaults with the file as render asset
+            for f in self.asset_files(section):
+                out.append((f.relative_to(self.ds.root).as_posix(), {**defaults, "render_asset": f.name}, f.parent))
         for cfg in (sec.get("configs") or []) if isinstance(sec, dict) else []:
             handle = str(cfg.get("template_handle", ""))
             attrs, base = dict(defaults), self.ds.root
             if cfg.get("original_file"):
                 orig = self.ds.root / str(cfg["original_file"])
-                attrs.update(_read_json(orig))
+                attrs.update(self._json(orig))
+                attrs["__file__"] = orig
                 base = orig.parent
             attrs.update(cfg.get("attributes") or {})
             if "render_asset" in (cfg.get("attributes") or {}):
                 base = self.ds.root
             out.append((handle, attrs, base))
+        self._handles[section] = out
         return out
 
     def resolve(self, section: str, name: str, where: Path) -> tuple[dict[str, Any], Path]:
-        """Return (attributes, folder) of the template `name`: an exact handle, else the first handle containing it."""
+        """Return (attributes, folder) of the template `name`: an exact handle, else the first handle containing it.
+
+        The attributes carry ``__file__``, the config file they were read from (absent for a registered render asset).
+        """
+        key = (section, name)
+        if key not in self._resolved:
+            self._resolved[key] = self._resolve(section, name, where)
+        attrs, base, _f = self._resolved[key]
+        return attrs, base
+
+    def _resolve(self, section: str, name: str, where: Path) -> tuple[dict[str, Any], Path, Path | None]:
         entries = self.handles(section)
         for handle, attrs, base in entries:
             if handle == name:
-                return attrs, base
+                return attrs, base, None
         for handle, attrs, base in sorted(entries, key=lambda e: e[0]):
             if name in handle:
-                return attrs, base
+                return attrs, base, None
         direct = self.ds.root / name
         if direct.is_file() and direct.name.lower().endswith(self.SUFFIX[section]):
-            return _read_json(direct), direct.parent
+            return {**self._json(direct), "__file__": direct}, direct.parent, None
         kind = {"stages": "stage", "objects": "object"}.get(section, section)
         known = ", ".join(sorted(h for h, _a, _b in entries)[:8]) or "none"
         raise InputError(display_path(where), f"{kind} template '{name}' is not in the dataset "
                                               f"({display_path(self.ds.path) if self.ds.path else 'no dataset config'}; "
                                               f"registered: {known})")
+
+
+def _scene_doc(scene: Path, reg: _Registry) -> dict[str, Any]:
+    """Return a scene instance's JSON; a stage member (stage config or registered render asset) as a scene holding
+    only that stage, as habitat-sim synthesises one around a stage."""
+    low = scene.name.lower()
+    if low.endswith(SCENE_INSTANCE):
+        doc = _read_json(scene)
+        if not isinstance(doc, dict) or not isinstance(doc.get("stage_instance"), dict):
+            raise InputError(display_path(scene), "no 'stage_instance' object: not a Habitat scene instance")
+        return doc
+    if reg.ds.path is None:
+        raise InputError(display_path(scene), "a stage file is a scene only inside the scene dataset config that "
+                                              "registers it (none found beside it or above)")
+    return {"stage_instance": {"template_name": scene.resolve().relative_to(reg.ds.root.resolve()).as_posix()}}
+
+
+def _template_files(attrs: dict[str, Any], base: Path) -> list[Path]:
+    """Return a resolved template's config file and its render asset with every file it references."""
+    out = [attrs["__file__"]] if attrs.get("__file__") else []
+    if attrs.get("render_asset"):
+        asset = base / str(attrs["render_asset"])
+        out += referenced_files(asset) if asset.is_file() else []
+    return out
+
+
+def scene_files(path: str | Path) -> list[Path]:
+    """Return every file a Habitat scene reads: the scene file, its dataset config, the stage and object templates it
+    uses with their render assets (and what those reference) and its semantic config; raise InputError on the first
+    that is missing, unreadable or not of its format (the up-front input check and the conversion cache key)."""
+    scene, ds = _scene_and_dataset(Path(path))
+    reg = _registry(ds.path)
+    doc = _scene_doc(scene, reg)
+    files = [scene] + ([ds.path] if ds.path else [])
+    stage = doc["stage_instance"]
+    insts = [("stages", stage)] + [("objects", o) for o in (doc.get("object_instances") or [])]
+    for k, (section, inst) in enumerate(insts):
+        name = str(inst.get("template_name", "")) if isinstance(inst, dict) else ""
+        if not name:
+            raise InputError(display_path(scene), f"object_instances[{k - 1}] has no template_name" if k else
+                                                  "stage_instance has no template_name")
+        attrs, base = reg.resolve(section, name, scene)
+        if not attrs.get("render_asset") or not (base / str(attrs["render_asset"])).is_file():
+            raise InputError(display_path(scene), f"render asset '{attrs.get('render_asset', '')}' of template "
+                                                  f"'{name}' not found (looked at "
+                                                  f"{display_path(base / str(attrs.get('render_asset', '')))})")
+        files += _template_files(attrs, base)
+    sem = _semantic_config_path(doc, scene, ds, reg)
+    if sem is not None:
+        _read_json(sem)
+        files.append(sem)
+    return sorted(set(files), key=lambda p: os.fsencode(str(p)))
+
+
+TEMPLATE_MEMO_FACES = 3_000_000  # triangles of loaded templates a process keeps (about 0.3 GB of arrays)
+_TEMPLATES: "OrderedDict[tuple[str, int, int, float], LoadedMesh]" = OrderedDict()
+TEMPLATE_LOADS: list[str] = []  # render assets parsed by this process, in order (what `load_template` did not reuse)
+
+
+def load_template(asset: Path, units: float) -> LoadedMesh:
+    """Return a template's render asset loaded in its own frame (metres by `units`, no axis change: `_frame` turns
+    it), parsed once per process: scenes of a dataset share stages and object templates, and a scene places one
+    template many times. The memo keeps the last-used templates up to `TEMPLATE_MEMO_FACES` triangles; callers
+    never modify the parts (placing makes new arrays)."""
+    st = asset.stat()
+    key = (str(asset.resolve()), st.st_mtime_ns, st.st_size, float(units))
+    hit = _TEMPLATES.get(key)
+    if hit is not None:
+        _TEMPLATES.move_to_end(key)
+        return hit
+    mesh = load_mesh(asset, units=units, up="+Z", kind="scene")  # +Z: no axis change here; the frame is below
+    TEMPLATE_LOADS.append(key[0])
+    _TEMPLATES[key] = mesh
+    total = sum(m.face_count for m in _TEMPLATES.values())
+    while total > TEMPLATE_MEMO_FACES and len(_TEMPLATES) > 1:
+        _k, old = _TEMPLATES.popitem(last=False)
+        total -= old.face_count
+    return mesh
 
 
 def _frame(attrs: dict[str, Any], where: Path) -> np.ndarray:
@@ -525,7 +729,7 @@ def _placed_parts(attrs: dict[str, Any], base: Path, inst: dict[str, Any], origi
         raise InputError(display_path(where), f"render asset '{attrs.get('render_asset', '')}' of template "
                                               f"'{inst.get('template_name')}' not found (looked at {display_path(asset)})")
     units = float(attrs.get("units_to_meters", 1.0))
-    mesh = load_mesh(asset, units=units, up="+Z", kind="scene")  # +Z: no axis change here; the frame is below
+    mesh = load_template(asset, units)
     frame = _frame(attrs, asset)
     scale = np.asarray(attrs.get("scale", [1.0, 1.0, 1.0]), dtype=float) * np.asarray(
         inst.get("non_uniform_scale", [1.0, 1.0, 1.0]), dtype=float) * float(inst.get("uniform_scale", 1.0))
@@ -558,25 +762,31 @@ def _node_extras(asset: Path) -> dict[str, dict[str, Any]]:
     return {str(n.get("name", "")): n.get("extras") or {} for n in doc.get("nodes", []) if isinstance(n, dict)}
 
 
-def _semantic_config(scene_doc: dict[str, Any], scene: Path, ds: _Dataset, reg: _Registry) -> dict[str, Any]:
-    """Return the scene's semantic config (lexicon, region annotations), or {} when it names none that exists."""
+def _semantic_config_path(scene_doc: dict[str, Any], scene: Path, ds: _Dataset, reg: _Registry) -> Path | None:
+    """Return the scene's semantic config file (lexicon, region annotations), or None when it names none that exists."""
     handle = scene_doc.get("semantic_scene_instance")
     sec = ds.doc.get("scene_instances") or {}
     if not handle and isinstance(sec, dict):
         handle = (sec.get("default_attributes") or {}).get("semantic_scene_instance")
     if not handle:
-        return {}
+        return None
     stem = scene.name[: -len(SCENE_INSTANCE)] if scene.name.lower().endswith(SCENE_INSTANCE) else scene.stem
     handle = str(handle).replace("%%CONFIG_NAME_AS_ASSET_FILENAME%%", stem)
     ssd = ds.doc.get("semantic_scene_descriptor_instances") or {}
     target = str(ssd.get(handle, handle)) if isinstance(ssd, dict) else str(handle)
     direct = ds.root / target
     if direct.is_file():
-        return _read_json(direct)
+        return direct
     for f in reg.files("semantic_scene_descriptor_instances", ".semantic_config.json"):
         if Path(target).name in f.name:
-            return _read_json(f)
-    return {}
+            return f
+    return None
+
+
+def _semantic_config(scene_doc: dict[str, Any], scene: Path, ds: _Dataset, reg: _Registry) -> dict[str, Any]:
+    """Return the scene's semantic config (lexicon, region annotations), or {} when it names none that exists."""
+    path = _semantic_config_path(scene_doc, scene, ds, reg)
+    return _read_json(path) if path is not None else {}
 
 
 def _rooms(semantic: dict[str, Any], where: Path) -> list[Room]:
@@ -601,18 +811,14 @@ def _rooms(semantic: dict[str, Any], where: Path) -> list[Room]:
 def read_habitat(path: str | Path) -> Reading:
     """Read a Habitat scene dataset's scene instance (stage + placed objects, semantics, regions)."""
     scene, ds = _scene_and_dataset(Path(path))
-    reg = _Registry(ds)
-    doc = _read_json(scene)
-    if not isinstance(doc, dict) or not isinstance(doc.get("stage_instance"), dict):
-        raise InputError(display_path(scene), "no 'stage_instance' object: not a Habitat scene instance")
+    reg = _registry(ds.path)
+    doc = _scene_doc(scene, reg)
     origin = str(doc.get("translation_origin", "asset_local"))
     semantic = _semantic_config(doc, scene, ds, reg)
     lexicon = {int(c["id"]): str(c["name"]) for c in semantic.get("classes", []) if "id" in c and "name" in c}
     rooms = _rooms(semantic, scene)
     pairs: list[tuple[Part, int]] = []
     meta: dict[int, dict[str, Any]] = {}
-    from .scene import label_from_node
-
     stage_inst = doc["stage_instance"]
     attrs, base = reg.resolve("stages", str(stage_inst.get("template_name", "")), scene)
     stage_parts = _placed_parts(attrs, base, stage_inst, origin, scene)
@@ -675,6 +881,7 @@ def _assign_rooms(pairs: list[tuple[Part, int]], meta: dict[int, dict[str, Any]]
                 break
 
 
-__all__ = ["Reading", "input_files", "is_companion", "layout_of", "read_habitat", "read_house", "read_hm3d", "read_mp3d",
+__all__ = ["Reading", "dataset_members", "dataset_of", "input_files", "is_companion", "layout_of", "read_habitat",
+           "scene_files", "read_house", "read_hm3d", "read_mp3d",
            "read_semantic_txt",
            "split_by_face_instance"]

@@ -364,3 +364,18 @@ def surface_samples(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> 
         out.append(p.reshape(-1, 3))
         ids.append(np.repeat(sel, len(b)))
     return np.concatenate(out), np.concatenate(ids)
+
+
+def nearly_convex(tm: Any, chull: Any, threshold: float, samples: int = 2000) -> bool:
+    """Return whether the convex hull stays within CoACD's concavity threshold of the surface.
+
+    A hull whose surface lies within threshold x half the largest extent of the mesh (CoACD normalises
+    to [-1, 1]) everywhere (a can's
+    recessed lid, a box's rounded edges) becomes the single collision hull without running CoACD.
+    """
+    import trimesh
+
+    pts, _ = trimesh.sample.sample_surface(chull, samples, seed=0)
+    pts = np.concatenate([pts, np.asarray(chull.vertices)])
+    _closest, dist, _tri = trimesh.proximity.closest_point(tm, pts)
+    return float(np.max(dist)) <= threshold * 0.5 * float(tm.extents.max())

@@ -137,21 +137,23 @@ def read_json(path: str | os.PathLike[str]) -> Any:
 
 def _gltf_json(path: Path) -> dict[str, Any]:
     """Return the JSON chunk of a glTF or GLB; raise on truncated or corrupt files."""
-    data = path.read_bytes()
-    if path.suffix.lower() == ".glb":
-        if len(data) < 20:
-            raise InputError(display_path(path), f"truncated GLB: {len(data)} bytes, shorter than the 20-byte header")
-        magic, _version, length = struct.unpack("<4sII", data[:12])
-        if magic != b"glTF":
-            raise InputError(display_path(path), "not a GLB file (bad magic bytes)")
-        if length > len(data):
-            raise InputError(display_path(path), f"truncated GLB: header says {length} bytes, file has {len(data)}")
-        clen, ctype = struct.unpack("<II", data[12:20])
-        if ctype != 0x4E4F534A or 20 + clen > len(data):
-            raise InputError(display_path(path), "corrupt GLB: bad JSON chunk")
-        raw = data[20 : 20 + clen]
+    if path.suffix.lower() == ".glb":  # the header and the JSON chunk only: a scan's binary chunk is not read here
+        size = path.stat().st_size
+        with open(path, "rb") as fh:
+            head = fh.read(20)
+            if len(head) < 20:
+                raise InputError(display_path(path), f"truncated GLB: {len(head)} bytes, shorter than the 20-byte header")
+            magic, _version, length = struct.unpack("<4sII", head[:12])
+            if magic != b"glTF":
+                raise InputError(display_path(path), "not a GLB file (bad magic bytes)")
+            if length > size:
+                raise InputError(display_path(path), f"truncated GLB: header says {length} bytes, file has {size}")
+            clen, ctype = struct.unpack("<II", head[12:20])
+            if ctype != 0x4E4F534A or 20 + clen > size:
+                raise InputError(display_path(path), "corrupt GLB: bad JSON chunk")
+            raw = fh.read(clen)
     else:
-        raw = data
+        raw = path.read_bytes()
     try:
         return json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
@@ -184,15 +186,31 @@ GPU_TEXTURE_EXTENSIONS = ("KHR_texture_basisu", "GOOGLE_texture_basis", "EXT_tex
 
 
 def _check_colour_textures(path: Path, doc: dict[str, Any]) -> None:
-    """Raise InputError when a base-colour texture is in a GPU encoding (KTX2 / Basis) that cannot be decoded here.
+    """Raise InputError when a base-colour texture is in a GPU encoding that cannot be decoded here.
 
-    trimesh reads images through Pillow; a KTX2 or Basis texture is dropped without a word and the model would
-    come out untextured (a scene's renders then feed the detectors grey surfaces).
+    trimesh reads images through Pillow; a KTX2 or Basis texture would be dropped without a word and the model
+    would come out untextured (a scene's renders then feed the detectors grey surfaces). KTX2 (Basis Universal or
+    plain 8-bit pixels) and ``.basis`` images are decoded (`gputex`); their headers are checked here, before any
+    loading. Other GPU encodings (DDS, ASTC, KTX1) are refused.
     """
+    from . import gputex
+
     textures, images = doc.get("textures", []), doc.get("images", [])
+    decodable = gputex.gpu_colour_images(doc)
+    binary: Any = b""
     for mat in doc.get("materials", []):
         idx = mat.get("pbrMetallicRoughness", {}).get("baseColorTexture", {}).get("index")
         if idx is None or not 0 <= idx < len(textures):
+            continue
+        if idx in decodable:
+            if not binary and path.suffix.lower() == ".glb":
+                binary = _GlbBinary(path)
+            head = gputex.image_bytes(doc, binary, decodable[idx], path.parent, display_path(path), limit=80)
+            why = gputex.header_problem(head)
+            if why:
+                raise InputError(display_path(path), f"material '{mat.get('name', '')}' has a base-colour texture "
+                                 f"that cannot be decoded here ({why}), so the model would lose its look: use a copy "
+                                 "with PNG/JPEG textures (HM3D: the plain <id>.glb of the glb package)")
             continue
         tex = textures[idx]
         src = tex.get("source")
@@ -204,8 +222,33 @@ def _check_colour_textures(path: Path, doc: dict[str, Any]) -> None:
             how = ext[0] if ext else (img.get("mimeType") or Path(str(img.get("uri", ""))).suffix)
             raise InputError(display_path(path), f"material '{mat.get('name', '')}' has its base-colour texture in a GPU "
                              f"encoding ({how}) that cannot be decoded here, so the model would lose its look: use a "
-                             "copy with PNG/JPEG textures (HM3D: the plain <id>.glb of the glb package, not "
-                             "<id>.basis.glb)")
+                             "copy with PNG/JPEG textures (KTX2 and Basis Universal images are read; DDS, ASTC and "
+                             "KTX1 are not)")
+
+
+class _GlbBinary:
+    """The BIN chunk of a GLB, read by slices from the file (a header check reads a few bytes of a large scan)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        with open(path, "rb") as fh:
+            fh.seek(12)
+            clen = struct.unpack("<I", fh.read(4))[0]
+            fh.seek(20 + clen)
+            head = fh.read(8)
+        self.start = 20 + clen + 8 if len(head) == 8 and struct.unpack("<II", head)[1] == 0x004E4942 else -1
+        self.size = struct.unpack("<II", head)[0] if self.start >= 0 else 0
+
+    def __bool__(self) -> bool:
+        return True
+
+    def __getitem__(self, sl: slice) -> bytes:
+        if self.start < 0:
+            return b""
+        a, b = max(0, sl.start or 0), min(self.size, self.size if sl.stop is None else sl.stop)
+        with open(self.path, "rb") as fh:
+            fh.seek(self.start + a)
+            return fh.read(max(0, b - a))
 
 
 def _gltf_references(path: Path) -> list[Path]:
@@ -239,11 +282,11 @@ def _gltf_references(path: Path) -> list[Path]:
                 raise InputError(display_path(path), f"{what} '{uri}' is empty (0 bytes)")
             refs.append(p)
     if path.suffix.lower() == ".glb":
-        data = path.read_bytes()
+        size = path.stat().st_size
         for buf in doc.get("buffers", []):
             if "uri" not in buf:
                 need = int(buf.get("byteLength", 0))
-                if len(data) < 20 + need:
+                if size < 20 + need:
                     raise InputError(display_path(path), f"truncated GLB: binary chunk needs {need} bytes")
     return refs
 
@@ -419,7 +462,18 @@ def load_mesh(path: str | Path, units: str | float = "auto", up: str = "auto", k
     files = referenced_files(path)
     where = display_path(path)
     try:
-        scene = trimesh.load(str(path), force="scene", process=False)
+        decoded = None
+        if path.suffix.lower() in (".glb", ".gltf"):
+            from .gputex import decoded_gltf
+
+            decoded = decoded_gltf(path)  # KTX2 / Basis base-colour images -> PNG (HM3D's *.basis.glb)
+        if decoded is not None:
+            from trimesh.resolvers import FilePathResolver
+
+            scene = trimesh.load(decoded[0], file_type=decoded[1], force="scene", process=False,
+                                 resolver=FilePathResolver(str(path)))
+        else:
+            scene = trimesh.load(str(path), force="scene", process=False)
     except InputError:
         raise
     except Exception as e:  # noqa: BLE001 - any parser failure is a bad input

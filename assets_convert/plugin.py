@@ -54,9 +54,14 @@ class MeshConverter:
         return CONVERTER_VERSION
 
     def convert_scene(self, path: str | Path, out_root: str | Path, name: str, cfg: ConvertConfig) -> SceneAsset:
-        """Convert one scene file into ``<out_root>/scenes/<name>/`` and return its SceneAsset."""
-        from .scene import convert_scene
+        """Convert one scene file into ``<out_root>/scenes/<name>/`` and return its SceneAsset; a converted scene's
+        folder (`scene_files`) is used as it is (its files linked in, nothing converted again)."""
+        from .scene import convert_scene, link_converted
 
+        if Path(path).is_dir():
+            asset = link_converted(path, out_root, name)
+            atomic_write_text(Path(out_root) / "scenes" / name / "asset.json", asset.to_json())
+            return asset
         asset = convert_scene(Path(path), out_root, name=name, units=cfg.units, up=cfg.up,
                               texture_max_size=cfg.texture_max_size, add_floor=cfg.add_floor)
         asset.source = provenance(path, out_root)
@@ -75,7 +80,7 @@ class MeshConverter:
         """
         from .cache import link_tree
         from .load import display_path
-        from .object import load_converted
+        from .objcache import load_converted
         from .tree import convert_tree
 
         assets: list[ObjectAsset] = []
@@ -116,7 +121,7 @@ class MeshConverter:
         """Return the category converting an object file gives it when none is named (``assets.yaml`` metadata, else
         `object.default_category` with the library folder it was found in); None for a part of a multi-part object
         (its group's category applies)."""
-        from .object import library_category
+        from .naming import library_category
 
         return library_category(path, library)
 
@@ -127,11 +132,28 @@ class MeshConverter:
 
         return {display_path(f): skipped_reason(f, kind) for f in unsupported_models(Path(folder), kind)}
 
-    def scene_files(self, folder: str | Path) -> list[Path]:
-        """Return the scenes a folder holds (mesh files, Habitat scene instances; companions and dataset assets skipped)."""
+    def scene_files(self, path: str | Path) -> list[Path]:
+        """Return the scenes an input stands for, each a file or a converted scene's folder.
+
+        A converted scene's folder (its ``asset.json``, or a run's ``scene.json``) is one scene; a ``sdovon-mj
+        convert`` output or run folder, its ``scenes/<name>/`` folders; a Habitat ``*.scene_dataset_config.json``, its
+        scene instances (with none, its stages: HM3D, MP3D); another folder, the scene files in it (mesh files, the
+        members of the scene dataset configs in it; companions and dataset assets skipped); a file, itself.
+        """
+        from .scene import converted_scenes
         from .tree import find_inputs
 
-        return find_inputs(Path(folder), kind="scene")
+        path = Path(path)
+        if path.is_dir():
+            return converted_scenes(path) or find_inputs(path, kind="scene")
+        return find_inputs(path, kind="scene")
+
+    def check_scene(self, path: str | Path) -> None:
+        """Check one scene input before any work: every file it references exists and parses (InputError naming
+        the file otherwise); see `scene.check_scene`."""
+        from .scene import check_scene
+
+        check_scene(path)
 
     def extra_inputs(self, path: str | Path) -> list[Path]:
         """Return the files besides `path` that its conversion reads and a stage fingerprint must cover.
@@ -143,6 +165,10 @@ class MeshConverter:
         from .metadata import meta_for
 
         path = Path(path)
+        if path.is_dir():  # a converted scene: its record (content hash of the conversion's inputs), MJCF, mesh
+            from .scene import converted_files
+
+            return converted_files(path)
         out = list(meta_for(path).sources)
         from .articulated_scene import input_files as articulated_inputs
 

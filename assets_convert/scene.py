@@ -14,6 +14,7 @@ scans, else one instance per mesh node labelled from its node name.
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 from pathlib import Path
@@ -30,43 +31,11 @@ from sdovon_mj.config import ConvertConfig
 from . import articulated_scene, cache, habitat
 from .metadata import AssetMeta, meta_for, receptacle_flag
 from .load import Material, Part, display_path, load_mesh, read_json as _read_json, referenced_files
-from .object import sanitize
+from .naming import LABEL_RULES, PRIMITIVES, label_from_node, sanitize  # noqa: F401 (re-exported)
 from .writer import AssetWriter, clean_part, fmt, render_template, xml_attr
 
 
 FLOOR_MARGIN = 0.5  # m around the footprint of an added floor: an agent (radius ~0.2 m) can walk round the scene's edge
-LABEL_RULES = 2  # version of `label_from_node` (part of the cache key of scenes labelled by node names)
-PRIMITIVES = frozenset({"box", "cube", "cuboid", "cylinder", "sphere", "capsule", "plane", "mesh", "geom", "ellipsoid",
-                        "cone", "torus", "prism", "primitive", "shape", "quad"})
-
-
-def label_from_node(node: str) -> str:
-    """Return a category label from a node or file name, normalised as artists name parts.
-
-    'frl_apartment_chair_05' -> 'frl apartment chair'; 'Cube.001' -> 'cube'; 'mug_Cylinder.002' -> 'mug'; a fixture
-    name with a number followed by a part name and a primitive type, 'stove1 burner box' or
-    'kitchen_cabinet_2_door_cylinder', -> 'stove', 'kitchen cabinet': the name ends at its first numbered word when
-    more words follow it (they name a part of that numbered fixture), and a trailing capitalised primitive name
-    (Box, Cylinder, Mesh, ... as modelling tools name new primitives) goes when a word is left ('cracker box' stays).
-    """
-    s = re.sub(r"\.\d+$", "", node)
-    s = re.sub(r"[_\-\s]*[0-9a-f]{6}$", "", s) if re.search(r"_[0-9a-f]{6}$", s) else s
-    s = re.sub(r"(\d)\.\d+(?=[_\-\s]|$)", r"\1", s)  # Blender duplicates inside: 'Shelf_03.002_Cube' -> 'Shelf_03_Cube'
-    raw = re.sub(r"[_\-]+", " ", s).split()
-    words = [w.lower() for w in raw]
-    for k, w in enumerate(words[:-1]):
-        m = re.fullmatch(r"([a-z][a-z ]*?)?\d+", w)
-        if m and (m.group(1) or k > 0):
-            words, raw = words[:k] + ([m.group(1)] if m.group(1) else []), raw[:k] + ([m.group(1)] if m.group(1) else [])
-            break
-    # a trailing primitive name written as a modelling tool names a new primitive ('mug_Cylinder') is no category
-    while len(words) > 1 and words[-1] in PRIMITIVES and raw[-1][:1].isupper():
-        words.pop()
-        raw.pop()
-    s = re.sub(r"\s*\d+$", "", " ".join(words)).strip()
-    return s or "object"
-
-
 def _sidecar_for(path: Path) -> Path | None:
     """Return `<stem>.semantics.json` beside a scene file (stem without ScanNet suffixes)."""
     stem = re.sub(r"_vh_clean(_2)?$", "", path.stem)
@@ -237,7 +206,7 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         elif layout == "habitat":
             reading = habitat.read_habitat(path)
         asset = _build_scene(path, tmp, name, units, up, sidecar, scannet, placements if use_placements else None,
-                             texture_max_size, reading, add_floor, meta)
+                             texture_max_size, reading, add_floor, meta, None if root is None else root / "textures")
         if art_sidecar is not None:
             asset = articulated_scene.add_articulated(tmp, path, asset, art_sidecar,
                                                       ConvertConfig(texture_max_size=texture_max_size), cache_dir)
@@ -251,14 +220,127 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
     return _relocate(asset, name)
 
 
+CONVERTED_RECORDS = ("asset.json", "scene.json")  # what marks a converted scene's folder (convert output; a run's)
+RUN_STAGE_DIRS = ("convert", "observe", "perceive", "semantics", "variants")  # a run's later stages, not the scene
+
+
+def converted_record(folder: str | Path) -> Path | None:
+    """Return the SceneAsset record that makes a folder a converted scene (``asset.json``, else a run's
+    ``scene.json``), or None: the folder is recognised by that record, never by the files beside it."""
+    for name in CONVERTED_RECORDS:
+        p = Path(folder) / name
+        if p.is_file():
+            return p
+    return None
+
+
+def converted_scenes(folder: str | Path) -> list[Path]:
+    """Return the converted scene folders a folder stands for: itself when it is one, the ``scenes/<name>/``
+    folders of a convert output or run folder, else []."""
+    folder = Path(folder)
+    if converted_record(folder) is not None:
+        return [folder]
+    scenes = folder / "scenes"
+    return sorted(d for d in scenes.iterdir() if d.is_dir() and converted_record(d) is not None) \
+        if scenes.is_dir() else []
+
+
+def read_converted(folder: str | Path) -> SceneAsset:
+    """Return the SceneAsset of a converted scene folder; raise InputError naming what is missing or unreadable."""
+    folder = Path(folder)
+    record = converted_record(folder)
+    if record is None:
+        raise InputError(display_path(folder), "not a converted scene: no asset.json or scene.json in it")
+    try:
+        asset = SceneAsset.from_json(record.read_text(encoding="utf-8"))
+    except Exception as e:  # noqa: BLE001 - a damaged or foreign record is a bad input
+        raise InputError(display_path(record), f"not a SceneAsset record: {type(e).__name__}: {e}") from None
+    for rel in (asset.mjcf, asset.mesh):
+        p = folder / Path(rel).name
+        if not p.is_file():
+            raise InputError(display_path(folder), f"converted scene is incomplete: {Path(rel).name} is missing")
+    return asset
+
+
+def converted_files(folder: str | Path) -> list[Path]:
+    """Return the files that identify a converted scene (record, MJCF, mesh sidecar) for fingerprints; the record's
+    ``content_hash`` is the conversion's cache key, which covers its inputs (textures and meshes under assets/)."""
+    folder = Path(folder)
+    asset = read_converted(folder)
+    return [p for p in (converted_record(folder), folder / Path(asset.mjcf).name, folder / Path(asset.mesh).name) if p]
+
+
+def link_converted(folder: str | Path, out_dir: str | Path, name: str) -> SceneAsset:
+    """Use a converted scene folder as it is: hard-link (else copy) its conversion files into
+    ``<out_dir>/scenes/<name>/`` (a run's later stage folders left out) and return its SceneAsset there."""
+    folder = Path(folder)
+    asset = read_converted(folder)
+    target = Path(out_dir) / "scenes" / name
+    if folder.resolve() != target.resolve():
+        tmp = cache.scratch_dir(target)
+
+        def _link(s: str, d: str) -> None:
+            try:
+                os.link(s, d)
+            except OSError:
+                shutil.copy2(s, d)
+
+        try:
+            shutil.copytree(folder, tmp, copy_function=_link, dirs_exist_ok=True,
+                            ignore=shutil.ignore_patterns(cache.ENTRY, "scene.json", ".*", *RUN_STAGE_DIRS))
+            cache.replace_dir(tmp, target)
+        finally:
+            if tmp.exists():
+                shutil.rmtree(tmp, ignore_errors=True)
+    asset.name = name
+    return _relocate(asset, name)
+
+
+def check_scene(path: str | Path) -> None:
+    """Check a scene input before any conversion: every file it references exists and parses as its format (JSON,
+    glTF headers and buffers, HM3D ``.semantic.txt``, Matterport ``.house``); raise InputError naming the first
+    file that does not. A converted scene folder must hold its record, MJCF and mesh sidecar. Mesh contents are
+    read by the conversion itself (a corrupt triangle list fails that scene's task, not the run)."""
+    path = Path(path)
+    if path.is_dir():
+        read_converted(path)
+        return
+    layout = habitat.layout_of(path)
+    if layout == "habitat":
+        habitat.scene_files(path)
+    elif layout == "hm3d":
+        base = habitat._hm3d_base(path)
+        referenced_files(path)
+        sem = Path(f"{base}.semantic.glb")
+        if not sem.is_file():
+            raise InputError(display_path(sem), "missing: an HM3D scene needs its .semantic.glb beside the .glb")
+        referenced_files(sem)
+        habitat.read_semantic_txt(Path(f"{base}.semantic.txt"))
+    elif layout == "mp3d":
+        base = path.parent / path.stem
+        referenced_files(path)
+        if not Path(f"{base}_semantic.ply").is_file():
+            raise InputError(display_path(Path(f"{base}_semantic.ply")), "missing: a Matterport3D scene needs its "
+                                                                         "_semantic.ply beside the .glb")
+        habitat.read_house(Path(f"{base}.house"))
+    else:
+        referenced_files(path)
+        sidecar = _sidecar_for(path)
+        if sidecar is not None:
+            _read_json(sidecar)
+        if articulated_scene.sidecar_for(path) is not None:
+            articulated_scene.input_files(path)
+    meta_for(path)  # assets.yaml / <file>.yaml parse
+
+
 def _default_name(path: Path, layout: str | None) -> str:
     """Return a scene's default name: the file stem without ScanNet, HM3D (.basis) or Habitat config suffixes."""
     if layout == "habitat":
         n = path.name
-        for suffix in (habitat.SCENE_INSTANCE, habitat.DATASET_CONFIG):
+        for suffix in (habitat.SCENE_INSTANCE, habitat.DATASET_CONFIG, habitat.STAGE_CONFIG):
             if n.lower().endswith(suffix):
                 return n[: -len(suffix)]
-    if layout in ("hm3d", "mp3d"):
+    if layout in ("hm3d", "mp3d", "habitat"):
         return re.sub(r"\.basis$", "", path.stem)
     return re.sub(r"_vh_clean(_2)?$", "", path.stem)
 
@@ -318,7 +400,7 @@ def _placements_parts_files_only(placements: Path) -> tuple[None, None, list[Pat
 def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str, sidecar: dict | None,
                  scannet: tuple[Path, Path] | None, placements: Path | None, texture_max_size: int,
                  reading: habitat.Reading | None = None, add_floor: bool = False,
-                 asset_meta: AssetMeta | None = None) -> SceneAsset:
+                 asset_meta: AssetMeta | None = None, texture_cache: Path | None = None) -> SceneAsset:
     """Load, group by instance and material, and write one scene into folder `work` (`reading`: a dataset reader's).
 
     `asset_meta` (the file's assets.yaml metadata) may force or forbid instances as receptacles (`receptacle`, `nodes`).
@@ -363,7 +445,7 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
         inst_meta[iid] = {"id": iid, "label": "floor", "kind": "structure", "name": "added_floor"}
         pairs = [*pairs, (slab, iid)]
 
-    writer = AssetWriter(work / "assets", texture_max_size)
+    writer = AssetWriter(work / "assets", texture_max_size, texture_cache)
     geoms: list[str] = []
     by_inst: dict[int, list[Part]] = {}
     for p, iid in pairs:
@@ -493,4 +575,5 @@ def _check_compiles(xml: Path, where: str) -> None:
         raise InputError(where, f"converted scene does not compile in MuJoCo: {e}") from None
 
 
-__all__ = ["convert_scene", "label_from_node", "xml_attr"]
+__all__ = ["check_scene", "convert_scene", "converted_files", "converted_record", "converted_scenes", "label_from_node", "link_converted",
+           "read_converted", "xml_attr"]

@@ -8,6 +8,7 @@ mass, seconds, cache hit.
 
 from __future__ import annotations
 
+import functools
 import multiprocessing as mp
 import os
 import sys
@@ -32,15 +33,29 @@ OTHER_MODEL_SUFFIXES = (".dae", ".fbx", ".3ds", ".blend", ".usd", ".usda", ".usd
 
 
 def _in_habitat_dataset(f: Path, top: Path) -> bool:
-    """Return whether a mesh is an asset of a Habitat scene dataset under `top` (its scene instances are the scenes)."""
-    if f.name.lower().endswith(habitat.SCENE_INSTANCE):
-        return False
+    """Return whether a file lies in a Habitat scene dataset's folder under `top` (a config beside it or above it, up
+    to `top`): its scenes are the dataset's members (`habitat.dataset_members`), its other files are their assets."""
     for anc in f.parents:
-        if any(anc.glob(f"*{habitat.DATASET_CONFIG}")):
+        if _holds_config(anc):
             return True
         if anc == top:
             break
     return False
+
+
+@functools.lru_cache(maxsize=4096)
+def _holds_config(folder: Path) -> bool:
+    """Return whether a folder holds a scene dataset config (memoised: a dataset's folders are asked once each)."""
+    return any(folder.glob(f"*{habitat.DATASET_CONFIG}"))
+
+
+def dataset_scenes(folder: Path) -> list[Path]:
+    """Return the scenes of the Habitat scene dataset configs in a folder tree (each scene once, sorted)."""
+    found: set[Path] = set()
+    for cfg in sorted(folder.rglob(f"*{habitat.DATASET_CONFIG}")):
+        if not any(part.startswith(".") for part in cfg.relative_to(folder).parts):
+            found.update(habitat.dataset_members(cfg))
+    return sorted(found, key=lambda f: os.fsencode(str(f)))
 
 
 def known_suffixes(kind: str = "object") -> tuple[str, ...]:
@@ -64,7 +79,14 @@ def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Pa
     roots: dict[Path, Path] = {}
     for item in items:
         p = Path(item)
+        if kind == "scene" and p.is_file() and p.name.lower().endswith(habitat.DATASET_CONFIG):
+            out.extend(habitat.dataset_members(p))  # a scene dataset: each of its scenes
+            continue
         if p.is_dir():
+            if kind == "scene":
+                members = dataset_scenes(p)
+                out.extend(members)
+                roots.update({f: p for f in members})
             for f in sorted(p.rglob("*")):
                 if not f.is_file() or any(part.startswith(".") for part in f.relative_to(p).parts):
                     continue
@@ -73,7 +95,8 @@ def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Pa
                     folder_urdfs.append(f)
                 elif suffix in OTHER_MODEL_SUFFIXES:
                     other.append(f)
-                scene_cfg = kind == "scene" and f.name.lower().endswith(habitat.SCENE_INSTANCE)
+                scene_cfg = kind == "scene" and f.name.lower().endswith(habitat.SCENE_INSTANCE) \
+                    and not _in_habitat_dataset(f, p)  # a dataset's scene instances: its members, above
                 urdf = kind == "object" and suffix == URDF_SUFFIX
                 if (suffix in SUPPORTED or scene_cfg or urdf) and not f.name.startswith(SKIP_PREFIXES):
                     if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or _in_habitat_dataset(f, p)):
@@ -143,7 +166,7 @@ def _placed_by_sibling(f: Path) -> bool:
 def _tell_apart(tasks: list[dict[str, Any]]) -> None:
     """Give object tasks that would share a name (one output folder) distinct ones: the first in input order keeps
     it, the others get ``_2``, ``_3``, ... (a free name), and a ``renamed`` note for their report row."""
-    from .object import object_name
+    from .naming import object_name
 
     taken: dict[str, str] = {}
     names = [object_name(t["path"], t.get("name")) for t in tasks]
@@ -297,7 +320,7 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
     cfg = config or ConvertConfig()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    from .object import library_category
+    from .naming import library_category
 
     files, skipped, roots = _scan(inputs, kind)
     timeout = float(timeout if timeout is not None else cfg.timeout_s)

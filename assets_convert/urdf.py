@@ -572,7 +572,7 @@ def _primitive_attrs(g: Geometry) -> str:
 
 def _unique(name: str, used: set[str]) -> str:
     """Return a sanitized MJCF name not yet in `used` (and record it)."""
-    from .object import sanitize
+    from .naming import sanitize
 
     base = sanitize(name)
     out, k = base, 1
@@ -601,8 +601,7 @@ def write_mjcf(robot: Robot, work: Path, name: str, density: float, cfg: Convert
     """
     import trimesh
 
-    from .hulls import clean_hulls, decompose, hull_volume
-    from .object import _nearly_convex
+    from .hulls import clean_hulls, decompose, hull_volume, nearly_convex
     from .writer import AssetWriter, clean_part, fmt, merge_parts
 
     where = display_path(robot.path)
@@ -674,7 +673,7 @@ def write_mjcf(robot: Robot, work: Path, name: str, density: float, cfg: Convert
                 chull = tm.convex_hull
                 if float(chull.volume) <= 1e-12:
                     raise InputError(where, f"link '{lname}': its visual mesh is flat and it has no <collision>")
-                if _nearly_convex(tm, chull, float(cfg.coacd_threshold)):
+                if nearly_convex(tm, chull, float(cfg.coacd_threshold)):
                     hulls = clean_hulls([(np.asarray(chull.vertices), np.asarray(chull.faces))], maxv)
                 else:
                     hulls = decompose(tm.vertices, tm.faces, cfg)
@@ -847,7 +846,8 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
     """
     from . import cache
     from .metadata import meta_for
-    from .object import cached_object, default_category, density_for, object_name
+    from .naming import default_category, density_for, object_name
+    from .objcache import cached_object
 
     t0 = time.perf_counter()
     cfg = config or ConvertConfig()

@@ -25,6 +25,12 @@ and prints each stage's top N functions by own time (0: skip).
     python bench/bench_generate.py --scenes 1 --variants 2 --no-scan    # quicker
     python bench/bench_generate.py --full 3k            # the SD-OVON-3k-size job, measured (idle machine!)
     python bench/bench_generate.py --full 3k --set world.preset=house    # the same on houses
+    python bench/bench_generate.py --big                # the HM3D-size scene (>= 500 instances, >= 1.5 M triangles)
+
+``--big`` writes one scene of HM3D-Semantics size with the HM3D layout writer (`big_hm3d_scene`: default-world
+apartments side by side, their triangles split until the scene has ``--big-faces``; HM3DSem averages about 660
+instances per scene) and runs it through `generate` in one worker, printing each stage's wall seconds and peak
+resident memory (goal: < 4 GB per worker).
 """
 
 from __future__ import annotations
@@ -171,6 +177,87 @@ def profile_stages(out: Path, cfg, top: int) -> None:
     shutil.rmtree(copy, ignore_errors=True)
 
 
+def big_hm3d_scene(out: Path, apartments: int = 12, faces: int = 1_500_000) -> Path:
+    """Write one HM3D-layout scene of `apartments` default-world apartments (one floor each) side by side in a grid,
+    every triangle split 1-to-4 (the largest first in the last round) until the scene has at least `faces`
+    triangles; return its ``<name>.glb``. Instance and room ids are renumbered; labels and room types are kept."""
+    import dataclasses
+
+    import numpy as np
+
+    from sdovon_mj.world import WorldMesh, generate_apartment, write_apartment
+
+    apts = [generate_apartment(seed, floors=1) for seed in range(apartments)]
+    cols = int(np.ceil(np.sqrt(apartments)))
+    verts, tris, finst, fcol, fmat, insts, rooms = [], [], [], [], [], [], []
+    nv = 0
+    for k, apt in enumerate(apts):
+        off = np.array([(k % cols) * 12.0, (k // cols) * 12.0, 0.0])  # apartments are under 10 m across
+        room_of = {r.id: len(rooms) + j for j, r in enumerate(apt.rooms)}
+        rooms += [dataclasses.replace(r, id=room_of[r.id], polygon=np.asarray(r.polygon) + off[:2]) for r in apt.rooms]
+        inst_of = {i.id: len(insts) + j for j, i in enumerate(apt.instances)}
+        insts += [dataclasses.replace(i, id=inst_of[i.id], room=room_of.get(i.room, -1)) for i in apt.instances]
+        m = apt.mesh
+        verts.append(m.vertices + off)
+        tris.append(m.faces + nv)
+        nv += len(m.vertices)
+        finst.append(np.vectorize(inst_of.get)(m.face_instance).astype(np.int32))
+        fcol.append(m.face_color)
+        fmat.append(m.face_material)
+    v, f = np.concatenate(verts), np.concatenate(tris)
+    attrs = [np.concatenate(finst), np.concatenate(fcol), np.concatenate(fmat)]
+    while len(f) < faces:  # split: a round of all triangles, or the largest ones when a round would overshoot
+        tri = v[f]
+        area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        n_split = len(f) if 4 * len(f) <= faces else int(np.ceil((faces - len(f)) / 3))
+        split = np.argsort(-area, kind="stable")[:n_split]
+        keep = np.setdiff1d(np.arange(len(f)), split)
+        a, b, c = f[split, 0], f[split, 1], f[split, 2]
+        mids = (v[a] + v[b]) / 2, (v[b] + v[c]) / 2, (v[c] + v[a]) / 2
+        base = len(v)
+        v = np.concatenate([v, *mids])
+        n = len(split)
+        ab, bc, ca = base + np.arange(n), base + n + np.arange(n), base + 2 * n + np.arange(n)
+        new = np.concatenate([np.stack(t, axis=1) for t in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))])
+        f = np.concatenate([f[keep], new])
+        attrs = [np.concatenate([x[keep], np.tile(x[split], (4,) + (1,) * (x.ndim - 1))]) for x in attrs]
+    mesh = WorldMesh(vertices=v, faces=f, face_instance=attrs[0], face_color=attrs[1], face_material=attrs[2])
+    big = dataclasses.replace(apts[0], instances=tuple(insts), rooms=tuple(rooms), mesh=mesh, doors=(), articulated=())
+    return write_apartment(big, out, mode="hm3d", name="big_hm3d")
+
+
+def run_big(args: argparse.Namespace, work: Path) -> None:
+    """Write the HM3D-size scene, run it through generate in one worker, print per-stage seconds and peak memory."""
+    from sdovon_mj.pipeline import peak_rss_mb, reset_peak_rss
+
+    reset_peak_rss()
+    t0 = time.perf_counter()
+    glb = big_hm3d_scene(work / "big_input", args.big_apartments, args.big_faces)
+    write_s, write_mb = time.perf_counter() - t0, peak_rss_mb()
+    lines = (glb.parent / "big_hm3d.semantic.txt").read_text().splitlines()[1:]
+    import trimesh
+
+    n_faces = len(trimesh.load(glb, force="mesh", process=False).faces)
+    print(f"big HM3D-layout scene {glb}: {len(lines)} labelled instances, {n_faces} triangles; written in "
+          f"{write_s:.0f} s, peak {write_mb:.0f} MiB", flush=True)
+    t0 = time.perf_counter()
+    from sdovon_mj.pipeline import check_inputs
+
+    check_inputs([str(glb)])
+    print(f"up-front input check: {time.perf_counter() - t0:.2f} s")
+    cfg = bench_config(args, [0], args.variants)
+    timings, wall = run_job(work / "big_job", cfg, 1, scenes=[str(glb)])
+    secs, peak, _count = per_stage(timings)
+    print(f"\nstage          seconds   peak MiB  (one worker; generate wall {wall:.0f} s)")
+    for k in sorted(secs, key=lambda k: -secs[k]):
+        print(f"  {k:<12} {secs[k]:9.1f} {peak.get(k, 0):9.0f}")
+    top = max(peak.values())
+    print(f"peak memory of a worker {top:.0f} MiB = {top / 1024:.2f} GiB (goal < 4 GB): "
+          f"{'OK' if top < 4 * 1024**3 / 2**20 else 'OVER'}")
+    print(f"load average (1, 5, 15 min): {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs "
+          "(figures taken on a shared machine are noisy)")
+
+
 def main() -> None:
     """Run the scaled job (+ the scan apartment) and print figures."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -192,7 +279,17 @@ def main() -> None:
     ap.add_argument("--full", choices=sorted(SIZES), default=None,
                     help="run the full-size job (3k: 8 x 45, 10k: 25 x 45 variants, 12 categories) and print "
                          "its measured wall time beside the extrapolation (run it on an idle machine)")
+    ap.add_argument("--big", action="store_true", help="only the HM3D-size scene: >= 500 instances, >= 1.5 M triangles")
+    ap.add_argument("--big-apartments", type=int, default=12, help="default-world apartments in the big scene")
+    ap.add_argument("--big-faces", type=int, default=1_500_000, help="triangles of the big scene")
     args = ap.parse_args()
+    if args.big:
+        work = Path(args.out or tempfile.mkdtemp(prefix="bench_generate_big_"))
+        work.mkdir(parents=True, exist_ok=True)
+        if args.variants == 6:
+            args.variants = 1
+        run_big(args, work)
+        return
     global FULL
     if args.full:
         FULL = SIZES[args.full]

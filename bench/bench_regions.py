@@ -1,12 +1,18 @@
 """Region map on default-world apartments: agreement with true room types per room type, and timing.
 
     python bench/bench_regions.py [--seeds 5] [--radius R] [--step D] [--plain-disc] [--votes both|walking|euclidean]
-                                  [--embeddings]
+                                  [--embeddings] [--labels]
 
 Ground-truth instances (one per furniture instance, from the apartment mesh), a NavMap rasterised
 from the room polygons, the offline backend. Prints, per room type, the share of navigable cells the
 region map labels with the true type; the number of distinct window label sets (= region-proposal
 questions an LLM backend would get); and seconds per map.
+
+``--labels`` (window votes as configured) compares where the labels come from: the default world's own labels; the
+scene written in the HM3D and Matterport3D layouts by the world writers and converted (labels from
+``.semantic.txt`` / ``.house``); and node names (`support.node_names`: every label rewritten as modelling
+tools and URDF files name parts, walls and floors as primitives), with the naming-noise rules of
+`semantics.regions.room_label` and without them (each label only normalised).
 """
 
 from __future__ import annotations
@@ -31,6 +37,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--votes", choices=("both", "walking", "euclidean"), default="both",
                     help="window vote weighting (semantics.region_votes); both: before/after table")
     ap.add_argument("--embeddings", action="store_true", help="also score the embedding fallback against the table")
+    ap.add_argument("--labels", action="store_true",
+                    help="per-room-type accuracy by label source: world, HM3D and MP3D layouts, node names (with and "
+                         "without the naming-noise rules)")
     args = ap.parse_args(argv)
 
     from sdovon_mj.config import SemanticsConfig
@@ -97,7 +106,87 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {k:<12} " + " ".join(row) + f"   {cells}")
     if args.embeddings:
         embedding_agreement(backend.priors)
+    if args.labels:
+        label_sources(args.seeds, cfg, backend)
     return 0
+
+
+def label_sources(seeds: int, cfg, backend) -> None:  # noqa: ANN001 - SemanticsConfig, a semantics Backend
+    """Print per-room-type accuracy of the region map by where the instance labels come from (see the docstring)."""
+    import tempfile
+    from pathlib import Path
+    from unittest import mock
+
+    import numpy as np
+
+    from assets_convert.scene import convert_scene
+    from sdovon_mj.records import Instance
+    from sdovon_mj.semantics import region_map, regions
+    from sdovon_mj.semantics.validate import normalise
+    from sdovon_mj.sim.model import load_scene_mesh
+    from support.groundtruth import apartment_instances, apartment_navmap, region_accuracy
+    from support.node_names import node_named_instances
+    from sdovon_mj.world import STRUCTURE_LABELS, generate_apartment, write_apartment
+
+    def converted(apt, mode: str, tmp: Path) -> list:
+        path = write_apartment(apt, tmp / mode, mode, f"apt{apt.seed}")
+        asset = convert_scene(path, tmp / f"out_{mode}", cache_dir="off")
+        v, f, fi = load_scene_mesh(tmp / f"out_{mode}" / asset.mesh)
+        out = []
+        for s in asset.instances:
+            faces = f[fi == s.id]
+            if len(faces) == 0:
+                continue
+            pts = np.concatenate([v[np.unique(faces)], v[faces].mean(axis=1)])
+            c = pts.mean(axis=0)
+            out.append(Instance(id=s.id, label=s.label, points=(pts - c).astype(np.float32), center=c, gt_id=s.id))
+        return out
+
+    def with_structure(apt) -> list:
+        """The apartment's instances, walls and floors included (an artist's scene has them as nodes too)."""
+        v, f, fi = (np.asarray(a) for a in (apt.mesh.vertices, apt.mesh.faces, apt.mesh.face_instance))
+        out = []
+        for inst in apt.instances:
+            faces = f[fi == inst.id]
+            if len(faces):
+                pts = np.concatenate([v[np.unique(faces)], v[faces].mean(axis=1)])
+                c = pts.mean(axis=0)
+                out.append(Instance(id=inst.id, label=inst.label, points=(pts - c).astype(np.float32), center=c,
+                                    gt_id=inst.id))
+        return out
+
+    sources = ("world labels", "hm3d layout", "mp3d layout", "node names", "node names, raw")
+    totals: dict[str, dict[str, list[int]]] = {s: {} for s in sources}
+    with tempfile.TemporaryDirectory(prefix="bench-regions-") as tmp:
+        for seed in range(seeds):
+            apt = generate_apartment(seed)
+            sets = {"world labels": apartment_instances(apt), "hm3d layout": converted(apt, "hm3d", Path(tmp)),
+                    "mp3d layout": converted(apt, "mp3d", Path(tmp))}
+            sets["node names"] = sets["node names, raw"] = node_named_instances(with_structure(apt), STRUCTURE_LABELS)
+            for fl in apt.floors:
+                nav = apartment_navmap(apt, fl.index)
+                for src in sources:
+                    if src == "node names, raw":
+                        with mock.patch.object(regions, "room_label", lambda label: normalise(label)):
+                            rm = region_map(sets[src], nav, backend, cfg)
+                    else:
+                        rm = region_map(sets[src], nav, backend, cfg)
+                    for k, (a, n) in region_accuracy(rm, apt, nav).items():
+                        t = totals[src].setdefault(k, [0, 0])
+                        t[0] += a
+                        t[1] += n
+    print(f"\nper room type by label source ({seeds} apartments, votes {cfg.region_votes}; share of navigable cells "
+          "labelled with the true type):")
+    print(f"  {'room type':<12} " + " ".join(f"{s:>16}" for s in sources) + "   cells")
+    types = sorted({k for t in totals.values() for k in t})
+    for k in types + ["all"]:
+        row, cells = [], 0
+        for src in sources:
+            t = totals[src]
+            a, n = (sum(v[0] for v in t.values()), sum(v[1] for v in t.values())) if k == "all" else tuple(t.get(k, (0, 0)))
+            row.append(f"{a / max(n, 1):>16.3f}")
+            cells = n
+        print(f"  {k:<12} " + " ".join(row) + f"   {cells}")
 
 
 def embedding_agreement(pri) -> None:  # noqa: ANN001 - a semantics.priors.Priors

@@ -333,7 +333,10 @@ class RunSummary:
         from . import stats
 
         st = stats.dataset_statistics(Path(self.run_root))
-        lines = [stats.summary_table(st), "", "seconds per stage (this run; 0 = skipped, already done):"]
+        lines = [stats.summary_table(st)]
+        if len(self.scenes) > 1:  # a dataset's scenes: one line each, a failed one with its cause
+            lines += ["", "per scene:"] + self.scene_lines(st)
+        lines += ["", "seconds per stage (this run; 0 = skipped, already done):"]
         for k, v in sorted(self.seconds.items(), key=lambda kv: -kv[1]):
             lines.append(f"  {k:<12} {v:8.2f}")
         fb = stats.llm_fallbacks(Path(self.run_root))
@@ -348,6 +351,23 @@ class RunSummary:
             if follow:
                 lines.append(f"  not run because of the failures above: {', '.join(follow)}")
         return "\n".join(lines)
+
+
+    def scene_lines(self, st: dict[str, Any]) -> list[str]:
+        """Return one line per scene of this run: its variants, placed objects and episodes, or why it failed."""
+        by_name = {sc.get("name"): sc for sc in st.get("scenes", [])}
+        failed: dict[str, str] = {}
+        for r in self.root_failures:
+            if r.spec.scene and r.spec.kind in ("scene", "variant"):
+                failed.setdefault(r.spec.scene, f"{r.spec.label}: {r.error}")
+        width = max(len(n) for n in self.scenes)
+        out = []
+        for name in self.scenes:
+            sc = by_name.get(name, {})
+            done = (f"{sc.get('variants', 0)} variants, {sc.get('placed_objects', 0)} objects, "
+                    f"{sc.get('episodes', 0)} episodes")
+            out.append(f"  {name:<{width}}  " + (f"FAILED {failed[name]}" if name in failed else done))
+        return out
 
 
 def package_versions() -> dict[str, str]:
@@ -419,16 +439,28 @@ def _input_problem(path: Path, known: tuple[str, ...]) -> str:
 def check_inputs(scenes: list[str] | None = None, objects: list[str] | None = None) -> None:
     """Check every scene and object input before any work; raise InputsError naming each bad one and why.
 
-    A scene must be a readable file of a known format whose first bytes fit it; an object is such a file or
-    a folder holding at least one. Contents are checked by the converter later (a corrupt mesh fails its task).
+    A scene must be a readable file of a known format whose first bytes fit it, and every file it references must
+    exist and parse (the converter plugin's ``check_scene``: a Habitat scene's dataset config, templates and render
+    assets, an HM3D scene's semantic files, a converted scene's record); an object is such a file or a folder holding
+    at least one. Mesh contents are read by the converter later (a corrupt mesh fails its scene's task).
     """
     from .stages import OBJECT_LIBRARY_SUFFIXES, OBJECT_SUFFIXES
 
+    from .stages import converter
+
     problems: list[tuple[str, str]] = []
+    check = getattr(converter(), "check_scene", None) if scenes else None
     for s in scenes or []:
-        why = _input_problem(Path(s), OBJECT_SUFFIXES + SCENE_CONFIG_SUFFIXES)
+        folder = Path(s).is_dir() and check is not None  # a converted scene's folder: the converter checks it
+        why = "" if folder else _input_problem(Path(s), OBJECT_SUFFIXES + SCENE_CONFIG_SUFFIXES)
         if why:
             problems.append((f"scene {_shown(s)}", why))
+        elif check is not None:  # what the file references exists and parses (a dataset's templates, companions)
+            try:
+                check(s)
+            except InputError as e:
+                where = "" if e.path == _shown(s) else f" ({e.path})"
+                problems.append((f"scene {_shown(s)}{where}", e.cause))
     for o in objects or []:
         p = Path(o)
         if p.is_dir():
@@ -489,9 +521,21 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
         Run only these stages and the stages they need (`sdovon_mj.stages.closure`); the per-stage commands
         use it. Default: every stage, then statistics.
     only_scenes : iterable of str, optional
-        Only these scenes of the run (default: all).
+        Only the scenes of the run whose names match one of these shell patterns (``apt_000[12]``, ``1023*``; default:
+        all); only their inputs are checked up front, and a pattern that matches no scene is a usage error.
     """
-    check_inputs(scenes, objects)  # before the run folder is touched or anything expensive starts
+    from .stages import scene_table, select_scenes
+
+    if only_scenes is not None:  # --scene patterns: a pattern matching no scene is a usage error, found now
+        table = scene_table([str(Path(s).resolve()) for s in scenes] if scenes else scenes, cfg)  # as prepare_run
+        try:
+            only_scenes = select_scenes(list(table), list(only_scenes))
+        except InputError as e:
+            raise InputsError([(e.path, e.cause)]) from None
+        checked = [table[n] for n in only_scenes if table[n]] if scenes else scenes
+    else:
+        checked = scenes
+    check_inputs(checked, objects)  # before the run folder is touched or anything expensive starts
     lock = RunLock(Path(run_root).resolve())
     in_main = threading.current_thread() is threading.main_thread()
     old = signal.signal(signal.SIGTERM, _raise_interrupted) if in_main else None  # before the lock shows
@@ -522,11 +566,8 @@ def _generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None, ob
     ex = make_executor(executor, jobs, address, retries)
     wanted = stages.closure(list(until)) if until is not None else list(stages.STAGES)
     scene_names = stages.scene_names(store, cfg)
-    if only_scenes is not None:
-        unknown = sorted(set(only_scenes) - set(scene_names))
-        if unknown:
-            raise StageError(f"no scene {', '.join(unknown)} in this run (scenes: {', '.join(scene_names)})")
-        scene_names = [s for s in scene_names if s in set(only_scenes)]
+    if only_scenes is not None:  # names `generate` selected with the --scene patterns
+        scene_names = stages.select_scenes(scene_names, list(only_scenes))
     root = str(store.root)
     run_st, scene_st, var_st = (tuple(stages.scope_stages(k, wanted)) for k in ("run", "scene", "variant"))
     fmts = list(cfg.exporters if exporters is None else exporters) if "export" in wanted else []

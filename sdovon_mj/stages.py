@@ -30,7 +30,7 @@ from typing import Any, Callable
 
 from . import plugins
 from .config import RunConfig, to_dict
-from .errors import InputError, StageError
+from .errors import InputError, InputsError, StageError
 from .records import Instance, ReceptaclePlane, Relevance, SceneVariant, load_json, load_npz, save_json, save_npz
 from .runview import RunView
 from .seeds import scene_seed, variant_seed
@@ -83,7 +83,7 @@ class StageContext:
         return self.store.read_json("inputs.json")
 
     def scene_source(self) -> str:
-        """Return this scene's input file ('' for a default-world apartment)."""
+        """Return this scene's input file ('' for a default-world home)."""
         return scene_inputs(self.store, self.cfg)[self.scene]
 
 
@@ -171,16 +171,29 @@ def _safe_name(stem: str) -> str:
 
 
 def scene_inputs(store: Store, cfg: RunConfig) -> dict[str, str]:
-    """Return scene name -> input file ('' for a default-world apartment)."""
-    inputs = store.read_json("inputs.json")
-    if not inputs["scenes"]:
+    """Return scene name -> input file ('' for a default-world home)."""
+    return scene_table(store.read_json("inputs.json")["scenes"], cfg)
+
+
+def scene_table(scenes: list[str] | None, cfg: RunConfig) -> dict[str, str]:
+    """Return scene name -> input of a run with these (expanded) scene inputs; none: the default world's homes
+    (name -> '')."""
+    if not scenes:
         from .world.presets import preset
 
         return {f"{preset(cfg.world.preset).scene}_{seed:04d}": "" for seed in cfg.world.scene_seeds}
+    return name_scenes([str(s) for s in scenes])
+
+
+def name_scenes(paths: list[str]) -> dict[str, str]:
+    """Return scene name -> input for a list of scene inputs: the file name without its format's suffixes (a converted
+    scene's folder: its name), a second scene of one name ``_2``, ``_3``, ... in input order."""
     out: dict[str, str] = {}
-    for path in inputs["scenes"]:
-        name = _safe_name(re.sub(r"\.(scene_instance|scene_dataset_config|basis)$", "",
-                                 Path(path).stem.replace("_vh_clean", "")))
+    for path in paths:
+        p = Path(path)
+        stem = p.name if p.is_dir() else re.sub(r"\.(scene_instance|scene_dataset_config|stage_config|basis)$", "",
+                                                 p.stem.replace("_vh_clean", ""))
+        name = _safe_name(stem)
         base, k = name, 1
         while name in out:
             k += 1
@@ -189,37 +202,46 @@ def scene_inputs(store: Store, cfg: RunConfig) -> dict[str, str]:
     return out
 
 
-def expand_scene_inputs(scenes: list[str] | None, cfg: RunConfig) -> list[str] | None:
-    """Return the scene inputs with folders replaced by the one scene they hold; raise InputError listing several.
+def select_scenes(names: list[str], patterns: list[str] | None) -> list[str]:
+    """Return the names matching any of the patterns (shell globs: ``apt_*``, ``1023[0-4]*``), in run order; raise
+    InputError (exit 2) naming a pattern that matches no scene. No patterns: every name."""
+    import fnmatch
 
-    A folder is a ``sdovon-mj convert --kind scene`` output (its ``convert_report.json`` names the converted
-    inputs) or a folder of scene files as the converter finds them (an HM3D scene, a Habitat dataset, ...).
+    if not patterns:
+        return list(names)
+    unmatched = [pat for pat in patterns if not fnmatch.filter(names, pat)]
+    if unmatched:
+        shown = ", ".join(names[:20]) + (f" ... ({len(names)} in all)" if len(names) > 20 else "")
+        raise InputError("--scene", f"{', '.join(repr(u) for u in unmatched)} matches no scene of the run "
+                                    f"(scenes: {shown or 'none'})")
+    return [n for n in names if any(fnmatch.fnmatchcase(n, pat) for pat in patterns)]
+
+
+def expand_scene_inputs(scenes: list[str] | None, cfg: RunConfig | None = None) -> list[str] | None:
+    """Return the scene inputs with each input replaced by the scenes it stands for (the converter plugin's
+    ``scene_files``): a Habitat scene dataset config, each of its scenes; a folder of scenes, each scene in it; a
+    ``sdovon-mj convert`` output or run folder, each converted scene's folder; a converted scene's folder, itself.
+    Raise InputError for a folder that holds no scene. Each scene once, in input order.
     """
     if not scenes:
         return scenes
-    import json
-
+    conv = converter()
     out: list[str] = []
     for s in scenes:
         p = Path(s)
-        if not p.is_dir():
-            out.append(s)
+        if not p.exists() or not hasattr(conv, "scene_files"):
+            out.append(s)  # the input check names a missing file
             continue
-        report = p / "convert_report.json"
-        if report.is_file():
-            rows = json.loads(report.read_text(encoding="utf-8")).get("items", [])
-            found = [Path(r["file"]) for r in rows if r.get("status") == "ok" and (p / "scenes" / str(r.get("name"))).is_dir()]
-        else:
-            conv = converter()
-            found = list(conv.scene_files(p)) if hasattr(conv, "scene_files") else []
-        if len(found) == 1:
-            out.append(str(found[0]))
-        elif not found:
-            raise InputError(p, "folder holds no scene (no converted scene, no scene file)")
-        else:
-            raise InputError(p, f"folder holds {len(found)} scenes, pass one (or each) of them: "
-                                + ", ".join(str(f) for f in found[:12]) + (" ..." if len(found) > 12 else ""))
-    return out
+        try:
+            found = [str(f) for f in conv.scene_files(p)]
+        except InputError as e:  # an unreadable dataset config: a usage error, named before any work
+            raise InputsError([(f"scene {s}" + ("" if e.path == str(p) else f" ({e.path})"), e.cause)]) from None
+        if not found and p.is_dir():
+            raise InputsError([(f"scene folder {s}", "holds no scene (no converted scene, no scene file, no scene "
+                                                      "dataset config)")])
+        out.extend(found or [s])
+    seen: set[str] = set()
+    return [x for x in out if not (x in seen or seen.add(x))]  # type: ignore[func-returns-value]
 
 
 def scene_names(store: Store, cfg: RunConfig) -> list[str]:
@@ -326,8 +348,9 @@ def _objects_extra(ctx: StageContext) -> list[Any]:
 
 
 def _convert_extra(conv: Any, path: Path) -> list[Any]:
-    """Return the convert stage's further inputs: converter version, the scene file's digest, its companions'."""
-    return [conv.version, file_hash(path), *_extra_digests(conv, path)]
+    """Return the convert stage's further inputs: converter version, the scene file's digest, its companions'
+    (a converted scene's folder: the digests of the files the converter names for it)."""
+    return [conv.version, file_hash(path) if path.is_file() else "folder", *_extra_digests(conv, path)]
 
 
 def _extra_digests(conv: Any, path: Path) -> list[list[str]]:
@@ -682,4 +705,4 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
 
 __all__ = ["COMMAND_STAGES", "STAGES", "SCOPES", "Stage", "StageContext", "closure", "converter", "describe", "run_stage",
            "export_unit_key", "run_export_units",
-           "expand_scene_inputs", "run_task", "scene_inputs", "scene_names", "scope_stages", "section_value", "stage_fingerprint"]
+           "expand_scene_inputs", "name_scenes", "run_task", "scene_inputs", "scene_names", "scene_table", "select_scenes", "scope_stages", "section_value", "stage_fingerprint"]

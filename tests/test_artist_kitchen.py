@@ -165,6 +165,36 @@ def test_assets_yaml_receptacle_flags_win_over_labels(kitchen, tmp_path: Path) -
     assert "shelf wall" in found and "upper cabinet" not in found and "countertop marble" in found
 
 
+def test_kitchen_named_by_its_parts_is_one_kitchen_region(kitchen) -> None:
+    """Node names (Cabinet_Base.001, Countertop_Marble, Fridge_Body, Island_Top, Shelf_Wall.002, Cube.012 walls,
+    the Plane floor) go to the region question without their naming noise, and the one-room kitchen is one region:
+    every receptacle's plane lies in the kitchen (it lay in 'office' and 'dining room' before)."""
+    from sdovon_mj.config import ObserveConfig, SemanticsConfig
+    from sdovon_mj.observe.stage import scene_floors_and_maps
+    from sdovon_mj.records import ReceptaclePlane
+    from sdovon_mj.semantics import annotate_planes, get_backend, region_map
+    from sdovon_mj.semantics.regions import room_count, floor_space, room_label
+
+    _glb, asset, out = kitchen
+    assert [room_label(x) for x in ("Cube.012", "fridge body", "countertop marble", "shelf wall", "island top")] == \
+        ["", "fridge", "countertop", "shelf", "island"]
+    v, f, _fi = load_scene_mesh(out / asset.mesh)
+    _floors, maps, _skipped = scene_floors_and_maps(v, f, ObserveConfig(), "kitchen")
+    insts = gt_instances(asset, out)
+    cfg = SemanticsConfig()
+    rm = region_map(insts, maps[0], get_backend(cfg), cfg)
+    pieces = [i for i in insts if room_label(i.label) not in ("", "wall", "floor")]  # as region_map takes them
+    assert room_count(floor_space(pieces, maps[0]), maps[0].resolution) == 1
+    assert {rm.labels[k] for k in np.unique(rm.label_map[rm.label_map >= 0])} == {"kitchen"}
+    receptacles = [s for s in asset.instances if s.label in {"countertop marble", "island top", "dining table",
+                                                             "shelf wall", "cabinet base"}]
+    planes = [ReceptaclePlane(id=k, instance_id=s.id, label=s.label, height=float(s.bounds[1, 2]),
+                              polygon=np.array([[s.bounds[0, 0], s.bounds[0, 1]], [s.bounds[1, 0], s.bounds[0, 1]],
+                                                [s.bounds[1, 0], s.bounds[1, 1]], [s.bounds[0, 0], s.bounds[1, 1]]]),
+                              normal=np.array([0.0, 0.0, 1.0])) for k, s in enumerate(receptacles)]
+    assert {p.region for p in annotate_planes(planes, {0: (maps[0], rm)})} == {"kitchen"}
+
+
 # Smaller than the defaults only where the point (artist names -> receptacles -> episodes) does not depend on it:
 # the demo's 12 object categories with one shape variant each (a cold conversion cache converts 12 objects, not
 # the whole library), 160x120 coverage images, no targeted views (our addition: more views of surfaces already
@@ -185,3 +215,5 @@ def test_generate_on_the_artist_kitchen_gives_episodes(kitchen, tmp_path: Path) 
                 for e in json.loads(f.read_text())]
     cats = {e["object_category"] for e in episodes}
     assert len(episodes) >= 10 and len(cats) >= 3, (len(episodes), sorted(cats))
+    planes = json.loads((run / "scenes" / "kitchen" / "semantics" / "planes.json").read_text())
+    assert planes and {p["region"] for p in planes} == {"kitchen"}, [(p["label"], p["region"]) for p in planes]

@@ -502,20 +502,26 @@ def test_compressed_gltf_geometry_is_named(tmp_path, monkeypatch):
     convert_object_report(plain, tmp_path / "out", cache_dir="off")  # the same file uncompressed converts
 
 
-def test_gpu_encoded_colour_textures_are_named(tmp_path):
-    """A KTX2 / Basis base-colour texture (HM3D's .basis.glb, KHR_texture_basisu) cannot be decoded by Pillow:
-    trimesh dropped it without a word and the model came out untextured; now the file fails naming the encoding."""
+def test_undecodable_gpu_colour_textures_are_named(tmp_path):
+    """A base-colour texture in a GPU encoding that cannot be decoded here: trimesh dropped such textures without a
+    word and the model came out untextured; the file fails naming why. KTX2 / Basis images are decoded
+    (tests/test_gputex.py); an image that only claims to be KTX2, or a DDS texture, is refused."""
     from sdovon_mj.errors import InputError
 
-    def ktx2(doc):
+    def ktx2_label(doc):  # PNG bytes labelled image/ktx2
         doc["images"][0]["mimeType"] = "image/ktx2"
 
-    def basisu_only(doc):
+    def basisu_png(doc):  # KHR_texture_basisu naming a PNG
         doc["textures"][0] = {"extensions": {"KHR_texture_basisu": {"source": 0}}}
 
-    for name, mutate, want in (("ktx2", ktx2, "image/ktx2"), ("basisu", basisu_only, "KHR_texture_basisu")):
+    def dds(doc):
+        doc["textures"][0] = {"extensions": {"MSFT_texture_dds": {"source": 0}}}
+
+    for name, mutate, want in (("ktx2", ktx2_label, r"cannot be decoded here \(not a KTX2 or Basis Universal image"),
+                               ("basisu", basisu_png, r"cannot be decoded here \(not a KTX2 or Basis Universal image"),
+                               ("dds", dds, r"GPU encoding \(MSFT_texture_dds\)")):
         glb = _glb_with_extensions(tmp_path / name / "box.glb", [], textured=True, mutate=mutate)
-        with pytest.raises(InputError, match=rf"box\.glb.*base-colour texture in a GPU encoding \({want}\)"):
+        with pytest.raises(InputError, match=rf"box\.glb.*{want}"):
             convert_object_report(glb, tmp_path / "out", cache_dir="off")
     png = _glb_with_extensions(tmp_path / "png" / "box.glb", [], textured=True)
     convert_object_report(png, tmp_path / "out", cache_dir="off")  # the same box with its PNG converts

@@ -262,8 +262,10 @@ def test_habitat_fixture_dataset_1_templates_resolve_by_substring(shared_assets:
 
 def test_dataset_config_with_two_scenes_lists_them(shared_assets: Path, tmp_path: Path) -> None:
     cfg = _fixtures(shared_assets) / "dataset_1" / "test_dataset_1.scene_dataset_config.json"
-    with pytest.raises(InputError, match="holds 2 scene instances.*dataset_test_scene_0.*dataset_test_scene_1"):
-        convert_scene(cfg, tmp_path, cache_dir="off")
+    with pytest.raises(InputError, match="holds 2 scenes.*dataset_test_scene_0.*dataset_test_scene_1"):
+        convert_scene(cfg, tmp_path, cache_dir="off")  # one conversion is one scene: the commands expand a dataset
+    assert [p.name for p in find_inputs(cfg, kind="scene")] == ["dataset_test_scene_0.scene_instance.json",
+                                                                 "dataset_test_scene_1.scene_instance.json"]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -395,13 +397,10 @@ def test_cli_convert_then_observe_on_that_folder(layouts: dict, tmp_path: Path) 
                "--set", "observe.yaw_steps=2", "--set", "observe.pitch_angles=[-30.0]", "--quiet")
     assert proc.returncode == 0, proc.stderr
     assert (out / "scenes" / "apt" / "observe" / "navmap_0.json").is_file()
-    # a folder with two scenes: the error lists them
-    two = tmp_path / "two"
-    two.mkdir()
-    for k in (0, 1):
-        (two / f"s{k}.glb").write_bytes(layouts["clean"][0].read_bytes())
-    proc = cli("observe", str(tmp_path / "run2"), "--scenes", str(two), "--quiet")
-    assert proc.returncode != 0 and "holds 2 scenes" in proc.stderr and "s0.glb" in proc.stderr and "s1.glb" in proc.stderr
+    # a folder with no scene in it is named (exit 2); one with several gives a scene each (tests/test_datasets.py)
+    (tmp_path / "none").mkdir()
+    proc = cli("observe", str(tmp_path / "run2"), "--scenes", str(tmp_path / "none"), "--quiet")
+    assert proc.returncode == 2 and "none" in proc.stderr and "holds no scene" in proc.stderr, proc.stderr
 
 
 def test_hm3d_semantic_texture_colours(tmp_path: Path) -> None:

@@ -210,10 +210,20 @@ def test_failing_scene_is_reported_and_others_finish(reference_run, tmp_path) ->
     run = tmp_path / "run"
     shutil.copytree(ref, run)
     good = _fresh_input_glb(ref, tmp_path / "in")
-    bad = tmp_path / "in" / "bad.glb"
-    bad.write_bytes(b"glTF\x02\x00\x00\x00" + b"\x00garbage" * 64)
+    bad = _pointcloud_glb(tmp_path / "in" / "bad.glb")
     proc = cli(*generate_args(run, ref / "config.yaml", "--scenes", str(good), str(bad)))
     _check_failing_scene(proc, run, bad)
+
+
+def _pointcloud_glb(path: Path) -> Path:
+    """Write a well-formed GLB that holds points and no triangle: it passes the up-front input check (its files exist
+    and parse; a truncated or garbage GLB is refused there, exit 2) and fails its scene's conversion."""
+    import numpy as np
+    import trimesh
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(trimesh.Scene(trimesh.PointCloud(np.random.default_rng(0).random((50, 3)))).export(file_type="glb"))
+    return path
 
 
 def _check_failing_scene(proc: subprocess.CompletedProcess, run: Path, bad: Path) -> None:
@@ -239,8 +249,7 @@ def test_failing_scene_from_scratch(reference_run, tmp_path) -> None:
     """Same as above in a fresh run folder with two workers: the good scene is computed beside the failing one."""
     ref, _ = reference_run
     good = _fresh_input_glb(ref, tmp_path / "in")
-    bad = tmp_path / "in" / "bad.glb"
-    bad.write_bytes(b"glTF\x02\x00\x00\x00" + b"\x00" * 100)  # a GLB header (zeros alone are refused up front)
+    bad = _pointcloud_glb(tmp_path / "in" / "bad.glb")
     run = tmp_path / "run"
     proc = cli(*generate_args(run, ref / "config.yaml", "--scenes", str(good), str(bad), "--jobs", "2"))
     _check_failing_scene(proc, run, bad)

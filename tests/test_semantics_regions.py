@@ -203,3 +203,45 @@ def test_groundtruth_instances_and_navmap():
     # furniture blocks the map: the cell under a bed / sofa centre is not free
     big = [i for i in insts if i.label in ("bed", "sofa", "table")]
     assert big and not nav.is_navigable(np.asarray(big[0].center)[None, :2])[0]
+
+
+@pytest.mark.parametrize("label, want", [
+    ("HingeCabinet", "cabinet"), ("slidecabinet", "cabinet"), ("kitchen_cabinet_door_link", "kitchen cabinet"),
+    ("Fridge_Body.001", "fridge"), ("left_nightstand_Cube", "nightstand"), ("BED_oak_02", "bed"),
+    ("sofa/cushion", "sofa cushion"), ("toilet_seat_lid", "toilet"), ("shelf wall", "shelf"),
+    ("Cube.012", ""), ("Plane", ""), ("mesh_3", ""), ("wall", "wall"), ("Wall_Panel.004", "wall"),
+    ("side table", "side table"), ("floor lamp", "floor lamp"), ("microwave", "microwave"),
+])
+def test_room_label_takes_naming_noise_out(label: str, want: str) -> None:
+    """Camel case, separators, numbering, run-together words, part / joint / link, primitive, position and material
+    words go; a label the priors know as written stays as it is; a label of noise alone says nothing ('')."""
+    from sdovon_mj.semantics.regions import room_label
+
+    assert room_label(label) == want
+
+
+def test_node_named_rooms_vote_like_their_names(tmp_path):
+    """The two rooms of `two_rooms` with every label written as a node name (support.node_names) and the
+    dividing wall as 'Cube.001': the same rooms as with the plain labels."""
+    from support.node_names import node_named_instances
+
+    navmap, insts = two_rooms()
+    named = node_named_instances(insts, ["wall"])
+    assert [i.label for i in named][:2] == ["Bed_Door.000", "nightstand_link"] and named[-1].label.startswith("Cube.")
+    rm = region_map(named, navmap, get_backend(SemanticsConfig()))
+    assert rm.region_at(np.array([1.5, 1.5])) == "bedroom" and rm.region_at(np.array([6.5, 1.5])) == "bathroom"
+
+
+def test_one_room_is_one_region_and_a_door_makes_two():
+    from sdovon_mj.semantics.regions import floor_space, room_count
+
+    navmap, insts = two_rooms(door=True)
+    furniture = [i for i in insts if i.label != "wall"]  # region_map leaves building pieces out of the floor space
+    assert room_count(floor_space(furniture, navmap), RES) == 2  # a 1 m doorway parts them
+    open_plan = np.asarray(navmap.free).copy()
+    open_plan[:, int(3.95 / RES):int(4.05 / RES) + 1] = True  # no wall: one 8 m x 3 m room
+    one = NavMap(floor=0, height=0.0, origin=np.zeros(2), resolution=RES, navigable=navmap.navigable | open_plan,
+                 free=open_plan)
+    assert room_count(floor_space(furniture, one), RES) == 1
+    rm = region_map(insts, one, get_backend(SemanticsConfig()))
+    assert len(set(rm.label_map[rm.label_map >= 0].tolist())) == 1  # bed and toilet in one room: one region

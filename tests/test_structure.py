@@ -193,3 +193,36 @@ def test_the_product_imports_nothing_of_tests_bench_or_tools():
     users = sorted(f"{name} -> {sorted(hit)}" for name, path in _modules(PRODUCT).items()
                    if (hit := _top_level_imports(path) & outside))
     assert not users, users
+
+
+def _module_graph(prefix: str) -> dict[str, set[str]]:
+    """Return module -> modules it imports among `prefix`'s modules, a ``from pkg import submodule`` counted as an
+    import of that submodule only (not of the package's ``__init__``), lazy imports included."""
+    import ast as _ast
+
+    mods = _modules()
+    g: dict[str, set[str]] = defaultdict(set)
+    for name, path in mods.items():
+        if not name.startswith(prefix):
+            continue
+        pkg = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        for node in _ast.walk(_ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, _ast.ImportFrom):
+                base = pkg.split(".")[: len(pkg.split(".")) - (node.level - 1)] if node.level else []
+                target = ".".join(base + ([node.module] if node.module else [])) if node.level else (node.module or "")
+                cands = [f"{target}.{a.name}" if f"{target}.{a.name}" in mods else target for a in node.names]
+            elif isinstance(node, _ast.Import):
+                cands = [a.name for a in node.names]
+            else:
+                continue
+            for c in cands:
+                while c and c not in mods:
+                    c = c.rpartition(".")[0]
+                if c and c != name and c.startswith(prefix):
+                    g[name].add(c)
+    return g
+
+
+def test_no_module_circles_in_the_converter():
+    """No two files of assets_convert import each other, directly or round a longer circle (lazy imports count)."""
+    assert _cycles(_module_graph("assets_convert")) == []

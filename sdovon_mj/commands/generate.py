@@ -11,7 +11,12 @@ from ..config import load_config
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare generate's options (the ARCHITECTURE.md command-line contract)."""
     p.add_argument("--out", required=True, help="run folder (created; an existing run is resumed)")
-    p.add_argument("--scenes", nargs="*", default=None, help="scene files (GLB/glTF/OBJ/PLY); default: the embedded world")
+    p.add_argument("--scenes", nargs="*", default=None,
+                   help="scenes: files (GLB/glTF/OBJ/PLY, Habitat scene instances), Habitat *.scene_dataset_config.json "
+                        "(each scene of it), folders of scenes (HM3D, MP3D, datasets), `sdovon-mj convert` outputs or "
+                        "one converted scene's folder; default: the embedded world (docs/inputs.md)")
+    p.add_argument("--scene", action="append", default=None, metavar="NAME",
+                   help="only the scenes of this name (a shell pattern such as '1023*'; repeatable)")
     p.add_argument("--objects", nargs="*", default=None, help="object files or folders; default: the embedded library")
     p.add_argument("--config", default=None, help="YAML config file")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
@@ -33,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = load_config(args.config, args.overrides)
     summary = generate(args.out, cfg, scenes=expand_scene_inputs(args.scenes, cfg), objects=args.objects,
-                       executor=args.executor,
+                       only_scenes=args.scene, executor=args.executor,
                        jobs=args.jobs, address=args.address, retries=args.retries,
                        progress=False if args.quiet else None)
     print(summary.table())

@@ -37,10 +37,12 @@ class StageCommand:
         p.description = (f"Run the '{s.name}' stage ({s.scope} scope: {s.outputs}) and the stages it needs "
                          f"({', '.join(s.needs) or 'none'}), exactly as `sdovon-mj generate` does.")
         p.add_argument("run_dir", metavar="RUN_DIR", help="run folder (created if missing; an existing run is resumed)")
-        p.add_argument("--scenes", nargs="*", default=None, help="scene files for a new run (default: the embedded world)")
+        p.add_argument("--scenes", nargs="*", default=None,
+                       help="scenes for a new run, as `generate --scenes` takes them (default: the embedded world)")
         p.add_argument("--objects", nargs="*", default=None, help="object files or folders for a new run")
         if s.scope in ("scene", "variant"):
-            p.add_argument("--scene", action="append", default=None, metavar="NAME", help="only this scene (repeatable)")
+            p.add_argument("--scene", action="append", default=None, metavar="NAME",
+                           help="only the scenes of this name (a shell pattern such as 'apt_*'; repeatable)")
         p.add_argument("--config", default=None, help="YAML config file (default: the run's config.yaml)")
         p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                        help="override a config key (repeatable)")

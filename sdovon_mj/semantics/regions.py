@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import re
+from functools import lru_cache
 from pathlib import Path
 from typing import Sequence
 
@@ -39,11 +41,112 @@ from .validate import normalise
 
 MAX_POINTS_PER_INSTANCE = 256
 FLOOR_BAND = (-0.2, 2.6)  # instance z range (relative to the floor height) that belongs to a floor
+DOORWAY_HALF = 0.55  # m: floor space eroded by this much parts at doorways (up to 1.1 m clear), joined elsewhere
+MIN_ROOM_AREA = 0.5  # m^2 of eroded floor space that counts as a room (a room of about 1.8 m x 1.8 m or more)
+
+# Words of node and part names that say nothing about which room a thing stands in. Artists and exporters name
+# pieces by their primitive ("Cube.012", "Cylinder"), their part of a fixture ("Fridge_Body", "Island_Top",
+# "cabinet_door_link", "hinge_joint"), where they sit ("Upper_Cabinet", "left"), what they are made of
+# ("Countertop_Marble") and a number ("Shelf_03"). Such words go before the region question; a label of nothing
+# else is no evidence at all (a "cube" would vote for the playroom a Rubik's cube belongs in).
+PRIMITIVE_WORDS = frozenset({
+    "box", "cube", "cuboid", "cylinder", "sphere", "capsule", "plane", "mesh", "geom", "geometry", "ellipsoid", "cone",
+    "torus", "prism", "primitive", "shape", "quad", "collision", "visual", "col", "vis", "obj", "object", "model",
+    "node", "group", "instance", "inst", "part", "piece", "default", "untitled", "empty", "proxy", "lod", "polysurface",
+    "polygon", "poly", "solid", "brep", "component", "assembly", "asm"})
+PART_WORDS = frozenset({
+    "body", "door", "doors", "handle", "handles", "knob", "knobs", "base", "top", "lid", "leg", "legs", "frame",
+    "panel", "panels", "link", "joint", "hinge", "slide", "rail", "rails", "seat", "back", "arm", "arms", "surface",
+    "board", "boards", "trim", "cover", "bracket", "mount", "plinth", "kick", "toe", "shell", "carcass", "case", "front"})
+POSITION_WORDS = frozenset({
+    "left", "right", "upper", "lower", "bottom", "middle", "center", "centre", "inner", "outer", "side", "l", "r",
+    "lt", "rt", "up", "down", "main", "mid", "small", "large", "big", "tall", "short", "wide", "long", "new", "old"})
+MATERIAL_WORDS = frozenset({
+    "marble", "wood", "wooden", "metal", "metallic", "steel", "stainless", "glass", "plastic", "granite", "stone",
+    "oak", "walnut", "pine", "chrome", "ceramic", "fabric", "leather", "concrete", "brass", "white", "black", "grey",
+    "gray", "dark", "beige", "mat", "matte", "glossy", "material", "mtl", "tex", "texture"})
+NOISE_WORDS = PRIMITIVE_WORDS | PART_WORDS | POSITION_WORDS | MATERIAL_WORDS
 
 
 def rank_weight(k: int) -> float:
     """Return the vote of the k-th (0-based) region proposal of a window."""
     return 1.0 / (k + 1.0) ** 2
+
+
+@lru_cache(maxsize=1)
+def _vocabulary() -> frozenset[str]:
+    """Return the words of the priors' labels and synonyms and the noise words (for splitting run-together words)."""
+    pri = default_priors()
+    words = {w for name in list(pri.labels) + list(pri.synonyms) for w in normalise(name).split(" ") if len(w) > 1}
+    return frozenset(words | NOISE_WORDS)
+
+
+def _segment(token: str, vocab: frozenset[str]) -> list[str]:
+    """Split a run-together token into the fewest vocabulary words ('hingecabinet' -> hinge cabinet); [token] when
+    it is a word itself, short, or cannot be split wholly into words of two letters or more."""
+    if token in vocab or len(token) < 6:
+        return [token]
+    best: list[list[str] | None] = [[]] + [None] * len(token)
+    for end in range(2, len(token) + 1):
+        for start in range(max(0, end - 16), end - 1):
+            prev, piece = best[start], token[start:end]
+            if prev is not None and piece in vocab and (best[end] is None or len(prev) + 1 < len(best[end])):
+                best[end] = prev + [piece]
+    return best[-1] or [token]
+
+
+@lru_cache(maxsize=8192)
+def room_label(label: str) -> str:
+    """Return what an instance label says about the room it stands in: the label itself when the priors know it as
+    written, else its words with naming noise taken out ('' when nothing is left, e.g. 'Cube.012').
+
+    Noise, whatever model the names come from: camel case and separators (``HingeCabinet``, ``fridge_body``),
+    numbering (``Shelf_03``, ``stool2``), words run together (``slidecabinet`` -> slide cabinet, split on the
+    priors' vocabulary), and words that name a primitive, a part, a joint or link, a position or a material
+    (`NOISE_WORDS`); a building word (wall, floor, door, ...) next to another word only places that thing (``shelf
+    wall`` -> shelf, ``floor lamp`` -> lamp). What is left and still unknown goes to the backend as it is: the
+    offline backend falls back on sentence embeddings (its k nearest known labels) for unknown words.
+    """
+    spaced = re.sub(r"(?<=[a-z])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])", " ", str(label))
+    n = normalise(spaced)
+    pri = default_priors()
+    if not n or pri._lookup(n) is not None:
+        return n
+    vocab = _vocabulary()
+    words = [p for w in re.sub(r"[\d/]+", " ", n).split() for p in _segment(w, vocab)]
+    structure = {w for w in words if _is_structure(w)}
+    content = [w for w in words if w not in NOISE_WORDS and w not in structure]
+    if content:
+        return " ".join(content)
+    kept = [w for w in words if w in structure]
+    return " ".join(dict.fromkeys(kept))  # only building words (a structure label) or nothing at all
+
+
+def floor_space(instances: Sequence[Instance], navmap: NavMap) -> np.ndarray:
+    """Return the floor's space (H, W): free or navigable cells, the cells under the instances standing on it, and
+    what they enclose (a table's footprint between the points seen of it: furniture stands in a room, not a wall)."""
+    h, w = navmap.navigable.shape
+    space = np.asarray(navmap.free, dtype=bool) | np.asarray(navmap.navigable, dtype=bool)
+    pts, _idx = _points_xy(instances)
+    if len(pts):
+        pc = navmap.frame.to_cell(pts)
+        ok = (pc[:, 0] >= 0) & (pc[:, 0] < h) & (pc[:, 1] >= 0) & (pc[:, 1] < w)
+        space[pc[ok, 0], pc[ok, 1]] = True
+    return ndimage.binary_fill_holes(space)
+
+
+def room_count(space: np.ndarray, resolution: float) -> int:
+    """Return how many rooms a floor's space holds: its parts once eroded by `DOORWAY_HALF` (doorways close, rooms
+    stay), counting those of at least `MIN_ROOM_AREA` (corridor ends and closets do not count)."""
+    r = int(np.ceil(DOORWAY_HALF / resolution))
+    if r <= 0 or not space.any():
+        return int(space.any())
+    inner = ndimage.distance_transform_edt(np.pad(space, 1)) [1:-1, 1:-1] > r
+    comp, n = ndimage.label(inner)
+    if n == 0:
+        return 1  # nothing survives the erosion: a room smaller than a doorway is one room
+    areas = np.bincount(comp.ravel())[1:] * resolution * resolution
+    return max(1, int(np.sum(areas >= MIN_ROOM_AREA)))
 
 
 def floor_instances(instances: Sequence[Instance], navmap: NavMap) -> list[Instance]:
@@ -233,7 +336,10 @@ def region_map(instances: Sequence[Instance], navmap: NavMap, backend: Backend,
     r, d = float(cfg.window_radius), float(cfg.window_step)
     if r <= 0 or d <= 0:
         raise ValueError(f"window radius and step must be positive (got r={r}, d={d})")
-    insts = [i for i in floor_instances(instances, navmap) if not _is_structure(i.label)]
+    on_floor = floor_instances(instances, navmap)
+    insts = [i if room_label(i.label) == normalise(i.label) else dataclasses.replace(i, label=room_label(i.label))
+             for i in on_floor]
+    insts = [i for i in insts if i.label and not _is_structure(i.label)]  # naming noise alone is no evidence
     windows = _windows(insts, navmap, r, d, bool(cfg.window_walls), walking=cfg.region_votes == "walking" and bool(cfg.window_walls))
     vocab = _Vocab(cfg.region_labels)
     n_fb = len(backend.fallbacks)
@@ -259,6 +365,9 @@ def region_map(instances: Sequence[Instance], navmap: NavMap, backend: Backend,
 
     total = scores.sum(axis=2)
     label_map = np.where(total > 0, np.argmax(scores, axis=2), -1).astype(np.int16)
+    if total.any() and room_count(floor_space(insts, navmap), res) == 1:
+        # one room (a kitchen with no wall between its parts): one region, the label with the most votes over it
+        label_map[total > 0] = int(np.argmax(scores.reshape(-1, scores.shape[2]).sum(axis=0)))
     known = label_map >= 0
     if known.any():
         free = np.asarray(navmap.free, dtype=bool) | np.asarray(navmap.navigable, dtype=bool)

@@ -14,5 +14,6 @@ bench can drive one stage without the stages upstream of it:
   planes and a hand-filled relevance table, for the place stage.
 - ``run_folder``: a small run folder (room, table, cabinet, three objects) for episodes and export.
 - ``bundles``: the two-room ObjectNav apartment written as episode bundles (cached), for the suite
-  and the navigation agents.
+  and the navigation agents; the suite's ``fixture`` task loads it.
+- ``datasets``: a Habitat scene dataset of several scene instances sharing one stage and its object templates.
 """
