@@ -209,7 +209,10 @@ def index_payload(view: RunView, evals: Evaluations | None = None, title: str = 
             regions.update(rm.labels)
         scenes.append({"name": name, "floors": [{"index": f.index, "height": f.height} for f in s.floors],
                        "variants": variants})
-    return {"format": FORMAT, "title": title or view.root.name, "run": str(view.root), "scenes": scenes,
+    if not title:  # the run's name from its config, and its folder
+        name = view.config().name if (view.root / "config.yaml").is_file() else ""
+        title = f"{name} ({view.root.name})" if name and name != view.root.name else view.root.name
+    return {"format": FORMAT, "title": title, "run": str(view.root), "scenes": scenes,
             "categories": palette(sorted(categories)), "regions": palette(sorted(regions), 0.45, 0.9, 0.1),
             "agents": sorted(evals.agents) if evals else []}
 

@@ -336,7 +336,7 @@
     if (res && res.trajectory.length) {
       const z = e.start[2] + 0.06;
       const ok = !!res.metrics.success;
-      const path = new T.Mesh(ribbon(res.trajectory, z, 0.05), new T.MeshBasicMaterial({ color: '#5ce1e6', side: T.DoubleSide }));
+      const path = new T.Mesh(ribbon(res.trajectory, z, 0.12), new T.MeshBasicMaterial({ color: '#5ce1e6', side: T.DoubleSide }));
       path.userData.tip = sel.agent + ' on ' + e.id;
       groups.trajectory.add(path);
       const last = res.trajectory[res.trajectory.length - 1];
