@@ -210,8 +210,8 @@ def test_decimation_keeps_the_budget_and_each_instance_its_own_colour() -> None:
 
 # -- real headless Chromium ------------------------------------------------------------------------------------------
 
-CHROME_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+CHROME_FLAGS = ["--headless", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu", "--disable-quic",
+                "--no-first-run", "--disable-background-networking", "--disable-component-update", "--disable-sync",
                 # WebGL without a GPU: ANGLE on SwiftShader (software), which Chromium no longer picks by itself
                 "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--window-size=1200,800"]
 

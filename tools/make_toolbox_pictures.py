@@ -74,7 +74,8 @@ def video_frame(dataset: Path, out: Path, width: int = 320, height: int = 240) -
             best = None
             for k in range(-6, 7):
                 yaw = task.state.yaw + k * task.nav.turn_angle
-                step = task.state.position + task.nav.forward_step * np.array([math.cos(math.radians(yaw)), math.sin(math.radians(yaw)), 0])
+                heading = np.array([math.cos(math.radians(yaw)), math.sin(math.radians(yaw)), 0.0])
+                step = task.state.position + task.nav.forward_step * heading
                 if task.can_stand(step):
                     key = (task.geodesic.distance(step), abs(k))
                     best = key + (k,) if best is None or key < best[:2] else best

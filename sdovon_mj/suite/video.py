@@ -174,7 +174,8 @@ class EpisodeVideo:
             self._tmp.parent.mkdir(parents=True, exist_ok=True)
             self._writer = imageio_ffmpeg.write_frames(str(self._tmp), self._size, fps=self.fps, codec="libx264",
                                                        pix_fmt_out="yuv420p", quality=7, macro_block_size=BLOCK,
-                                                       ffmpeg_log_level="error", output_params=["-preset", "veryfast", "-movflags", "+faststart"])
+                                                       ffmpeg_log_level="error",
+                                                       output_params=["-preset", "veryfast", "-movflags", "+faststart"])
             self._writer.send(None)
         self._writer.send(np.ascontiguousarray(frame).tobytes())
         self.frames += 1
