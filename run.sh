@@ -40,6 +40,22 @@ ensure_system_libs() {
   fi
 }
 
+# The viewer test drives a real headless browser: Debian's chromium and its chromium-driver (same version).
+# Only `test` and `setup` need them; as root they are installed like the libraries above, otherwise named.
+ensure_browser() {
+  local missing=()
+  command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+  command -v chromedriver >/dev/null 2>&1 || missing+=(chromium-driver)
+  [ ${#missing[@]} -eq 0 ] && return 0
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "run.sh: installing system packages: ${missing[*]}" >&2
+    DEBIAN_FRONTEND=noninteractive apt-get update -qq >/dev/null
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+  else
+    echo "run.sh: the viewer test needs system packages: ${missing[*]} (as root: apt-get install ${missing[*]})" >&2
+  fi
+}
+
 ensure_venv() {
   local stamp="$VENV/.sdovon-installed"
   local want
@@ -79,6 +95,7 @@ case "$cmd" in
 esac
 
 ensure_system_libs
+case "$cmd" in test|setup) ensure_browser ;; esac
 ensure_venv
 ensure_basisu
 export MUJOCO_GL="${MUJOCO_GL:-egl}"

@@ -1,4 +1,4 @@
-"""`sdovon-mj` command line: one subcommand per stage, plus demo, generate, export, eval, show.
+"""`sdovon-mj` command line: one subcommand per stage, plus demo, generate, export, eval, show, view.
 
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
 the per-stage commands come from the stage declarations (``sdovon_mj.commands.stage``); this file only
@@ -31,6 +31,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "export": ("sdovon_mj.commands.export", "export a run to habitat, mjcf or a plugin format"),
     "eval": ("sdovon_mj.suite.evaluate", "evaluate agents on an MJCF dataset (SR, SPL, Soft SPL, DTG)"),
     "show": ("sdovon_mj.commands.show", "pictures of a run: maps, receptacles, placements, episodes"),
+    "view": ("sdovon_mj.commands.view", "look at a run in the browser: scenes, objects, regions, episodes, trajectories"),
     "verify": ("sdovon_mj.commands.verify", "check a run folder's stage outputs and exports against their done-markers"),
 }
 

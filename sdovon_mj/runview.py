@@ -7,6 +7,8 @@ Run folder layout (paths inside records are relative to the run root; writers: t
     <run>/scenes/<scene>/observe/navmap_<floor>.json           NavMap, one per floor
     <run>/scenes/<scene>/semantics/relevance.json              Relevance (optional)
     <run>/scenes/<scene>/semantics/regions_<floor>.json        RegionMap, one per floor (optional)
+    <run>/scenes/<scene>/perceive/planes.json                  list[ReceptaclePlane] as perceive found them
+    <run>/scenes/<scene>/semantics/planes.json                 the same with floor and region (optional)
     <run>/scenes/<scene>/variants/<variant>/variant.json       SceneVariant (its .mjcf: composed MJCF)
     <run>/scenes/<scene>/variants/<variant>/episodes.json      list[Episode]
     <run>/objects/<name>/object.json                           ObjectAsset (+ its asset files)
@@ -21,7 +23,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .errors import InputError
-from .records import Episode, NavMap, ObjectAsset, RecordError, RegionMap, Relevance, SceneAsset, SceneVariant, load_json
+from .records import (Episode, NavMap, ObjectAsset, ReceptaclePlane, RecordError, RegionMap, Relevance, SceneAsset,
+                      SceneVariant, load_json)
 
 if TYPE_CHECKING:
     from .config import RunConfig
@@ -82,6 +85,15 @@ class RunView:
         """Return a scene's region maps sorted by floor ([] when the run has none)."""
         maps = [_load(p, RegionMap) for p in sorted((self.root / "scenes" / scene / "semantics").glob("regions_*.json"))]
         return sorted(maps, key=lambda m: m.floor)
+
+    def planes(self, scene: str) -> list[ReceptaclePlane]:
+        """Return a scene's receptacle planes: with floor and region (semantics) when the run has them, else as
+        perceive found them; [] when it has neither."""
+        for stage in ("semantics", "perceive"):
+            p = self.root / "scenes" / scene / stage / "planes.json"
+            if p.exists():
+                return _load(p, ReceptaclePlane)
+        return []
 
     def variants(self, scene: str) -> list[SceneVariant]:
         """Return a scene's SceneVariants sorted by index."""
