@@ -115,7 +115,8 @@ def test_stage_command_errors_name_the_input(tmp_path, capsys):
     assert "nothere.glb" in capsys.readouterr().err and not (tmp_path / "run").exists()
     (tmp_path / "file").write_text("x")
     assert main(["perceive", str(tmp_path / "file")]) == 1
-    assert main(["place", str(tmp_path / "run"), "--scene", "apt_9999", "--quiet"]) == 1
+    # a --scene pattern that names no scene of the run is a usage error, found before any work
+    assert main(["place", str(tmp_path / "run"), "--scene", "apt_9999", "--quiet"]) == 2
     assert "apt_9999" in capsys.readouterr().err
 
 
