@@ -9,7 +9,7 @@ import pytest
 
 from sdovon_mj import suite
 from sdovon_mj.suite.video import AGENT, GOAL, EpisodeVideo, MapPanel, read_video, write_episode_video
-from sdovon_mj.testing.bundles import fixture_bundle
+from support.bundles import fixture_bundle
 
 # Turns change every view; forward moves change the map (and the view where the way is free).
 ACTIONS = [suite.TURN_LEFT, suite.MOVE_FORWARD, suite.MOVE_FORWARD, suite.TURN_RIGHT, suite.MOVE_FORWARD,

@@ -1,7 +1,7 @@
 """The browser viewer (`sdovon-mj view`): its data follows the run and the evaluation's per-episode results, and real
 headless Chromium (Debian's chromium + chromium-driver, driven by selenium) shows the page, served and exported.
 
-The data tests use the small synthetic run (sdovon_mj.testing.run_folder) evaluated by the real `eval` command; the
+The data tests use the small synthetic run (support.run_folder) evaluated by the real `eval` command; the
 browser test uses the tiny default-world run of tests/conftest.py (`articulated_closed_run`), evaluated the same way.
 """
 
@@ -24,7 +24,7 @@ import pytest
 from exporters.mjcf_bundle import MjcfBundleExporter
 from sdovon_mj.cli import main
 from sdovon_mj.export import ExportOptions, RunView, run_export
-from sdovon_mj.testing.run_folder import build_sample_run
+from support.run_folder import build_sample_run
 from sdovon_mj.viewer import data as D
 from sdovon_mj.viewer.geometry import Triangles, cluster_decimate
 from sdovon_mj.viewer.site import STATIC_FILES, Site, export_site
