@@ -220,10 +220,12 @@ def write_object_labels(variant: SceneVariant, bdir: Path) -> Path:
 
 def dataset_vocabulary(run: RunView, root: Path, results: list[UnitResult]) -> dict[str, list[str]]:
     """Return the dataset's vocabulary (``index.json``'s ``vocabulary``): the goal categories of every exported bundle
-    (their bundle.json ``categories``) and every label the suite's category image can show (scene instance labels,
-    categories of the objects at rest, goal categories); one list for every variant, as the evaluation uses it."""
+    (their bundle.json ``categories``), every label the suite's category image can show (scene instance labels,
+    categories of the objects at rest, goal categories) and the object categories (of the objects at rest and the
+    goals); one list each for every variant, as the evaluation uses them (`sdovon_mj.suite.observation.Vocabulary`)."""
     goals: set[str] = set()
     labels: set[str] = set()
+    objects: set[str] = set()
     for r in results:
         names = set(r.variants)
         if not names:
@@ -233,10 +235,11 @@ def dataset_vocabulary(run: RunView, root: Path, results: list[UnitResult]) -> d
             labels |= {i.label for i in run.scene(scene).instances if i.label}
             for variant in run.variants(scene):
                 if variant.name in names:
-                    labels |= {p.category for p in variant.placements if p.status in ("resting", "resting_elsewhere")}
+                    objects |= {p.category for p in variant.placements if p.status in ("resting", "resting_elsewhere")}
         for v in names:
             goals |= set(json.loads((root / v / "bundle.json").read_text(encoding="utf-8")).get("categories", []))
-    return {"goal_categories": sorted(goals), "labels": sorted(labels | goals)}
+    return {"goal_categories": sorted(goals), "labels": sorted(labels | objects | goals),
+            "object_categories": sorted(objects | goals)}
 
 
 def _rel(path: Path, bdir: Path) -> str:

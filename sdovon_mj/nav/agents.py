@@ -73,12 +73,12 @@ class Agent:
         self.info: dict = {}
         self.sensors: Any = None
         self.detector: CategoryDetector | None = None
-        self.goal_categories: tuple[str, ...] = ()
+        self.object_categories: tuple[str, ...] = ()  # the dataset's object categories (`Vocabulary.object_categories`)
 
     def setup(self, sensors: Any) -> None:
         """Keep the sensors; with the ground-truth detector declared, detect instances in the category image."""
         self.sensors = sensors
-        self.goal_categories = tuple(sensors.vocabulary.goal_categories)
+        self.object_categories = tuple(sensors.vocabulary.object_categories)  # relevance is normalised over them
         if sensors.knowledge.detector == "gt":
             self.detector = CategoryDetector(sensors.vocabulary.labels, sensors.eta)
 
@@ -329,9 +329,9 @@ class ReceptacleAStar(Agent):
 
             regions = sorted({e.region for e in memory.entries if e.region} | set(self.semantics.region_labels))
             recs = sorted({e.plane.label for e in memory.entries})
-            # over the dataset's goal categories (one vocabulary for every variant): P(o|rec) and P(o|rgn) are
+            # over the dataset's object categories (one vocabulary for every variant): P(o|rec) and P(o|rgn) are
             # normalised over the object list
-            objects = sorted(set(self.goal_categories) | {category})
+            objects = sorted(set(self.object_categories) | {category})
             self._relevance[key] = relevance(objects, regions, recs, self.backend()) if recs else None
         return self._relevance[key]
 
@@ -794,7 +794,7 @@ class SemanticFrontierAgent(ReceptacleAStar):
             return {}
         key = (category, tuple(labels))
         if key not in self._relevance:
-            objects = sorted(set(self.goal_categories) | {category})
+            objects = sorted(set(self.object_categories) | {category})
             self._relevance[key] = relevance(objects, sorted(self.semantics.region_labels), labels, self.backend())
         rel = self._relevance[key]
         return {lab: max(rel.pair_score(category, r, lab) for r in rel.regions) for lab in labels}

@@ -4,9 +4,9 @@ observation dict, built from the environment's state within its declared `Knowle
 One home for the agent's view of the world, shared by the sealed evaluation (`suite.protocol`) and any other
 front end (a Gymnasium environment builds its observations with `ObservationBuilder` too):
 
-- `Vocabulary`: the dataset's goal categories and the labels of its category image, the same for every variant
-  (recorded in the MJCF export's ``index.json``, ``vocabulary``; `dataset_vocabulary` reads it, or gathers it
-  from the bundles of exports written before it was recorded).
+- `Vocabulary`: the dataset's goal categories, object categories and the labels of its category image, the same
+  for every variant (recorded in the MJCF export's ``index.json``, ``vocabulary``; `dataset_vocabulary` reads it, or
+  gathers it from the bundles of exports written before it was recorded).
 - `Sensors`: sent to the agent once: image size, intrinsics, depth range, camera height, the action space and its
   step sizes, the step limit, the vocabulary and the knowledge granted.
 - `ObservationBuilder`: the dm_control task's observation -> the agent's. Keys: ``rgb`` (H, W, 3) uint8,
@@ -38,10 +38,16 @@ from ..sim.model import OBJECT_ID_BASE
 
 @dataclass(frozen=True)
 class Vocabulary:
-    """The dataset's categories: goal categories (``objectgoal`` indexes them) and category-image labels."""
+    """The dataset's categories: goal categories (``objectgoal`` indexes them), category-image labels, and the object
+    categories (every category of placed objects, goals included: what agents normalise relevance over)."""
 
     goal_categories: tuple[str, ...]
     labels: tuple[str, ...]
+    object_categories: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.object_categories:  # a record without them: the goal categories
+            object.__setattr__(self, "object_categories", tuple(self.goal_categories))
 
     def label_index(self) -> dict[str, int]:
         """Return label -> index into `labels`."""
@@ -49,7 +55,8 @@ class Vocabulary:
 
     def to_dict(self) -> dict[str, list[str]]:
         """Return the JSON form (``index.json``'s ``vocabulary``)."""
-        return {"goal_categories": list(self.goal_categories), "labels": list(self.labels)}
+        return {"goal_categories": list(self.goal_categories), "labels": list(self.labels),
+                "object_categories": list(self.object_categories)}
 
     @classmethod
     def from_dict(cls, d: dict, where: str | Path = "vocabulary") -> "Vocabulary":
@@ -57,21 +64,25 @@ class Vocabulary:
         try:
             goals = tuple(str(x) for x in d["goal_categories"])
             labels = tuple(str(x) for x in d["labels"])
-        except (KeyError, TypeError) as e:
+            objects = tuple(str(x) for x in d.get("object_categories", ()))
+        except (KeyError, TypeError, AttributeError) as e:
             raise InputError(where, f"'vocabulary' needs lists 'goal_categories' and 'labels' ({e})") from None
-        if len(set(labels)) != len(labels) or len(set(goals)) != len(goals):
+        if any(len(set(x)) != len(x) for x in (goals, labels, objects)):
             raise InputError(where, "'vocabulary' lists a category twice")
-        return cls(goals, labels)
+        return cls(goals, labels, objects)
 
     @classmethod
     def of_bundles(cls, bundles: Iterable[Any]) -> "Vocabulary":
-        """Return the union over loaded bundles: goal categories of their episodes, every label their detector names."""
+        """Return the union over loaded bundles: goal categories of their episodes, every label their detector names,
+        the categories of their placed objects."""
         goals: set[str] = set()
         labels: set[str] = set()
+        objects: set[str] = set()
         for b in bundles:
             goals |= {e.object_category for e in b.episodes}
             labels |= {lab for lab in b.detector_labels().values() if lab}
-        return cls(tuple(sorted(goals)), tuple(sorted(labels | goals)))
+            objects |= {lab for lab in b.object_labels.values() if lab}
+        return cls(tuple(sorted(goals)), tuple(sorted(labels | goals)), tuple(sorted(objects | goals)))
 
 
 def dataset_vocabulary(root: str | Path | None, bundles: Iterable[Any] = ()) -> Vocabulary:
