@@ -183,3 +183,34 @@ def test_observations_carry_categories_of_the_dataset_vocabulary_and_no_ids(data
         assert set(np.unique(cat).tolist()) <= set(range(-1, len(vocab.labels)))
     finally:
         env.task.close()
+
+
+def test_a_first_visit_shows_the_home_without_the_placed_objects(dataset):
+    """The exploration phase renders no placed object (segmentation ids of obj_<n>) while the scene's instances
+    stay; the next reset is an episode again, with its objects, its goal and the scene as compiled."""
+    from sdovon_mj.sim.model import OBJECT_ID_BASE
+    from sdovon_mj.suite import load_bundle, make_environment
+    from sdovon_mj.suite.evaluate import exploration_start
+
+    b = load_bundle(dataset / "fixture_apartment_v000")
+    env = make_environment(b, nav=NAV, agent=AgentConfig(sensor_width=64, sensor_height=48), semantic=True)
+    try:
+        env.task.set_exploration(*exploration_start(b, 0))
+        seen_explore, seen_episode = set(), set()
+        ts = env.reset()
+        assert ts.observation["objectgoal_text"] == "" and env.task.exploring and not env.task.episode.goals
+        for _ in range(12):
+            seen_explore |= set(np.unique(env.step(2).observation["semantic"]).tolist())
+        assert seen_explore and not any(i >= OBJECT_ID_BASE for i in seen_explore)
+        goal = b.episodes[0].goals[0]
+        for i in range(len(b.episodes)):  # an episode whose start sees a goal object when turning around
+            env.task.set_next_episode(i)
+            ts = env.reset()
+            assert not env.task.exploring and ts.observation["objectgoal_text"] == b.episodes[i].object_category
+            for _ in range(12):
+                seen_episode |= set(np.unique(env.step(2).observation["semantic"]).tolist())
+            if any(i >= OBJECT_ID_BASE for i in seen_episode):
+                break
+        assert any(i >= OBJECT_ID_BASE for i in seen_episode), goal.object_id
+    finally:
+        env.task.close()

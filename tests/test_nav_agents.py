@@ -443,3 +443,16 @@ def test_eval_command_writes_outcomes_and_paired_differences(fixture_root, tmp_p
     assert rc == 0
     assert "| oracle - random | 3 |" in md and "## How episodes ended" in md
     assert "| oracle | 3 | 1.000 | 0.000 | 0.000 | 0.000 | 0.000 |" in md  # the oracle stops on a view point
+
+
+@pytest.mark.slow
+def test_a_goal_seen_beyond_the_depth_range_is_approached_not_made_up(fixture_root):
+    """With a 2 m depth sensor in rooms of 4 m, goals are first seen with no range: the agent walks along their bearing
+    and looks again (info far_approaches), and the centre it reports comes from ranged pixels, on a goal object (no
+    "other instance": a position made up in front of the camera would lie away from every goal's box)."""
+    body = AgentConfig(sensor_width=96, sensor_height=72)
+    res = evaluate(fixture_root, RandomAStar(nav=NavConfig(depth_max=2.0), agent=body, explore_steps=400), episodes=4,
+                   progress=False)
+    far = [r for r in res if r["info"].get("far_approaches")]
+    assert far, [r["info"] for r in res]
+    assert all(r["outcome"] != "other instance" for r in far if r["info"].get("detected")), [r["outcome"] for r in far]

@@ -15,8 +15,8 @@ Design (research/mjcf_and_dmcontrol.md section 4):
 - Metrics follow habitat-lab (``sdovon_mj.metrics``): distance to goal is the grid geodesic to the
   nearest view point; success = STOP with d < success_distance; SPL; Soft SPL.
 - A first visit (`ObjectNavTask.set_exploration`, the evaluation's exploration phase for agents with a scene
-  prior): the next reset starts from a given pose with no goal, and renders hide the placed objects (geom group
-  2): the agent sees the home, not the arrangement its episodes will search.
+  prior): the next reset starts from a given pose with no goal, and renders hide the placed objects (the geoms of
+  bodies ``obj_<n>``; articulated furniture stays): the agent sees the home, not the arrangement its episodes search.
 - The reward (`get_reward`: the drop of the geodesic distance to the nearest goal view point, habitat-lab's dense
   reward) is generator knowledge: it is there for training; the evaluation never sends it to an agent.
 - Articulated parts (issue 17): ``OPEN`` / ``CLOSE`` drive the part the agent looks at (hinge/slide joints
@@ -49,10 +49,10 @@ from ..config import AgentConfig, EpisodeConfig, NavConfig
 from ..errors import InputError
 from ..geometry import axis_quat, quat_mul, quat_yaw, yaw_quat
 from ..records import Episode
-from ..sim import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from ..sim import GROUP_AGENT
 from ..sim.articulation import part_joints
 from ..sim.camera import intrinsics, pose_cv, vfov_from_hfov
-from ..sim.model import geom_segment_ids, object_segment_id, segment_image
+from ..sim.model import OBJECT_ID_BASE, geom_segment_ids, object_segment_id, segment_image
 from ..sim.render import SceneRenderer
 from ..grid import lookup, segment_free
 from ..gridgraph import GeodesicField, cell_graph
@@ -189,12 +189,25 @@ class ObjectNavTask(control.Task):
         self.part_moves: list[tuple[str, str]] = []
         self._explore_from: tuple[np.ndarray, float] | None = None
         self.exploring = False  # the current "episode" is a first visit (no goal, placed objects hidden)
+        self._groups: tuple[Any, np.ndarray] | None = None  # (model, geom groups as compiled)
 
     # -- episodes --------------------------------------------------------------------------------
 
     def set_next_episode(self, index: int) -> None:
         """Make the next reset start the episode with this index."""
         self._next_index = int(index) % len(self.bundle.episodes)
+
+    def _hide_objects(self, physics: Physics, hide: bool) -> None:
+        """Move the placed objects' geoms out of the rendered groups (a first visit), or back as compiled."""
+        m = physics.model.ptr
+        if self._groups is None or self._groups[0] is not m:
+            self._groups = (m, np.array(m.geom_group).copy())
+        groups = self._groups[1]
+        if hide:
+            objects = geom_segment_ids(m) >= OBJECT_ID_BASE
+            m.geom_group[:] = np.where(objects, GROUP_AGENT, groups)  # the agent's own camera never shows group 5
+        else:
+            m.geom_group[:] = groups
 
     def set_exploration(self, position: np.ndarray, yaw: float) -> None:
         """Make the next reset start a first visit of the scene: from this pose (floor position, yaw in degrees), no
@@ -224,6 +237,7 @@ class ObjectNavTask(control.Task):
             self._next_index = (self._next_index + 1) % len(self.bundle.episodes)
         self.episode_index = idx
         self.episode = ep = ep if self.exploring else self.bundle.episodes[idx]
+        self._hide_objects(physics, self.exploring)
         self.navmap = self.bundle.navmap(ep.floor)
         self.frame = self.navmap.frame
         if ep.floor not in self._graphs:
@@ -499,7 +513,6 @@ class ObjectNavTask(control.Task):
         """Render rgb (H,W,3), depth (H,W) metres clipped to the sensor range, and segment ids (or None)."""
         seg = self.semantic if segmentation is None else segmentation
         r = self.renderer(physics)
-        r.set_groups((GROUP_SCENE, GROUP_CEILING) if self.exploring else (GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL))
         f = r.render(self.camera_pose(), rgb=True, depth=True, segmentation=seg)
         depth = np.clip(np.nan_to_num(f.depth, nan=self.nav.depth_max, posinf=self.nav.depth_max),
                         self.nav.depth_min, self.nav.depth_max).astype(np.float32)

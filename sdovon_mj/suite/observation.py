@@ -157,6 +157,13 @@ class ObservationBuilder:
         for k, v in ids.items():
             self._lut[k if k < OBJECT_ID_BASE else self._inst_n + k - OBJECT_ID_BASE] = v
 
+    @classmethod
+    def for_bundle(cls, bundle: Any, knowledge: Knowledge, vocabulary: Vocabulary | None = None) -> "ObservationBuilder":
+        """Return the builder of a loaded bundle (`Bundle`): its segment labels, the dataset's vocabulary (default:
+        `dataset_vocabulary` of the folder the bundle sits in)."""
+        vocab = vocabulary if vocabulary is not None else dataset_vocabulary(Path(bundle.root).parent, [bundle])
+        return cls(knowledge, vocab, bundle.detector_labels())
+
     def category_image(self, segment_ids: np.ndarray) -> np.ndarray:
         """Return the (H, W) int16 category image of a segmentation-id image (-1: nothing labelled)."""
         s = np.asarray(segment_ids, np.int64)
