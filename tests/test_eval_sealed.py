@@ -214,3 +214,27 @@ def test_a_first_visit_shows_the_home_without_the_placed_objects(dataset):
         assert any(i >= OBJECT_ID_BASE for i in seen_episode), goal.object_id
     finally:
         env.task.close()
+
+
+def test_a_rerun_resumes_from_the_episodes_written_and_only_the_same_run(dataset, tmp_path, monkeypatch):
+    """With an output folder, a rerun reads finished episodes back instead of starting the agent; an episode whose
+    file is gone runs again (with the same result); another configuration of the agent is another run."""
+    import sdovon_mj.suite.evaluate as E
+
+    keys = ("episode_id", "trajectory", "success", "run_key")
+    first = _run(dataset, spec("Blind"), episodes=3, out=tmp_path)
+    real = E.open_session
+
+    def no_agent(*a, **k):
+        raise AssertionError("a finished run started its agent again")
+
+    monkeypatch.setattr(E, "open_session", no_agent)
+    again = _run(dataset, spec("Blind"), episodes=3, out=tmp_path)
+    assert [[r[k] for k in keys] for r in again] == [[r[k] for k in keys] for r in first]
+    (tmp_path / "episodes" / "Blind" / f"{first[1]['episode_id']}.json").unlink()
+    started = []
+    monkeypatch.setattr(E, "open_session", lambda *a, **k: started.append(1) or real(*a, **k))
+    third = _run(dataset, spec("Blind"), episodes=3, out=tmp_path)
+    assert started == [1] and [[r[k] for k in keys] for r in third] == [[r[k] for k in keys] for r in first]
+    other = _run(dataset, spec("Blind", steps=5), episodes=3, out=tmp_path)
+    assert len(started) == 2 and other[0]["run_key"] != first[0]["run_key"]
