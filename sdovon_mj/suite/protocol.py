@@ -475,7 +475,8 @@ def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protec
     """Return the agent process's allow-list (and why it cannot seal, '' when it can).
 
     Read: the Python installation and site-packages, system libraries and configuration (/usr, /lib, /etc),
-    ``sdovon_mj``'s own folder, the folder (or file) of the agent's top-level module, the shared embedding cache,
+    ``sdovon_mj``'s own folder, the folder (or file) of the agent's top-level module and the spec's ``paths``, the
+    shared embedding cache,
     its own /proc entries, /sys, and `extra_read`. Write: its scratch folder, /dev/shm, /dev/null, the embedding
     cache. When an allowed path holds a protected one (the dataset, the results folder), the file system cannot be
     sealed and the reason says so.
@@ -504,6 +505,7 @@ def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protec
         if loc is not None:
             modules.append(loc)
             read |= set(loc[2]) if loc[2] else {loc[1]}
+        read |= set(spec.paths)  # folders the spec names for its modules: the agent's own code
     else:  # an agent object: its class's top-level module (already imported here)
         top = type(spec).__module__.split(".")[0]
         mod = sys.modules.get(top)
