@@ -456,3 +456,24 @@ def test_a_goal_seen_beyond_the_depth_range_is_approached_not_made_up(fixture_ro
     far = [r for r in res if r["info"].get("far_approaches")]
     assert far, [r["info"] for r in res]
     assert all(r["outcome"] != "other instance" for r in far if r["info"].get("detected")), [r["outcome"] for r in far]
+
+
+def test_cluster_bootstrap_resamples_scenes_then_variants_then_episodes():
+    """Two apartments, one where every episode succeeds and one where none does: resampling the two scenes gives a
+    mean of 0, 0.5 or 1 (probabilities 1/4, 1/2, 1/4), so the 95 % interval is [0, 1], where resampling the 100
+    episodes alone would claim about 0.5 +- 0.1. Within one scene the variants are the clusters; a scene of one
+    variant of identical episodes has no spread at all."""
+    from sdovon_mj.metrics import cluster_bootstrap, percentile_interval
+
+    x = np.array([1.0] * 50 + [0.0] * 50)
+    scenes = ["a"] * 50 + ["b"] * 50
+    variants = [f"v{i % 5}" for i in range(100)]
+    means = cluster_bootstrap(x, scenes, variants, resamples=2000, seed=0)
+    assert set(np.round(means, 9).tolist()) <= {0.0, 0.5, 1.0}
+    assert percentile_interval(means) == (0.0, 1.0) and abs(float(np.mean(means == 0.5)) - 0.5) < 0.05
+    one = cluster_bootstrap(x, ["s"] * 100, ["v1"] * 50 + ["v2"] * 50, resamples=500, seed=1)  # variants differ
+    assert set(np.round(one, 9).tolist()) <= {0.0, 0.5, 1.0}
+    flat = cluster_bootstrap(np.ones(10), ["s"] * 10, ["v"] * 10, resamples=50, seed=0)
+    assert np.all(flat == 1.0)
+    two = cluster_bootstrap(np.column_stack([x, np.where(x > 0, np.nan, 2.0)]), scenes, variants, resamples=200, seed=0)
+    assert two.shape == (200, 2) and np.all((two[:, 1] == 2.0) | np.isnan(two[:, 1]))  # NaN values left out of their column
