@@ -245,10 +245,11 @@ def exportable_variants(run: RunView, report: ExportReport) -> Iterator[tuple[Sc
 
 
 def finish_export(report: ExportReport, root: Path, options: ExportOptions, index: list[dict], written: list[Path],
-                  index_key: str = "variants") -> ExportReport:
-    """Write the dataset's ``index.json`` ({dataset, split, <index_key>: index}) and fill report.files; return report."""
+                  index_key: str = "variants", extra: dict[str, Any] | None = None) -> ExportReport:
+    """Write the dataset's ``index.json`` ({dataset, split, <index_key>: index, **extra}) and fill report.files; return
+    report."""
     atomic_write_text(root / "index.json", json.dumps({"dataset": options.name, "split": options.split,
-                                                       index_key: index}, indent=1, sort_keys=True) + "\n")
+                                                       index_key: index, **(extra or {})}, indent=1, sort_keys=True) + "\n")
     written.append(root / "index.json")
     report.files = sorted({p.relative_to(Path(report.out_dir)).as_posix() for p in written})
     return report

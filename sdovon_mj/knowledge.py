@@ -1,7 +1,8 @@
 """What an agent knows: its declared `Knowledge` (detector, pose sensor, prior exploration, oracle parts, FN).
 
-Agents (`sdovon_mj.nav`) declare it as a class attribute ``knowledge``; the suite grants exactly that and no
-more (`sdovon_mj.suite.boundary`), and every result table prints it.
+Agents (`sdovon_mj.nav`) declare it as an attribute ``knowledge``; the evaluation grants exactly that and no more
+(`sdovon_mj.suite.protocol`: the agent gets observations built within it, `suite.observation`), and every result
+table prints it.
 """
 
 from __future__ import annotations
@@ -24,17 +25,21 @@ class KnowledgeError(SdovonError, PermissionError):
 class Knowledge:
     """What an agent uses: its detector, its pose sensor, prior exploration, oracle parts, FN variant."""
 
-    detector: str = "gt"  # gt: the ground-truth detector (segmentation + true labels of every visible object)
+    detector: str = "gt"  # gt: the ground-truth category image of the current frame; anything else: its own model
     pose: str = "gps+compass"  # or "absolute": localized in the scene frame
-    prior: str = "none"  # "scene": explores each scene once before its episodes and keeps what it built
+    prior: str = "none"  # "scene": a first visit of each scene (explore_steps, no goal) before its episodes
     oracle: tuple[str, ...] = ()  # generator artefacts it reads (ORACLE_PARTS): an oracle, an upper bound
-    fn: str = "-"  # final navigation after a detection: "paper" (Navigate(p_g|eps_nav)), "lattice", "-" none
+    fn: str = "-"  # final navigation after a detection: "paper" (Navigate(p_g|eps_nav), STOP), "retry", "lattice", "-"
+    explore_steps: int = 0  # the first visit's step budget (prior="scene"), declared and reported
 
     def __post_init__(self) -> None:
         if self.pose not in POSES:
             raise ValueError(f"unknown pose sensor {self.pose!r} ({', '.join(POSES)})")
         if self.prior not in PRIORS:
             raise ValueError(f"unknown prior {self.prior!r} ({', '.join(PRIORS)})")
+        if (self.prior == "scene") != (int(self.explore_steps) > 0):
+            raise ValueError(f"prior {self.prior!r} with explore_steps={self.explore_steps}: a first visit "
+                             "(prior='scene') needs a step budget > 0, and only it")
         bad = sorted(set(self.oracle) - set(ORACLE_PARTS))
         if bad:
             raise ValueError(f"unknown oracle parts {bad} ({', '.join(ORACLE_PARTS)})")
@@ -47,7 +52,7 @@ class Knowledge:
     def describe(self) -> str:
         """Return a one-line description for result tables."""
         parts = [f"detector {self.detector}", "pose absolute (localized)" if self.pose == "absolute" else "GPS+compass",
-                 "own exploration of the scene" if self.prior == "scene" else "no prior", f"FN {self.fn}"]
+                 f"first visit {self.explore_steps} steps" if self.prior == "scene" else "no prior", f"FN {self.fn}"]
         if self.oracle:
             parts.append("ORACLE: " + ", ".join(self.oracle))
         return "; ".join(parts)

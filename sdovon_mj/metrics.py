@@ -8,7 +8,8 @@ Definitions (habitat-lab ``tasks/nav/nav.py``; research/habitat_format.md sectio
 - SPL: ``S * l / max(l, p)`` with ``l = d(0)`` (distance to goal at reset, not the episode's stored
   geodesic distance) and ``p`` the summed Euclidean length of the actual displacements.
 - Soft SPL: ``max(0, 1 - d(T) / l) * l / max(l, p)``; needs no STOP.
-- Dataset numbers are plain means over episodes.
+- Dataset numbers are plain means over episodes; their 95 % intervals come from a cluster bootstrap
+  (`cluster_bootstrap`: scenes, then variants within them, then episodes), since episodes come in clusters.
 
 Degenerate ``l`` (habitat-lab divides by it): ``l = 0`` gives SPL = success and Soft SPL = 1 when
 ``d(T) = 0`` else 0; ``l = inf`` (unreachable goal) gives 0 for both.
@@ -120,3 +121,61 @@ def aggregate(metrics: Iterable[EpisodeMetrics]) -> dict[str, float]:
         "soft_spl": float(np.mean([m.soft_spl for m in ms])),
         "distance_to_goal": float(np.mean(dtg)) if dtg else math.inf,
     }
+
+
+def cluster_bootstrap(values: np.ndarray, scenes: Sequence[str], variants: Sequence[str], resamples: int = 1000,
+                      seed: int = 0) -> np.ndarray:
+    """Return bootstrap means (resamples, K) of per-episode values (N,) or (N, K), resampling the clusters they come in.
+
+    Each resample draws scenes with replacement, then, for every draw of a scene, its variants with replacement,
+    then, for every draw of a variant, its episodes with replacement; the resample's mean is the weighted mean of
+    the values by how often each episode was drawn (non-finite values left out of their column). Episodes of one
+    apartment or one arrangement are not independent: resampling them alone gives intervals too narrow. The
+    percentile interval of the returned means is the 95 % interval (`percentile_interval`).
+
+    Parameters
+    ----------
+    values : ndarray
+        (N,) or (N, K) per-episode values.
+    scenes, variants : sequence of str
+        Each episode's scene and variant (a variant belongs to one scene).
+    resamples : int
+        Bootstrap resamples.
+    seed : int
+        Seed of the resampling.
+    """
+    x = np.asarray(values, float)
+    flat = x.ndim == 1
+    x = x.reshape(len(x), -1)
+    ok = np.isfinite(x)
+    xf = np.where(ok, x, 0.0)
+    tree: dict[str, dict[str, list[int]]] = {}
+    for i, (sc, va) in enumerate(zip(scenes, variants)):
+        tree.setdefault(str(sc), {}).setdefault(f"{sc}/{va}", []).append(i)
+    groups = [[np.array(ix) for ix in vs.values()] for _sc, vs in sorted(tree.items())]
+    rng = np.random.default_rng(seed)
+    w = np.zeros((int(resamples), len(x)))
+    n_s = len(groups)
+    for r in range(int(resamples)):
+        for si, c in enumerate(rng.multinomial(n_s, np.full(n_s, 1.0 / n_s))):
+            if c == 0:
+                continue
+            vs = groups[si]
+            # c independent draws of the scene's variants = one multinomial of c * |variants| draws
+            for vi, cv in enumerate(rng.multinomial(c * len(vs), np.full(len(vs), 1.0 / len(vs)))):
+                if cv:
+                    eps = vs[vi]
+                    w[r, eps] += rng.multinomial(cv * len(eps), np.full(len(eps), 1.0 / len(eps)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        means = (w @ xf) / (w @ ok.astype(float))
+    return means[:, 0] if flat else means
+
+
+def percentile_interval(means: np.ndarray, level: float = 0.95) -> tuple[float, float]:
+    """Return the percentile interval of bootstrap means (NaN resamples left out)."""
+    m = np.asarray(means, float)
+    m = m[np.isfinite(m)]
+    if not len(m):
+        return (math.nan, math.nan)
+    lo, hi = np.percentile(m, [50.0 * (1.0 - level), 100.0 - 50.0 * (1.0 - level)])
+    return float(lo), float(hi)

@@ -254,6 +254,13 @@ def test_mjcf_standalone_export_and_making_a_copied_bundle_self_contained(run_di
     assert (sb / "oracle/navmap_0.npz").is_file() and not (tmp_path / "alone/sdovon/oracle").exists()
     assert "../" not in (sb / "scene.xml").read_text()
     assert main(["export", str(run_dir), "--format", "mjcf", "--out", str(tmp_path / "shared")]) == 0
+    from sdovon_mj.suite import find_bundles
+    from sdovon_mj.suite.observation import Vocabulary, dataset_vocabulary
+
+    # the dataset's one vocabulary, recorded in index.json: the union over its bundles (goal categories, labels)
+    every = Vocabulary.of_bundles(load_bundle(p) for p in find_bundles(tmp_path / "shared/sdovon"))
+    assert dataset_vocabulary(tmp_path / "shared/sdovon") == every and every.goal_categories
+    assert "vocabulary" in json.loads((tmp_path / "shared/sdovon/index.json").read_text())
     copied = tmp_path / "copy/room_v000"
     shutil.copytree(tmp_path / "shared/sdovon/room_v000", copied)
     with pytest.raises(ValueError):  # alone, its ../assets is missing

@@ -218,6 +218,30 @@ def write_object_labels(variant: SceneVariant, bdir: Path) -> Path:
     return path
 
 
+def dataset_vocabulary(run: RunView, root: Path, results: list[UnitResult]) -> dict[str, list[str]]:
+    """Return the dataset's vocabulary (``index.json``'s ``vocabulary``): the goal categories of every exported bundle
+    (their bundle.json ``categories``), every label the suite's category image can show (scene instance labels,
+    categories of the objects at rest, goal categories) and the object categories (of the objects at rest and the
+    goals); one list each for every variant, as the evaluation uses them (`sdovon_mj.suite.observation.Vocabulary`)."""
+    goals: set[str] = set()
+    labels: set[str] = set()
+    objects: set[str] = set()
+    for r in results:
+        names = set(r.variants)
+        if not names:
+            continue
+        for scene in sorted({str(json.loads((root / v / "bundle.json").read_text(encoding="utf-8"))["scene"])
+                             for v in names}):
+            labels |= {i.label for i in run.scene(scene).instances if i.label}
+            for variant in run.variants(scene):
+                if variant.name in names:
+                    objects |= {p.category for p in variant.placements if p.status in ("resting", "resting_elsewhere")}
+        for v in names:
+            goals |= set(json.loads((root / v / "bundle.json").read_text(encoding="utf-8")).get("categories", []))
+    return {"goal_categories": sorted(goals), "labels": sorted(labels | objects | goals),
+            "object_categories": sorted(objects | goals)}
+
+
 def _rel(path: Path, bdir: Path) -> str:
     """Return a path relative to a bundle folder, with forward slashes."""
     return os.path.relpath(path, bdir).replace(os.sep, "/")
@@ -378,7 +402,8 @@ class MjcfBundleExporter(Exporter):
         return make_standalone(bundle_dir)
 
     def finish(self, run: RunView, out_dir: Path, options: ExportOptions, results: list[UnitResult]) -> ExportReport:
-        """Write the dataset's index.json from the units' results."""
+        """Write the dataset's index.json from the units' results, with the dataset's vocabulary."""
         report, written = merge_unit_results(self.name, Path(out_dir), options.name, results)
         index = [row for r in results for row in r.index]
-        return finish_export(report, Path(out_dir) / options.name, options, index, written, index_key="bundles")
+        return finish_export(report, Path(out_dir) / options.name, options, index, written, index_key="bundles",
+                             extra={"vocabulary": dataset_vocabulary(run, Path(out_dir) / options.name, results)})

@@ -1,33 +1,34 @@
-"""Agents for the ObjectNav suite: Random A*, Semantic A* (paper appendix D), the no-prior Semantic Frontier
-agent, and the labelled oracle and random references.
+"""Agents for the ObjectNav suite: Random A*, Semantic A* (paper appendix D) and its distance-aware variant, the
+no-prior Semantic Frontier agent, and the labelled oracle and random references.
 
-Agents are plugins (`plugins.load("agent", name)`, entry point group ``sdovon_mj.agents``); the
-suite builds them as ``factory(nav=NavConfig, agent=AgentConfig, seed=int)`` (``nav.final_nav``
-switches final point-goal navigation, ``nav.fn_mode`` picks the paper's FN or our lattice variant).
-This package never imports the suite: environments come in through ``make_env`` and ``env``.
+Agents are plugins (`plugins.load("agent", name)`, entry point group ``sdovon_mj.agents``); the evaluation builds
+them as ``factory(nav=NavConfig, agent=AgentConfig, seed=int)`` in their own process (``nav.final_nav`` switches
+final point-goal navigation, ``nav.fn_mode`` picks the paper's FN, our FN with retries, or our lattice variant).
+This package never imports the suite: what the agent gets comes in through the protocol's calls.
 
-Every agent declares its `Knowledge` (detector, pose sensor, prior exploration, oracle parts, FN); the suite
-grants exactly that (`sdovon_mj.suite.boundary`): the A* agents build receptacles, planes, regions and
-relevance from the frames of their own exploration with the pipeline's stages (`memory.extract_planes`);
-only agents that declare oracle parts read generator artefacts, and the tables label them.
+Every agent declares its `Knowledge` (detector, pose sensor, prior exploration and its step budget, oracle parts,
+FN); the evaluation grants exactly that (`sdovon_mj.suite.protocol`): the A* agents build receptacles, planes,
+regions and relevance from the frames of their own first visit with the pipeline's stages
+(`memory.extract_planes`); only agents that declare oracle parts get generator artefacts, and the tables label them.
 
-Protocol (what `suite.evaluate` and any plugin agent follow):
-    agent.knowledge                   what it uses (`sdovon_mj.knowledge.Knowledge`)
-    agent.prepare(bundle, make_env)   once per bundle (an `AgentBundle`); A* agents explore a scene they do not
-                                      know yet; ``make_env(bundle, **kwargs)`` returns an `AgentEnv`
-    agent.reset(env, timestep)        at each episode start (``env``: an `AgentEnv`)
-    action = agent.act(timestep)      one discrete action per step
-    agent.wants_frame                 whether the next observation needs rendered images (runners
-                                      may skip rendering otherwise; dm_env specs still hold)
+Protocol (what `suite.protocol.AgentRunner` calls, in the agent's process; docs/evaluation.md):
+    agent.knowledge               what it uses (`sdovon_mj.knowledge.Knowledge`)
+    agent.setup(sensors)          once: `suite.observation.Sensors` (camera, intrinsics K, actions, step limit,
+                                  the dataset's vocabulary)
+    agent.explore(view, ts)       prior="scene" only: the first visit of ``view.scene`` begins (no goal, a step
+                                  budget of ``view.max_steps``); then act() until it returns STOP
+    agent.reset(view, ts)         an episode begins (``view``: scene, episode id and index, steps, step limit)
+    action = agent.act(ts)        one discrete action per time step (dm_env TimeStep, reward None)
+    agent.end(view, ts)           the phase is over (STOP or its step limit); ``agent.info`` is read after it
+    agent.wants_frame             whether the next observation needs rendered images (blank frames otherwise)
 """
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import hashlib
 import math
-from typing import Any, Callable, Generator
+from typing import Any, Generator
 
 import numpy as np
 
@@ -40,47 +41,65 @@ from ..knowledge import Knowledge
 from ..records import Observation, Relevance
 from ..sim.camera import pose_cv
 from .control import Navigator, blocked_cells, lattice_approach, segment_checker
-from .frontier import OccupancyMap, agent_frame, explore, scan_actions
-from .goal import approach_point, footprint_distance, goal_points, infer_view_points, object_centre
+from .frontier import Explorer, OccupancyMap, agent_frame, scan_actions
+from .goal import (approach_point, footprint_distance, goal_points, infer_view_points, mask_bearing, object_centre,
+                   reachable_field)
 from .memory import RANKINGS, SceneMemory, build_memory, container_planes, extract_planes
+from .sensing import CategoryDetector
 
 # Receptacles the A* agents try to open (OPEN) when they do not see the goal at them: furniture with doors or
 # drawers, named by the labels their detector gives (what a robot that knows such furniture opens would try).
 OPENABLE_LABELS = ("cabinet", "kitchen cabinet", "wall cabinet", "cupboard", "dresser", "chest of drawers", "drawer",
                    "wardrobe", "closet", "fridge", "refrigerator", "microwave", "nightstand", "oven", "dishwasher")
 
-# Scene memories built by exploration, shared by every A* agent of a process (eval runs four agents
-# over the same scenes); keyed by scene, navmap, labels and exploration settings.
-_MEMORY_CACHE: dict[tuple, tuple[SceneMemory, dict]] = {}
-_MEMORY_CACHE_SIZE = 32
+# A goal seen only beyond the depth range: walks along its bearing to look again, at most this many.
+FAR_APPROACHES = 3
 
 
 class Agent:
-    """Base agent: generator-driven policies; `_run` yields actions and reads `self.ts`."""
+    """Base agent: generator-driven policies; `_run` (an episode) and `_explore` (a first visit) yield actions and
+    read `self.ts`; ``self.env`` is the protocol's view of the current phase (`suite.protocol.AgentView`)."""
 
     name = "agent"
     knowledge = Knowledge()
 
     def __init__(self, nav: NavConfig | None = None, seed: int = 0, agent: AgentConfig | None = None) -> None:
         self.nav = nav or NavConfig()
-        self.agent_config = agent or AgentConfig()  # body, camera and eta_gt; environments are made with it
+        self.agent_config = agent or AgentConfig()  # body, camera and eta_gt the agent assumes
         self.seed = seed
         self.wants_frame = True
         self._gen: Generator[int, object, None] | None = None
         self.ts = None
         self.info: dict = {}
+        self.sensors: Any = None
+        self.detector: CategoryDetector | None = None
+        self.object_categories: tuple[str, ...] = ()  # the dataset's object categories (`Vocabulary.object_categories`)
 
-    def prepare(self, bundle, make_env: Callable[..., object]) -> None:
-        """Prepare for a bundle's episodes (default: nothing)."""
+    def setup(self, sensors: Any) -> None:
+        """Keep the sensors; with the ground-truth detector declared, detect instances in the category image."""
+        self.sensors = sensors
+        self.object_categories = tuple(sensors.vocabulary.object_categories)  # relevance is normalised over them
+        if sensors.knowledge.detector == "gt":
+            self.detector = CategoryDetector(sensors.vocabulary.labels, sensors.eta)
 
-    def reset(self, env, ts) -> None:
-        """Start an episode."""
-        self.env, self.ts = env, ts
+    def _start(self, view: Any, ts: Any, gen: Generator[int, object, None]) -> None:
+        self.env, self.ts = view, ts
         self.info = {}
-        self._gen = self._run(env)
+        self._gen = gen
         self._started = False
-        self.frame_fresh = True  # whether the current observation's images were rendered (the suite renders resets)
+        self.frame_fresh = True  # whether the current observation's images were rendered (a phase's first one is)
         self._render_next = False
+
+    def explore(self, view: Any, ts: Any) -> None:
+        """Start the first visit of a scene (agents that declare ``prior="scene"``)."""
+        self._start(view, ts, self._explore(view))
+
+    def reset(self, view: Any, ts: Any) -> None:
+        """Start an episode."""
+        self._start(view, ts, self._run(view))
+
+    def end(self, view: Any, ts: Any) -> None:
+        """The phase is over (default: nothing to do)."""
 
     def act(self, ts) -> int:
         """Return the next action for the current timestep (STOP once the policy is done)."""
@@ -93,6 +112,9 @@ class Agent:
         self._started = True
         self._render_next = bool(self.wants_frame)
         return int(a)
+
+    def _explore(self, env) -> Generator[int, object, None]:
+        yield STOP
 
     def _run(self, env) -> Generator[int, object, None]:
         yield STOP
@@ -131,14 +153,10 @@ class OracleAgent(Agent):
         self.stop = stop
         self.wants_frame = False
 
-    def prepare(self, bundle, make_env: Callable[..., object]) -> None:
-        """Keep the bundle (its oracle part is read per episode)."""
-        self.bundle = bundle
-
     def _run(self, env) -> Generator[int, object, None]:
-        oracle = self.bundle.oracle
-        vps3 = oracle.view_points(env.episode_id)
-        nm = oracle.navmap(oracle.episode_floor(env.episode_id))
+        oracle = env.oracle
+        vps3 = oracle.view_points()
+        nm = oracle.navmap(oracle.episode_floor())
         mask, frame = nm.navigable, nm.frame
         pos = np.asarray(self.ts.observation["position"], float)[:2]
         from_agent = GeodesicField(mask, frame, pos[None])
@@ -162,9 +180,10 @@ class ReceptacleAStar(Agent):
     """Receptacle search with A* (paper algorithms 3/4); subclasses choose the receptacle order.
 
     Knowledge: the ground-truth detector, its pose in the scene frame (localized, as the paper's agents), and
-    what it built itself when it first explored the scene (appendix D): receptacles, planes and regions from
-    its own frames with the pipeline's stages, relevance from the semantics backend. Optional privileges
-    (``oracle_parts``) make it a labelled oracle variant, for the ablation of what each was worth.
+    what it built itself on its first visit of the scene (appendix D; ``explore_steps``, the evaluator's exploration
+    phase): receptacles, planes and regions from its own frames with the pipeline's stages, relevance from the
+    semantics backend. Optional privileges (``oracle_parts``) make it a labelled oracle variant, for the ablation
+    of what each was worth.
     """
 
     name = "receptacle-astar"
@@ -189,9 +208,10 @@ class ReceptacleAStar(Agent):
             Labels of receptacles to visit (default `ReceptacleConfig().labels`; empty: the semantics backend
             names them among the labels it detected, prompt C.1).
         explore_steps
-            Step budget of the frontier exploration per scene.
+            Step budget of its first visit of each scene (declared: `Knowledge.explore_steps`).
         explore_size
-            (width, height) in pixels of the exploration camera.
+            (width, height) in pixels at which it keeps the first visit's frames (and integrates their depth):
+            every n-th pixel of the sensor's images, n = sensor width // width.
         semantics
             The semantics backend and region-map settings of its own ExtractPlanes (default `SemanticsConfig()`).
         perceive
@@ -213,6 +233,8 @@ class ReceptacleAStar(Agent):
         self.open_labels = tuple(l.lower() for l in open_labels)
         self.open_tries = int(open_tries)
         self.opened = 0  # parts opened in the current episode (info['opened'])
+        self.far = 0  # walks towards a goal seen beyond the depth range (info['far_approaches'])
+        self.explored: dict = {}  # what the first visit built (the exploration phase's info)
         self.final_nav = self.nav.final_nav if final_nav is None else bool(final_nav)
         self.receptacle_labels = ReceptacleConfig().labels if receptacle_labels is None else tuple(receptacle_labels)
         self.explore_steps = explore_steps
@@ -221,7 +243,7 @@ class ReceptacleAStar(Agent):
         self.perceive = perceive or PerceiveConfig()
         self.oracle_parts = tuple(oracle_parts)
         self.knowledge = Knowledge(detector="gt", pose="absolute", prior="scene", oracle=self.oracle_parts,
-                                   fn=self.nav.fn_mode if self.final_nav else "-")
+                                   fn=self.nav.fn_mode if self.final_nav else "-", explore_steps=int(explore_steps))
         self.memories: dict[str, SceneMemory] = {}
         self._relevance: dict[tuple[str, str], Relevance] = {}
         self._backend = None
@@ -237,24 +259,37 @@ class ReceptacleAStar(Agent):
             self._backend = get_backend(self.semantics)
         return self._backend
 
-    def prepare(self, bundle, make_env: Callable[..., object]) -> None:
-        """Explore the bundle's scene the first time it is seen and build the memory (ExtractPlanes)."""
-        self.bundle = bundle
-        self.detector = bundle.detector
-        scene = bundle.scene
-        if scene in self.memories:
+    def _explore(self, env) -> Generator[int, object, None]:
+        """The first visit: frontier exploration (`frontier.Explorer`), then ExtractPlanes on its frames; STOP."""
+        if env.scene in self.memories:  # visited before: nothing to learn
+            yield STOP
             return
-        key = (scene, tuple(self.receptacle_labels), self.open_labels, self.explore_steps, tuple(self.explore_size), self.oracle_parts,
-               dataclasses.replace(self.nav, final_nav=True, fn_mode="paper"), self.agent_config, self.semantics,
-               self.perceive, tuple(sorted(getattr(self.detector, "labels", {}).items())))
-        if key in _MEMORY_CACHE:
-            mem, self.explored = _MEMORY_CACHE[key]
-            self.memories[scene] = copy.copy(mem)  # own planning map: cells learned blocked stay with this agent
-            return
-        w, h = self.explore_size
-        env = make_env(bundle, nav=self.nav, agent=self.agent_config, width=w, height=h,
-                       max_steps=self.explore_steps + 100)
-        frames, occ = explore(env, self.nav, max_steps=self.explore_steps)
+        s = max(1, int(round(self.sensors.width / max(1, int(self.explore_size[0])))))
+        self._explorer = Explorer(self.nav, self.agent_config, self.sensors.K, max_steps=env.max_steps - 1, downsample=s)
+        gen = self._explorer.run(self.ts)
+        try:
+            a, render = next(gen)
+            while True:
+                self.wants_frame = render
+                ts = yield a
+                a, render = gen.send(ts)
+        except StopIteration:
+            pass
+        self.wants_frame = False
+        self._build_memory(env)
+        yield STOP
+
+    def end(self, view: Any, ts: Any) -> None:
+        """After a first visit the evaluator ended (its step budget): build the memory from what was seen."""
+        if view.phase == "explore" and view.scene not in self.memories and getattr(self, "_explorer", None) is not None:
+            self._build_memory(view)
+        if view.phase == "explore":
+            self.info = dict(self.explored)
+
+    def _build_memory(self, env) -> None:
+        """ExtractPlanes on the first visit's frames: instances, receptacle planes, regions -> the scene's memory."""
+        ex, self._explorer = self._explorer, None
+        frames, occ = ex.frames, ex.occ
         labels = self.receptacle_labels
         if not labels:  # the backend names the receptacles among what the agent detected (prompt C.1)
             from ..semantics import identify_receptacles
@@ -267,22 +302,18 @@ class ReceptacleAStar(Agent):
             planes = planes + container_planes(instances, planes, self.open_labels, navmap, rm)
         trav, frame = occ.traversable(), occ.frame
         if "navmap" in self.oracle_parts:  # ORACLE: plan on the generator's map
-            nm = bundle.oracle.navmap(0)
+            nm = env.oracle.navmap(0)
             trav, frame = nm.navigable, nm.frame
         if "region_map" in self.oracle_parts:  # ORACLE: the generator's regions
-            true_rm = bundle.oracle.region_map(0)
+            true_rm = env.oracle.region_map(0)
             if true_rm is not None:
                 planes = [dataclasses.replace(pl, region=true_rm.region_at(np.asarray(pl.polygon, float).mean(axis=0))
                                               or pl.region) for pl in planes]
-        self.memories[scene] = build_memory(scene, [], {}, trav, frame, labels, planes)
-        self.memories[scene].instances = instances
-        self.explored = {"frames": len(frames), "free_cells": int((occ.state == 1).sum()), "steps": int(env.steps),
-                         "instances": len(instances), "planes": len(planes),
+        self.memories[env.scene] = build_memory(env.scene, [], {}, trav, frame, labels, planes)
+        self.memories[env.scene].instances = instances
+        self.explored = {"frames": len(frames), "free_cells": int((occ.state == 1).sum()), "steps": int(ex.steps),
+                         "instances": len(instances), "planes": len(planes), "stop_reason": occ.stop_reason,
                          "regions": sorted({pl.region for pl in planes if pl.region})}
-        env.close()
-        while len(_MEMORY_CACHE) >= _MEMORY_CACHE_SIZE:
-            _MEMORY_CACHE.pop(next(iter(_MEMORY_CACHE)))
-        _MEMORY_CACHE[key] = (copy.copy(self.memories[scene]), self.explored)
 
     def relevance_for(self, memory: SceneMemory, category: str) -> Relevance | None:
         """Return the relevance of a goal category to the memory's (region, receptacle) pairs.
@@ -291,21 +322,26 @@ class ReceptacleAStar(Agent):
         ``relevance`` oracle variant.
         """
         if "relevance" in self.oracle_parts:
-            return self.bundle.oracle.relevance
-        key = (memory.scene, category, tuple(self.bundle.categories))
+            return self.env.oracle.relevance
+        key = (memory.scene, category)
         if key not in self._relevance:
             from ..semantics import relevance
 
             regions = sorted({e.region for e in memory.entries if e.region} | set(self.semantics.region_labels))
             recs = sorted({e.plane.label for e in memory.entries})
-            # over every goal category of the dataset: P(o|rec) and P(o|rgn) are normalised over the object list
-            objects = sorted(set(self.bundle.categories) | {category})
+            # over the dataset's object categories (one vocabulary for every variant): P(o|rec) and P(o|rgn) are
+            # normalised over the object list
+            objects = sorted(set(self.object_categories) | {category})
             self._relevance[key] = relevance(objects, regions, recs, self.backend()) if recs else None
         return self._relevance[key]
 
     def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
         """Return the memory entries in visiting order."""
         raise NotImplementedError
+
+    def _entries(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> Generator[Any, None, None]:
+        """Yield the entries to visit, one at a time (default: `order`, fixed at the episode start)."""
+        yield from self.order(memory, category, rng)
 
     # -- one episode ---------------------------------------------------------------------------------
 
@@ -314,7 +350,7 @@ class ReceptacleAStar(Agent):
         if not self.frame_fresh:
             return None
         category = str(self.ts.observation["objectgoal_text"])
-        return self.detector.category_mask(self.ts.observation.get("semantic"), category)
+        return self.detector.category_mask(self.ts.observation.get("category"), category)
 
     def _rendered(self, action: int) -> Generator[int, object, None]:
         """Yield one action whose observation is rendered."""
@@ -439,31 +475,28 @@ class ReceptacleAStar(Agent):
         return False
 
     def _final_nav(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
-        """FN after a detection: the paper's (default) or our lattice variant (``nav.fn_mode``)."""
+        """FN after a detection (``nav.fn_mode``): the paper's (default), ours with retries, or our lattice variant."""
         if self.nav.fn_mode == "lattice":
             return (yield from self._final_nav_lattice(memory, nv, pts))
+        if self.nav.fn_mode == "retry":
+            return (yield from self._final_nav_retry(memory, nv, pts))
         return (yield from self._final_nav_paper(memory, nv, pts))
 
-    def _final_nav_paper(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
-        """The paper's FN: Navigate(p_g | eps_nav) to the detected object's centre, then STOP with it in view.
+    def _navigate(self, memory: SceneMemory, nv: Navigator, centre: np.ndarray,
+                  verify: bool) -> Generator[int, object, tuple[bool, bool, bool]]:
+        """Navigate(p_g | eps_nav): drive towards the object's centre p_g until within eps_nav of it, or to the
+        reachable cell of the agent's map nearest to it; return (reached, seen, looked).
 
-        p_g usually stands on furniture: the agent drives towards the reachable cell of its map nearest to p_g
-        and stops as soon as it is within eps_nav of p_g, faces the object and looks. An agent whose map grows with
-        what it sees (the no-prior agent) plans again from there while that brings it closer. Where Navigate ended
-        counts when the agent sees the object from there and stands within eps_nav of p_g or within the view radius
-        ``nav.fn_viewpoint_radius`` (less half a step) of the object's seen points (`footprint_distance`: the
-        furniture under it can keep every free cell farther than eps_nav). Otherwise it tries other places of its map
-        within the view radius of p_g (at most ``nav.fn_max_checks`` places in all, nearest by path first) and stops
-        at the first that shows the object. ``fn_reached`` in the result: it came within eps_nav of p_g.
+        With ``verify`` it looks at the object after each drive (`_verify`: ``seen``). An agent whose map grows with
+        what it sees (`_map_grew`: the no-prior one) turns to face p_g (rendering, so the look joins its map) and
+        plans again from there while each round brings it closer; a map built in advance has nothing new to plan with.
         """
-        centre = object_centre(pts)
         half = self.nav.forward_step / 2.0
 
         def away() -> float:
             return float(np.linalg.norm(np.asarray(self.ts.observation["position"], float)[:2] - centre[:2]))
 
-        seen = False
-        looked = False
+        seen = looked = False
         while away() > self.nav.eps_nav + 1e-6 and self.env.steps < self.nav.max_steps - 10:
             # straight towards p_g when the agent's map shows that way free, else to the nearest reachable cell
             pos = np.asarray(self.ts.observation["position"], float)[:2]
@@ -479,14 +512,44 @@ class ReceptacleAStar(Agent):
                     break  # the agent stands where its map lets it come closest
             start = away()
             yield from nv.goto(target, tol, self.ts)
-            seen = yield from self._verify(centre, nv)
-            looked = True
-            # Navigate(p_g | eps_nav): an agent whose map grows with what it sees (`_map_grew`) plans again from
-            # here while each round brings it closer; a map built in advance has nothing new to plan with
+            if verify:
+                seen = yield from self._verify(centre, nv)
+                looked = True
+            elif self._can_grow():
+                self.frame_fresh = False
+                yield from self._face(nv, centre)
             if not self._map_grew(memory) or away() > start - half:
                 break
             looked = False
-        reached = away() <= self.nav.eps_nav + 1e-6
+        return away() <= self.nav.eps_nav + 1e-6, seen, looked
+
+    def _final_nav_paper(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
+        """The paper's FN (algorithms 3-4): Navigate(p_g | eps_nav) to the detected object's centre p_g, then STOP.
+
+        p_g usually stands on furniture: the agent drives towards it on its own map until within eps_nav, or to the
+        reachable cell nearest to it (`_navigate`), and stops there. ``fn_reached``: it came within eps_nav of p_g.
+        """
+        reached, _seen, _looked = yield from self._navigate(memory, nv, object_centre(pts), verify=False)
+        return {"fn": "paper", "fn_reached": bool(reached)}
+
+    def _final_nav_retry(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
+        """Our FN with retries: Navigate(p_g | eps_nav) to the detected object's centre, then STOP with it in view.
+
+        As the paper's (`_navigate`), looking at the object after each drive. Where Navigate ended counts when the
+        agent sees the object from there and stands within eps_nav of p_g or within the view radius
+        ``nav.fn_viewpoint_radius`` (less half a step) of the object's seen points (`footprint_distance`: the
+        furniture under it can keep every free cell farther than eps_nav). Otherwise it tries other places of its map
+        within the view radius of p_g (at most ``nav.fn_max_checks`` places in all, nearest by path first) and stops
+        at the first that shows the object. The view radius is the task's published one (view points lie within it),
+        not a generator record. ``fn_reached`` in the result: it came within eps_nav of p_g.
+        """
+        centre = object_centre(pts)
+        half = self.nav.forward_step / 2.0
+
+        def away() -> float:
+            return float(np.linalg.norm(np.asarray(self.ts.observation["position"], float)[:2] - centre[:2]))
+
+        reached, seen, looked = yield from self._navigate(memory, nv, centre, verify=True)
         if not looked:
             seen = yield from self._verify(centre, nv)
         # where Navigate ended counts when it shows the object and lies within eps_nav of p_g, or within the view radius
@@ -513,11 +576,15 @@ class ReceptacleAStar(Agent):
                 seen = yield from self._verify(centre, nv)
                 if seen:
                     break
-        return {"fn": "paper", "fn_reached": bool(reached), "fn_verified": bool(seen), "fn_checks": tried}
+        return {"fn": "retry", "fn_reached": bool(reached), "fn_verified": bool(seen), "fn_checks": tried}
 
     def _map_grew(self, memory: SceneMemory) -> bool:
         """Add what the agent sees now to its planning map; return whether it did (an A* agent plans on the map of its
         first visit, so its map does not grow during an episode)."""
+        return False
+
+    def _can_grow(self) -> bool:
+        """Return whether the agent's map grows with what it sees during an episode (`_map_grew`)."""
         return False
 
     def _final_nav_lattice(self, memory: SceneMemory, nv: Navigator, pts: np.ndarray) -> Generator[int, object, dict]:
@@ -537,30 +604,69 @@ class ReceptacleAStar(Agent):
                 return {"fn": "lattice", "fn_candidates": int(len(cands)), "fn_checks": tried, "fn_verified": True}
         return {"fn": "lattice", "fn_candidates": int(len(cands)), "fn_checks": tried, "fn_verified": False}
 
-    def _found(self, memory: SceneMemory, nv: Navigator, mask: np.ndarray, entry, visited: int) -> Generator[int, object, None]:
-        """The goal is detected: reconstruct it, run FN (when on) and STOP."""
+    def _approach_far(self, memory: SceneMemory, nv: Navigator, mask: np.ndarray) -> Generator[int, object, np.ndarray | None]:
+        """The goal is in view only beyond the depth range: walk along its bearing and look again.
+
+        Each round drives towards the point ``depth_max - 1`` m along the bearing of the mask (the reachable cell of
+        the agent's map nearest to it, no detour), faces the bearing and looks (`_observe`); it returns the first
+        mask with range, or None when the goal is lost or nothing brings it closer (``FAR_APPROACHES`` rounds).
+        """
+        for _ in range(FAR_APPROACHES):
+            self.far += 1
+            T = self._camera()
+            ray = mask_bearing(mask, self.env.K, T)
+            flat = np.linalg.norm(ray[:2])
+            pos = np.asarray(self.ts.observation["position"], float)[:2]
+            if flat < 1e-6 or self.env.steps >= self.nav.max_steps - 20:
+                return None
+            target = T[:3, 3][:2] + ray[:2] / flat * max(1.0, self.nav.depth_max - 1.0)
+            dest = approach_point(target, memory.traversable, memory.frame, pos)
+            if dest is None or float(np.linalg.norm(dest - pos)) < self.nav.forward_step:
+                return None
+            yield from nv.goto(dest, self.nav.forward_step, self.ts)
+            self.frame_fresh = False
+            yield from self._face(nv, T[:3, 3] + ray * (self.nav.depth_max + 2.0))
+            self._map_grew(memory)
+            mask = yield from self._observe()
+            if mask is None:
+                return None
+            if len(self._reconstruct(mask)):
+                return mask
+        return None
+
+    def _found(self, memory: SceneMemory, nv: Navigator, mask: np.ndarray, entry,
+               visited: int) -> Generator[int, object, bool]:
+        """The goal is detected: reconstruct it (approaching a goal seen beyond the depth range first), run FN (when
+        on) and STOP; return False when a far goal was lost on the way (the search goes on)."""
+        self.far = 0
         goal = self._reconstruct(mask)
-        self.info = {"detected": True, "goal": object_centre(goal).tolist() if len(goal) else None,
-                     "nav_points": visited, "receptacle": entry.plane.label if entry else "",
-                     "region": entry.region if entry else "", "opened": self.opened}
-        if self.final_nav and len(goal):
+        if not len(goal):
+            mask = yield from self._approach_far(memory, nv, mask)
+            if mask is None:
+                return False
+            goal = self._reconstruct(mask)
+        self.info = {"detected": True, "goal": object_centre(goal).tolist(), "nav_points": visited,
+                     "receptacle": entry.plane.label if entry else "", "region": entry.region if entry else "",
+                     "opened": self.opened, "far_approaches": self.far}
+        if self.final_nav:
             self.info.update((yield from self._final_nav(memory, nv, goal)))
         yield STOP
+        return True
 
     def _run(self, env) -> Generator[int, object, None]:
         scene = env.scene
         memory = self.memories.get(scene)
         if memory is None:
-            raise InputError(scene, "agent.prepare(bundle, make_env) was not called for this scene")
+            raise InputError(scene, "no first visit of this scene: the A* agents declare prior='scene' and need the "
+                                    "evaluator's exploration phase before its episodes")
         rng = np.random.default_rng([self.seed, int(env.episode_index)])
         nv = self._navigator(memory)
         visited = 0
         self.opened = 0
         mask = self._detect()  # the goal may be in view where the episode starts
-        if mask is not None:
-            yield from self._found(memory, nv, mask, None, visited)
+        if mask is not None and (yield from self._found(memory, nv, mask, None, visited)):
             return
-        for entry in self.order(memory, str(self.ts.observation["objectgoal_text"]), rng):
+        for entry in self._entries(memory, str(self.ts.observation["objectgoal_text"]), rng):
             pts = [p for p in entry.nav_points]
             while pts:
                 pos = np.asarray(self.ts.observation["position"], float)[:2]
@@ -575,8 +681,7 @@ class ReceptacleAStar(Agent):
                     mask = yield from self._open_and_look()
                 if mask is None:
                     mask = yield from self._look_around()
-                if mask is not None:
-                    yield from self._found(memory, nv, mask, entry, visited)
+                if mask is not None and (yield from self._found(memory, nv, mask, entry, visited)):
                     return
                 pos = np.asarray(self.ts.observation["position"], float)[:2]
                 pts = [p for p in pts if np.linalg.norm(p - pos) >= self.nav.d_next]
@@ -600,19 +705,56 @@ class SemanticAStar(ReceptacleAStar):
     ``ranking`` (keyword, default ``placement``): the paper's joint relevance, the goal's share of the placement
     direction at each pair among the pairs it found (`SceneMemory.ranked`); ``search``: the search direction
     (`Relevance.pair_score`, where people would put the goal, whatever else the home keeps there).
+    ``per_metre`` (keyword, default False): the distance-aware order, the classic index of optimal search (the object
+    is in one of several places with probabilities p_i, looking in place i costs c_i: visiting by decreasing p_i / c_i
+    minimises the expected cost): from wherever the agent stands, the next receptacle is the one with the most
+    relevance per step it costs, ``score / (d / forward_step + look)``, where ``d`` is the path length on its map to
+    the receptacle's nearest navigation point and ``look`` the steps of one observation there (`look_steps`: facing,
+    the look around at two pitches); unreachable ones last. Without ``look`` (relevance per metre of path alone) the
+    nearest receptacles win whatever their relevance.
     """
 
     name = "semantic-astar"
 
-    def __init__(self, *args: Any, ranking: str = "placement", **kwargs: Any) -> None:
+    def __init__(self, *args: Any, ranking: str = "placement", per_metre: bool = False, **kwargs: Any) -> None:
         if ranking not in RANKINGS:
             raise ValueError(f"unknown ranking {ranking!r} ({' or '.join(RANKINGS)})")
         super().__init__(*args, **kwargs)
         self.ranking = ranking
+        self.per_metre = bool(per_metre)
 
     def order(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> list:
         """Return the entries ranked by relevance to the goal (random among ties)."""
         return memory.ranked(category, self.relevance_for(memory, category), rng, self.ranking)
+
+    def look_steps(self) -> int:
+        """Return the steps of one observation at a navigation point: facing the receptacle (half a turn on average,
+        in turn steps), then ``look_yaws`` views, each a turn of 360 / look_yaws degrees and one tilt."""
+        half_turn = int(round(90.0 / self.nav.turn_angle))
+        per_view = max(1, int(round(360.0 / max(1, self.nav.look_yaws) / self.nav.turn_angle))) + 1
+        return half_turn + max(1, int(self.nav.look_yaws)) * per_view
+
+    def _entries(self, memory: SceneMemory, category: str, rng: np.random.Generator) -> Generator[Any, None, None]:
+        """Yield the entries in the paper's order, or (``per_metre``) by relevance per metre from where it stands."""
+        if not self.per_metre:
+            yield from self.order(memory, category, rng)
+            return
+        scores = memory.scores(category, self.relevance_for(memory, category), self.ranking)
+        tiebreak = rng.permutation(len(memory.entries))
+        if scores is None:
+            yield from (memory.entries[i] for i in tiebreak)
+            return
+        left = list(range(len(memory.entries)))
+        look = self.look_steps()
+        while left:
+            reach = reachable_field(memory.traversable, memory.frame, np.asarray(self.ts.observation["position"], float))
+            util = {}
+            for i in left:
+                d = min((reach[0].distance(p) for p in memory.entries[i].nav_points), default=math.inf) if reach else math.inf
+                util[i] = float(scores[i]) / (d / self.nav.forward_step + look) if math.isfinite(d) else -1.0
+            best = min(left, key=lambda i: (-util[i], tiebreak[i]))
+            left.remove(best)
+            yield memory.entries[best]
 
 
 
@@ -638,10 +780,12 @@ class SemanticFrontierAgent(ReceptacleAStar):
                                    fn=self.nav.fn_mode if self.final_nav else "-")
         self._occ: OccupancyMap | None = None  # the current episode's occupancy map
 
-    def prepare(self, bundle, make_env: Callable[..., object]) -> None:
-        """Nothing to learn in advance: keep the detector and the goal categories."""
-        self.bundle = bundle
-        self.detector = bundle.detector
+    def _explore(self, env) -> Generator[int, object, None]:
+        yield STOP  # no prior: it declares none and the evaluator starts no first visit
+
+    def _can_grow(self) -> bool:
+        """Its map grows with every look (`_map_grew`)."""
+        return True
 
     def _map_grew(self, memory: SceneMemory) -> bool:
         """Add the depth of the current frame (when rendered) to the episode's occupancy map and plan on it."""
@@ -659,9 +803,9 @@ class SemanticFrontierAgent(ReceptacleAStar):
         labels = sorted(set(labels) - {category})
         if not labels:
             return {}
-        key = (category, tuple(labels), tuple(self.bundle.categories))
+        key = (category, tuple(labels))
         if key not in self._relevance:
-            objects = sorted(set(self.bundle.categories) | {category})
+            objects = sorted(set(self.object_categories) | {category})
             self._relevance[key] = relevance(objects, sorted(self.semantics.region_labels), labels, self.backend())
         rel = self._relevance[key]
         return {lab: max(rel.pair_score(category, r, lab) for r in rel.regions) for lab in labels}
@@ -687,7 +831,7 @@ class SemanticFrontierAgent(ReceptacleAStar):
             T = self._camera()
             occ.integrate(o["depth"], self.env.K, T, self.nav.depth_max)
             obs = Observation(rgb=o["rgb"], depth=o["depth"][..., 0], K=self.env.K, T_cam=T,
-                              segmentation=o.get("semantic"), view_id=self.env.steps)
+                              segmentation=o.get("category"), view_id=self.env.steps)
             for det in self.detector.detect(obs):
                 pts = goal_points(o["depth"], det.mask, self.env.K, T, self.nav.depth_min, self.nav.depth_max)
                 if len(pts):
@@ -702,14 +846,20 @@ class SemanticFrontierAgent(ReceptacleAStar):
                 yield from self._rendered(TURN_LEFT)
                 mask = look()
             if mask is not None:
+                mem = SceneMemory(env.scene, frame, occ.traversable())
+                self.far = 0
                 goal = self._reconstruct(mask)
-                self.info = {"detected": True, "goal": object_centre(goal).tolist() if len(goal) else None,
-                             "frontiers": visits}
-                if self.final_nav and len(goal):
-                    mem = SceneMemory(env.scene, frame, occ.traversable())
-                    self.info.update((yield from self._final_nav(mem, nv, goal)))
-                yield STOP
-                return
+                if not len(goal):  # seen only beyond the depth range: along its bearing, look again
+                    mask = yield from self._approach_far(mem, nv, mask)
+                    goal = self._reconstruct(mask) if mask is not None else np.zeros((0, 3))
+                if len(goal):
+                    self.info = {"detected": True, "goal": object_centre(goal).tolist(), "frontiers": visits,
+                                 "far_approaches": self.far}
+                    if self.final_nav:
+                        mem.traversable = occ.traversable()
+                        self.info.update((yield from self._final_nav(mem, nv, goal)))
+                    yield STOP
+                    return
             pos = np.asarray(self.ts.observation["position"], float)[:2]
             occ.mark_free_disc(pos, self.agent_config.radius + 0.05)
             trav = occ.traversable()

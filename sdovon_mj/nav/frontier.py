@@ -4,14 +4,15 @@ The map is the agent's own (`agent_frame`: a square around where it starts) and 
 saw: depth pixels back-projected to the world; hits between `obstacle_min` above the floor and
 the agent height (+ margin) mark occupied cells; rays carve free cells from the camera to each hit
 in 2D. Planning uses free cells away from occupied ones by the agent radius; unknown is not
-traversable. Exploration drives any dm_env-style environment whose observations include `position`,
-`heading`, `depth` (and `semantic` to keep segmentation with the frames).
+traversable. Exploration (`Explorer`) is a policy over dm_env-style time steps whose observations include
+`position`, `heading`, `pitch`, `depth` (and `category` to keep the category image with the frames).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Generator
 
 import numpy as np
 from scipy import ndimage
@@ -138,91 +139,125 @@ def agent_frame(position: np.ndarray, size: float, resolution: float) -> GridFra
     return GridFrame(origin, float(resolution), (n, n))
 
 
-def explore(env, nav, max_steps: int = 3000, keep_every: int = 1, rng: np.random.Generator | None = None) -> tuple[list[Observation], OccupancyMap]:
-    """Explore from the environment's current episode start; return the frames seen and the occupancy map.
+class Explorer:
+    """Frontier exploration as a policy (the first visit of the A* agents, paper algorithms 3-4 "Explore").
 
-    ``env`` is what the suite gives agents (`sdovon_mj.suite.boundary.AgentEnv`: reset, step, ``K``, ``agent``,
-    ``set_render``); its observations hold the pose the agent is granted (``position``, ``heading``, ``pitch``).
-    The map is the agent's own: ``nav.map_size`` metres square around the start at ``nav.map_resolution``,
-    the floor at the start's height. Moves and the depth range come from ``nav``.
+    `run` is a generator: it yields ``(action, render)`` (``render``: whether the next observation needs images)
+    and receives each next time step, whose observation holds the pose the agent is granted (``position``,
+    ``heading``, ``pitch``), ``depth`` and, with the ground-truth detector, ``category``. It scans (a full turn,
+    each view rendered), drives to the nearest frontier not tried yet, scans again, until no frontier is left or
+    ``max_steps`` is used. What it builds stays readable at any time, also when the evaluator ends the phase
+    first: `occ` (the agent's own occupancy map: ``nav.map_size`` metres square around the start at
+    ``nav.map_resolution``, the floor at the start's height) and `frames` (the rendered views, every
+    ``keep_every``-th, each image subsampled by ``downsample`` with the intrinsics scaled to match).
+
+    Parameters
+    ----------
+    nav : NavConfig
+        Moves, depth range and map settings.
+    agent : AgentConfig
+        The body (obstacle heights, planning margin) and camera height.
+    K : ndarray
+        (3, 3) intrinsics of the full-size images.
+    max_steps : int
+        Step budget of the exploration.
+    keep_every : int
+        Keep every n-th rendered view as a frame.
+    downsample : int
+        Keep every n-th pixel of each row and column of the frames (and of the depth the map integrates).
     """
-    from .control import Navigator, blocked_cells
 
-    ts = env.reset()
-    start = np.asarray(ts.observation["position"], float)
-    frame = agent_frame(start, nav.map_size, nav.map_resolution)
-    agent = env.agent
-    occ = OccupancyMap(frame, floor_z=float(start[2]), agent=agent)
-    frames: list[Observation] = []
-    state = {"ts": ts, "steps": 0, "views": 0}
-    K = env.K
+    def __init__(self, nav, agent: AgentConfig, K: np.ndarray, max_steps: int = 3000, keep_every: int = 1,
+                 downsample: int = 1) -> None:
+        self.nav, self.agent = nav, agent
+        self.s = max(1, int(downsample))
+        self.K = np.asarray(K, float).copy()  # pixel j of the subsampled image is pixel s * j of the full one
+        self.K[0, 0] /= self.s
+        self.K[1, 1] /= self.s
+        self.K[:2, 2] = (self.K[:2, 2] - 0.5) / self.s + 0.5  # pixel centres at + 0.5 (`sim.camera.backproject`)
+        self.max_steps, self.keep_every = int(max_steps), max(1, int(keep_every))
+        self.occ: OccupancyMap | None = None
+        self.frames: list[Observation] = []
+        self.steps = 0
+        self.views = 0
+        self.ts = None
 
-    def record(ts) -> None:
+    def _record(self, ts) -> None:
         o = ts.observation
+        s = self.s
         pos = np.asarray(o["position"], float)
-        T = pose_cv(pos + np.array([0.0, 0.0, agent.camera_height]), math.degrees(float(o["heading"][0])), math.degrees(float(o["pitch"][0])))
-        occ.integrate(o["depth"], K, T, nav.depth_max)
-        state["views"] += 1
-        if state["views"] % keep_every == 0:
-            frames.append(Observation(rgb=o["rgb"], depth=o["depth"][..., 0], K=K, T_cam=T,
-                                      segmentation=o.get("semantic"), view_id=len(frames)))
+        T = pose_cv(pos + np.array([0.0, 0.0, self.agent.camera_height]), math.degrees(float(o["heading"][0])),
+                    math.degrees(float(o["pitch"][0])))
+        depth = np.ascontiguousarray(np.asarray(o["depth"])[::s, ::s, 0])
+        self.occ.integrate(depth, self.K, T, self.nav.depth_max)
+        self.views += 1
+        if self.views % self.keep_every == 0:
+            cat = o.get("category")
+            self.frames.append(Observation(rgb=np.ascontiguousarray(np.asarray(o["rgb"])[::s, ::s]), depth=depth,
+                                           K=self.K.copy(), T_cam=T, view_id=len(self.frames),
+                                           segmentation=None if cat is None else np.ascontiguousarray(np.asarray(cat)[::s, ::s])))
 
-    def step(action: int, render: bool):
-        env.set_render(render)
-        state["ts"] = env.step(action)
-        state["steps"] += 1
-        return state["ts"]
+    def _step(self, action: int, render: bool) -> Generator[tuple[int, bool], object, object]:
+        self.ts = yield (int(action), bool(render))
+        self.steps += 1
+        return self.ts
 
-    def scan() -> None:
-        for _ in range(scan_actions(nav.turn_angle)):
-            record(step(TURN_LEFT, True))
+    def _scan(self) -> Generator[tuple[int, bool], object, None]:
+        for _ in range(scan_actions(self.nav.turn_angle)):
+            if self.steps >= self.max_steps:
+                return
+            self._record((yield from self._step(TURN_LEFT, True)))
 
-    occ.mark_free_disc(np.asarray(ts.observation["position"]), agent.radius + 0.05)
-    record(ts)
-    scan()
-    tried: list[np.ndarray] = occ.targets
-    while state["steps"] < max_steps and not state["ts"].last():
-        pos = np.asarray(state["ts"].observation["position"], float)[:2]
-        occ.mark_free_disc(pos, agent.radius + 0.05)
-        trav = occ.traversable()
-        clusters = occ.frontiers()
-        if not clusters:
-            occ.stop_reason = "no frontiers"
-            break
-        g, index = cell_graph(trav)
-        rc = frame.to_cell(pos[None])[0]
-        if not (frame.inside(rc[None])[0] and trav[rc[0], rc[1]]):
-            rc = nearest_true(trav, rc)  # standing at the rim of the planning map
-            if rc is None or np.linalg.norm(frame.to_world(rc[None])[0] - pos) > 0.5:
-                occ.stop_reason = "off the planning map"
-                break
-        dist = dijkstra(g, indices=int(index[rc[0], rc[1]]))
-        best, best_d = None, math.inf
-        for cells in clusters:
-            xy = frame.to_world(cells)
-            dd = dist[index[cells[:, 0], cells[:, 1]]].copy()
-            for t in tried:  # cells near a target already driven to are not offered again
-                dd[np.linalg.norm(xy - t[None], axis=1) < 0.5] = np.inf
-            k = int(np.argmin(dd))
-            if math.isfinite(dd[k]) and dd[k] < best_d:
-                best, best_d = xy[k], dd[k]
-        if best is None:
-            occ.stop_reason = "no reachable untried frontier"
-            break
-        tried.append(best)
-        nv = Navigator(nav, occ.traversable, frame,
-                       on_blocked=lambda p, yaw: occ.mark_blocked(blocked_cells(frame, p, yaw, nav.forward_step)))
-        gen = nv.goto(best, tolerance=0.25, ts=state["ts"])
-        try:
-            action = next(gen)
-            while state["steps"] < max_steps:
-                ts2 = step(action, False)
-                if ts2.last():
-                    break
-                action = gen.send(ts2)
-        except StopIteration:
-            pass
-        if state["ts"].last():
-            break
-        scan()
-    return frames, occ
+    def run(self, ts) -> Generator[tuple[int, bool], object, None]:
+        """Explore from the current (rendered) time step; yields (action, render) pairs, receives time steps."""
+        from .control import Navigator, blocked_cells
+
+        nav, agent = self.nav, self.agent
+        self.ts = ts
+        start = np.asarray(ts.observation["position"], float)
+        frame = agent_frame(start, nav.map_size, nav.map_resolution)
+        occ = self.occ = OccupancyMap(frame, floor_z=float(start[2]), agent=agent)
+        occ.mark_free_disc(start, agent.radius + 0.05)
+        self._record(ts)
+        yield from self._scan()
+        tried: list[np.ndarray] = occ.targets
+        while self.steps < self.max_steps:
+            pos = np.asarray(self.ts.observation["position"], float)[:2]
+            occ.mark_free_disc(pos, agent.radius + 0.05)
+            trav = occ.traversable()
+            clusters = occ.frontiers()
+            if not clusters:
+                occ.stop_reason = "no frontiers"
+                return
+            g, index = cell_graph(trav)
+            rc = frame.to_cell(pos[None])[0]
+            if not (frame.inside(rc[None])[0] and trav[rc[0], rc[1]]):
+                rc = nearest_true(trav, rc)  # standing at the rim of the planning map
+                if rc is None or np.linalg.norm(frame.to_world(rc[None])[0] - pos) > 0.5:
+                    occ.stop_reason = "off the planning map"
+                    return
+            dist = dijkstra(g, indices=int(index[rc[0], rc[1]]))
+            best, best_d = None, math.inf
+            for cells in clusters:
+                xy = frame.to_world(cells)
+                dd = dist[index[cells[:, 0], cells[:, 1]]].copy()
+                for t in tried:  # cells near a target already driven to are not offered again
+                    dd[np.linalg.norm(xy - t[None], axis=1) < 0.5] = np.inf
+                k = int(np.argmin(dd))
+                if math.isfinite(dd[k]) and dd[k] < best_d:
+                    best, best_d = xy[k], dd[k]
+            if best is None:
+                occ.stop_reason = "no reachable untried frontier"
+                return
+            tried.append(best)
+            nv = Navigator(nav, occ.traversable, frame,
+                           on_blocked=lambda p, yaw: occ.mark_blocked(blocked_cells(frame, p, yaw, nav.forward_step)))
+            gen = nv.goto(best, tolerance=0.25, ts=self.ts)
+            try:
+                action = next(gen)
+                while self.steps < self.max_steps:
+                    action = gen.send((yield from self._step(action, False)))
+            except StopIteration:
+                pass
+            yield from self._scan()
+        occ.stop_reason = "step budget"

@@ -2,7 +2,10 @@
 
 `Reconstruct` (paper eq. 1-2): the detected mask's depth pixels are back-projected to world points;
 pixels clipped at the sensor's near limit carry no range and are dropped (when every pixel is
-clipped, the object is closer than the near limit: the mask's ray at that range stands in).
+clipped there, the object is closer than the near limit: the mask's ray at that range stands in).
+Pixels clipped at the far limit carry no range either: a goal seen only beyond the depth range has
+no position (`goal_points` returns none), and the agent walks along its bearing (`mask_bearing`) and
+looks again.
 
 FN then needs a place to STOP. Success is judged against the episode's view points: navigable
 cells on a `step` lattice (anchored to the map grid) within `radius` of the object's footprint from
@@ -22,7 +25,25 @@ from ..gridgraph import GeodesicField
 
 def goal_points(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, T_cam: np.ndarray, depth_min: float,
                 depth_max: float) -> np.ndarray:
-    """Return world points (N, 3) of a detection mask (ray at the near limit when no pixel has range)."""
+    """Return world points (N, 3) of a detection mask; none when it is seen only beyond the depth range.
+
+    Pixels with range give their points. Without any, pixels clipped at the near limit give the mask's ray at
+    that range (the object is closer than it); pixels clipped at the far limit give nothing (the object lies
+    farther than the sensor reaches: `mask_bearing` says where).
+
+    Parameters
+    ----------
+    depth : ndarray
+        (H, W) or (H, W, 1) depth image, metres, clipped to the sensor range.
+    mask : ndarray
+        (H, W) bool detection mask.
+    K : ndarray
+        (3, 3) intrinsics.
+    T_cam : ndarray
+        (4, 4) camera pose (world <- OpenCV camera).
+    depth_min, depth_max : float
+        The sensor's range, metres.
+    """
     d = np.asarray(depth, dtype=np.float64)
     if d.ndim == 3:
         d = d[..., 0]
@@ -30,7 +51,19 @@ def goal_points(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, T_cam: np.nd
     pts = backproject(d, K, T_cam, mask=m, depth_min=depth_min + 1e-3, depth_max=depth_max - 1e-3)
     if len(pts) or not m.any():
         return pts
-    return backproject(np.full_like(d, depth_min), K, T_cam, mask=m, depth_min=0.0)
+    near = m & (d <= depth_min + 1e-3)
+    if not near.any():
+        return np.zeros((0, 3))
+    return backproject(np.full_like(d, depth_min), K, T_cam, mask=near, depth_min=0.0)
+
+
+def mask_bearing(mask: np.ndarray, K: np.ndarray, T_cam: np.ndarray) -> np.ndarray:
+    """Return the unit world direction (3,) from the camera through a mask's median pixel."""
+    rows, cols = np.nonzero(np.asarray(mask, dtype=bool))
+    u, v = float(np.median(cols)), float(np.median(rows))
+    ray = np.array([(u + 0.5 - K[0, 2]) / K[0, 0], (v + 0.5 - K[1, 2]) / K[1, 1], 1.0])
+    w = np.asarray(T_cam, float)[:3, :3] @ ray
+    return w / np.linalg.norm(w)
 
 
 def object_centre(points: np.ndarray) -> np.ndarray:

@@ -48,9 +48,8 @@ class SceneMemory:
     entries: list[MemoryEntry] = field(default_factory=list)
     instances: list[Instance] = field(default_factory=list)
 
-    def ranked(self, category: str, relevance: Relevance | None, rng: np.random.Generator,
-               direction: str = "placement") -> list[MemoryEntry]:
-        """Return entries by decreasing relevance of their (region, receptacle) for the goal (ties random).
+    def scores(self, category: str, relevance: Relevance | None, direction: str = "placement") -> np.ndarray | None:
+        """Return each entry's relevance score for the goal (None without a relevance that knows the category).
 
         ``direction="placement"`` (the paper's algorithm 4, eq. 5): the goal's share of `Relevance.joint` at
         the pair among the pairs this memory holds: which categories a home keeps at that pair rather than
@@ -60,16 +59,24 @@ class SceneMemory:
         """
         if direction not in RANKINGS:
             raise ValueError(f"unknown ranking direction {direction!r} ({' or '.join(RANKINGS)})")
-        tiebreak = rng.permutation(len(self.entries))
         if relevance is None or category not in relevance.objects:
-            return [self.entries[i] for i in tiebreak]
+            return None
         if direction == "placement":
             pairs = sorted({(e.region, e.plane.label) for e in self.entries})
             i = relevance.objects.index(category)
             share = {q: float(relevance.joint(q[0], q[1], pairs)[i]) for q in pairs}
-            scores = np.array([share[(e.region, e.plane.label)] for e in self.entries])
-        else:
-            scores = np.array([relevance.pair_score(category, e.region, e.plane.label) for e in self.entries])
+            return np.array([share[(e.region, e.plane.label)] for e in self.entries])
+        return np.array([relevance.pair_score(category, e.region, e.plane.label) for e in self.entries])
+
+    def ranked(self, category: str, relevance: Relevance | None, rng: np.random.Generator,
+               direction: str = "placement") -> list[MemoryEntry]:
+        """Return entries by decreasing relevance of their (region, receptacle) for the goal (ties random; `scores`)."""
+        if direction not in RANKINGS:
+            raise ValueError(f"unknown ranking direction {direction!r} ({' or '.join(RANKINGS)})")
+        tiebreak = rng.permutation(len(self.entries))
+        scores = self.scores(category, relevance, direction)
+        if scores is None:
+            return [self.entries[i] for i in tiebreak]
         order = sorted(range(len(self.entries)), key=lambda i: (-scores[i], tiebreak[i]))
         return [self.entries[i] for i in order]
 

@@ -1,21 +1,16 @@
-"""The knowledge boundary: what an agent may know, granted and enforced by the suite (paper appendix D).
+"""The knowledge boundary, evaluator side: what of the generator's data may cross to an agent (paper appendix D).
 
-An agent declares its `sdovon_mj.knowledge.Knowledge` (class attribute ``knowledge``). The suite then gives it
+An agent declares its `sdovon_mj.knowledge.Knowledge`. The evaluation (`suite.evaluate`, over the protocol of
+`suite.protocol`) then sends it observations built within that declaration (`suite.observation`: rgb, depth, GPS +
+compass from the episode start, its camera pitch, the goal category; the category image of the current frame for the
+ground-truth detector; the scene-frame pose for ``pose="absolute"``, printed as "localized") and nothing else of the
+evaluator's: no reward, no environment, no bundle.
 
-- an `AgentEnv` instead of the dm_control environment: reset/step and the sensor's intrinsics, no task
-  internals. Observations: rgb, depth, the goal category (``objectgoal``, ``objectgoal_text``), GPS +
-  compass relative to the episode start (habitat-lab's convention), the camera pitch (its own actuator
-  state) and, in that start frame, ``position`` = (gps x, gps y, 0) and ``heading`` = compass, so planners
-  can work in the agent's own frame. The ``semantic`` image only when its detector is the ground-truth one.
-  With ``pose="absolute"`` (declared and printed in every table: the agent is localized in the scene's
-  frame, as the paper's A* agents) ``position``/``heading`` are the world pose instead.
-- an `AgentBundle`: the bundle's name, scene id, goal categories and the agent's detector. Generator
-  artefacts (navmaps, region maps, relevance, instance and object labels, view points) live behind
-  ``AgentBundle.oracle``, which raises `KnowledgeError` unless the agent declared the part it reads in
-  ``Knowledge.oracle`` (oracle agents: labelled upper bounds).
-
-What an agent keeps between episodes of a scene (its own exploration, the paper's prior-knowledge setting)
-is its own business: ``Knowledge.prior`` says whether it explores a scene before its episodes.
+Generator artefacts (navmaps, region maps, relevance, instance labels, view points) cross only for a declared oracle
+(`Knowledge.oracle`: a labelled upper bound), and only the parts it declared: `oracle_scene_parts` and
+`oracle_episode_parts` pick them; the agent reads them through `protocol.OracleParts`, which raises `KnowledgeError`
+for anything else. What an agent keeps between episodes of a scene (its own first visit, the paper's prior-knowledge
+setting) is its own business; ``Knowledge.prior`` says whether it gets a first visit.
 """
 
 from __future__ import annotations
@@ -25,136 +20,30 @@ from typing import Any
 
 import numpy as np
 
-from ..knowledge import ORACLE_PARTS, Knowledge, KnowledgeError, knowledge_of
-
-class OracleView:
-    """Generator artefacts of a bundle, each part readable only when declared."""
-
-    def __init__(self, bundle: Any, knowledge: Knowledge) -> None:
-        self._bundle = bundle
-        self._knowledge = knowledge
-
-    def _grant(self, part: str) -> None:
-        if part not in self._knowledge.oracle:
-            raise KnowledgeError(f"oracle part '{part}' of bundle {self._bundle.name} is not declared in this agent's "
-                                 f"Knowledge.oracle {self._knowledge.oracle}")
-
-    def navmap(self, floor: int = 0) -> Any:
-        """Return the generator's navigable map of a floor."""
-        self._grant("navmap")
-        return self._bundle.navmap(floor)
-
-    def region_map(self, floor: int = 0) -> Any:
-        """Return the generator's region map of a floor (None without one)."""
-        self._grant("region_map")
-        return self._bundle.region_map(floor)
-
-    @property
-    def relevance(self) -> Any:
-        """Return the relevance table that drove placement (None without one)."""
-        self._grant("relevance")
-        return self._bundle.relevance
-
-    def instance_labels(self) -> dict[int, str]:
-        """Return scene instance id -> true label."""
-        self._grant("instance_labels")
-        return self._bundle.instance_labels()
-
-    def episode_floor(self, episode_id: str) -> int:
-        """Return the floor an episode is on."""
-        self._grant("view_points")
-        return int(next(e for e in self._bundle.episodes if e.episode_id == episode_id).floor)
-
-    def view_points(self, episode_id: str) -> np.ndarray:
-        """Return the goal view points (N, 3) of an episode."""
-        self._grant("view_points")
-        ep = next(e for e in self._bundle.episodes if e.episode_id == episode_id)
-        return np.array([vp.position for g in ep.goals for vp in g.view_points], float).reshape(-1, 3)
+from ..knowledge import Knowledge
 
 
-class AgentBundle:
-    """The view of a bundle an agent gets: name, scene, goal categories, its detector; generator data guarded."""
-
-    def __init__(self, bundle: Any, knowledge: Knowledge, detector: Any) -> None:
-        self._bundle = bundle
-        self.knowledge = knowledge
-        self.name = bundle.name
-        self.scene = bundle.episodes[0].scene if bundle.episodes else bundle.name
-        self.categories = bundle.categories()
-        self.detector = detector
-
-    @property
-    def oracle(self) -> OracleView:
-        """Return the generator artefacts (`KnowledgeError` for an agent that declared none)."""
-        if not self.knowledge.is_oracle:
-            raise KnowledgeError(f"bundle {self.name}: this agent is not an oracle (Knowledge.oracle is empty); "
-                                 f"generator artefacts ({', '.join(ORACLE_PARTS)}) are out of its reach")
-        return OracleView(self._bundle, self.knowledge)
-
-    def __getattr__(self, name: str) -> Any:
-        if name in ("root", "mjcf", "episodes", "navmaps", "navmap", "region_maps", "region_map", "relevance",
-                    "scene_asset", "labels", "instance_labels", "objects", "object_labels"):
-            raise KnowledgeError(f"bundle {self.__dict__.get('name', '?')}: '{name}' is generator data; "
-                                 "agents read it only through `oracle` when declared")
-        raise AttributeError(name)
+def oracle_scene_parts(bundle: Any, knowledge: Knowledge) -> dict:
+    """Return the scene-level generator artefacts a declared oracle may read (empty for every other agent)."""
+    parts = set(knowledge.oracle)
+    out: dict = {}
+    if "navmap" in parts:
+        out["navmap"] = list(bundle.navmaps)
+    if "region_map" in parts:
+        out["region_map"] = list(bundle.region_maps)
+    if "relevance" in parts:
+        out["relevance"] = bundle.relevance
+    if "instance_labels" in parts:
+        out["instance_labels"] = bundle.instance_labels()
+    return out
 
 
-class AgentEnv:
-    """The environment as an agent drives it: reset, step, intrinsics; observations within its knowledge."""
-
-    def __init__(self, env: Any, knowledge: Knowledge) -> None:
-        self._env = env
-        self.knowledge = knowledge
-        task = env.task
-        self.K = task.K
-        self.agent = task.agent
-        self.nav = task.nav
-
-    @property
-    def scene(self) -> str:
-        """Return the scene id of the current episode (what the agent knows it is in)."""
-        return self._env.task.episode.scene
-
-    @property
-    def episode_id(self) -> str:
-        """Return the current episode's id."""
-        return self._env.task.episode.episode_id
-
-    @property
-    def episode_index(self) -> int:
-        """Return the current episode's index in its bundle."""
-        return int(self._env.task.episode_index)
-
-    @property
-    def steps(self) -> int:
-        """Return the steps taken in the current episode."""
-        return int(self._env.task.steps)
-
-    def set_render(self, on: bool) -> None:
-        """Ask for rendered images on the next step (blank frames otherwise: a speed-up, specs unchanged)."""
-        self._env.task.render_frames = bool(on)
-
-    def _filter(self, ts: Any) -> Any:
-        o = dict(ts.observation)
-        if self.knowledge.detector != "gt":
-            o.pop("semantic", None)
-        if self.knowledge.pose != "absolute":
-            gps = np.asarray(o["gps"], float)
-            o["position"] = np.array([gps[0], gps[1], 0.0], np.float32)
-            o["heading"] = np.asarray(o["compass"], np.float32).copy()
-        return ts._replace(observation=o)
-
-    def reset(self) -> Any:
-        """Start the next episode; return its first (filtered) timestep."""
-        return self._filter(self._env.reset())
-
-    def step(self, action: int) -> Any:
-        """Apply one action; return the (filtered) timestep."""
-        return self._filter(self._env.step(action))
-
-    def close(self) -> None:
-        """Free the environment's renderer."""
-        self._env.task.close()
+def oracle_episode_parts(episode: Any, knowledge: Knowledge) -> dict:
+    """Return the episode-level generator artefacts a declared oracle may read: its goals' view points and floor."""
+    if "view_points" not in knowledge.oracle:
+        return {}
+    vps = np.array([vp.position for g in episode.goals for vp in g.view_points], float).reshape(-1, 3)
+    return {"view_points": vps, "floor": int(episode.floor)}
 
 
 def start_frame_pose(position: np.ndarray, yaw_deg: float, start: np.ndarray, start_yaw_deg: float) -> tuple[np.ndarray, float]:
@@ -176,5 +65,4 @@ def scene_frame_point(point: np.ndarray, start: np.ndarray, start_yaw_deg: float
     return p
 
 
-__all__ = ["AgentBundle", "AgentEnv", "Knowledge", "KnowledgeError", "OracleView", "knowledge_of", "scene_frame_point",
-           "start_frame_pose"]
+__all__ = ["oracle_episode_parts", "oracle_scene_parts", "scene_frame_point", "start_frame_pose"]

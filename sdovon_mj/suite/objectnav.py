@@ -14,6 +14,11 @@ Design (research/mjcf_and_dmcontrol.md section 4):
   and multisampling off), which is ~6x faster than dm_control's default ``physics.render``.
 - Metrics follow habitat-lab (``sdovon_mj.metrics``): distance to goal is the grid geodesic to the
   nearest view point; success = STOP with d < success_distance; SPL; Soft SPL.
+- A first visit (`ObjectNavTask.set_exploration`, the evaluation's exploration phase for agents with a scene
+  prior): the next reset starts from a given pose with no goal, and renders hide the placed objects (the geoms of
+  bodies ``obj_<n>``; articulated furniture stays): the agent sees the home, not the arrangement its episodes search.
+- The reward (`get_reward`: the drop of the geodesic distance to the nearest goal view point, habitat-lab's dense
+  reward) is generator knowledge: it is there for training; the evaluation never sends it to an agent.
 - Articulated parts (issue 17): ``OPEN`` / ``CLOSE`` drive the part the agent looks at (hinge/slide joints
   ``art_<id>/...``; among the parts whose box lies within ``nav.open_reach`` of the camera and in its field of
   view, the one nearest to the optical axis) to its upper / lower limit, Habitat-style "magic": the joint's
@@ -47,7 +52,7 @@ from ..records import Episode
 from ..sim import GROUP_AGENT
 from ..sim.articulation import part_joints
 from ..sim.camera import intrinsics, pose_cv, vfov_from_hfov
-from ..sim.model import geom_segment_ids, object_segment_id, segment_image
+from ..sim.model import OBJECT_ID_BASE, geom_segment_ids, object_segment_id, segment_image
 from ..sim.render import SceneRenderer
 from ..grid import lookup, segment_free
 from ..gridgraph import GeodesicField, cell_graph
@@ -182,12 +187,32 @@ class ObjectNavTask(control.Task):
         self.frame_mask: np.ndarray | None = None
         self._parts: tuple[Any, list[Part]] | None = None
         self.part_moves: list[tuple[str, str]] = []
+        self._explore_from: tuple[np.ndarray, float] | None = None
+        self.exploring = False  # the current "episode" is a first visit (no goal, placed objects hidden)
+        self._groups: tuple[Any, np.ndarray] | None = None  # (model, geom groups as compiled)
 
     # -- episodes --------------------------------------------------------------------------------
 
     def set_next_episode(self, index: int) -> None:
         """Make the next reset start the episode with this index."""
         self._next_index = int(index) % len(self.bundle.episodes)
+
+    def _hide_objects(self, physics: Physics, hide: bool) -> None:
+        """Move the placed objects' geoms out of the rendered groups (a first visit), or back as compiled."""
+        m = physics.model.ptr
+        if self._groups is None or self._groups[0] is not m:
+            self._groups = (m, np.array(m.geom_group).copy())
+        groups = self._groups[1]
+        if hide:
+            objects = geom_segment_ids(m) >= OBJECT_ID_BASE
+            m.geom_group[:] = np.where(objects, GROUP_AGENT, groups)  # the agent's own camera never shows group 5
+        else:
+            m.geom_group[:] = groups
+
+    def set_exploration(self, position: np.ndarray, yaw: float) -> None:
+        """Make the next reset start a first visit of the scene: from this pose (floor position, yaw in degrees), no
+        goal (``objectgoal_text`` ""), placed objects hidden from the camera, until STOP or ``nav.max_steps``."""
+        self._explore_from = (np.asarray(position, float).copy(), float(yaw))
 
     @property
     def num_episodes(self) -> int:
@@ -198,20 +223,29 @@ class ObjectNavTask(control.Task):
         """Pick the next episode, place the agent at its start and reset the metrics."""
         if physics.model.nkey > 0:
             mujoco.mj_resetDataKeyframe(physics.model.ptr, physics.data.ptr, 0)
-        if self.episode_order == "random":
+        self.exploring = self._explore_from is not None
+        if self.exploring:
+            (pos, yaw), self._explore_from = self._explore_from, None
+            first = self.bundle.episodes[0]
+            idx = -1
+            ep = Episode("first-visit", first.scene, first.variant, "", pos, yaw_quat(yaw), [], math.inf, math.inf,
+                         floor=first.floor)
+        elif self.episode_order == "random":
             idx = int(self.random.integers(len(self.bundle.episodes)))
         else:
             idx = self._next_index
             self._next_index = (self._next_index + 1) % len(self.bundle.episodes)
         self.episode_index = idx
-        self.episode = ep = self.bundle.episodes[idx]
+        self.episode = ep = ep if self.exploring else self.bundle.episodes[idx]
+        self._hide_objects(physics, self.exploring)
         self.navmap = self.bundle.navmap(ep.floor)
         self.frame = self.navmap.frame
         if ep.floor not in self._graphs:
             self._graphs[ep.floor] = cell_graph(self.navmap.navigable)
         vps = [vp.position for g in ep.goals for vp in g.view_points]
         self.view_points = np.array(vps, dtype=float).reshape(-1, 3)
-        self.geodesic = GeodesicField(self.navmap.navigable, self.frame, self.view_points[:, :2], self._graphs[ep.floor])
+        self.geodesic = (GeodesicField(self.navmap.navigable, self.frame, self.view_points[:, :2], self._graphs[ep.floor])
+                         if len(self.view_points) else None)
         self.state = AgentState(np.asarray(ep.start_position, dtype=float).copy(), quat_yaw(ep.start_rotation), 0.0)
         self.start = AgentState(self.state.position.copy(), self.state.yaw, 0.0)
         self.goal_segment_ids = np.array(sorted(object_segment_id(g.object_id) for g in ep.goals), dtype=np.int64)
@@ -229,7 +263,7 @@ class ObjectNavTask(control.Task):
         self.steps = 0
         self.collisions = 0
         self.trajectory = [self.state.position.copy()]
-        self.shortest = self.geodesic.distance(self.state.position)
+        self.shortest = self.geodesic.distance(self.state.position) if self.geodesic is not None else math.inf
         self.distance = self.shortest
         self._prev_distance = self.distance
         self._apply_agent(physics)
@@ -385,21 +419,42 @@ class ObjectNavTask(control.Task):
             dv = target - cam
             yaw = math.degrees(math.atan2(dv[1], dv[0]))
             pitch = float(np.clip(math.degrees(math.atan2(dv[2], math.hypot(dv[0], dv[1]))), -80.0, 80.0))
-            r = self.sight_renderer(physics)
-            f = r.render(pose_cv(cam, yaw, pitch), rgb=False, depth=False, segmentation=True)
-            ids = segment_image(f.segmentation, self._lut)
-            eta = float(self.bundle.visibility.get("eta_gt", self.agent.eta_gt))
-            need = max(int(math.ceil(eta * ids.size - 1e-9)), 1)  # as the episodes' VisibilityChecker
-            if np.count_nonzero(ids == object_segment_id(g.object_id)) >= need:
+            if self._goal_pixels(physics, cam, yaw, pitch, [object_segment_id(g.object_id)]):
                 return True
         return False
+
+    def _goal_pixels(self, physics: Physics, cam: np.ndarray, yaw: float, pitch: float, ids: list[int]) -> bool:
+        """Return whether one of the segments `ids` covers at least ``eta_gt`` of a segmentation render from `cam`
+        (yaw, pitch in degrees) at the episodes' visibility size, as their view points are defined."""
+        r = self.sight_renderer(physics)
+        f = r.render(pose_cv(cam, yaw, pitch), rgb=False, depth=False, segmentation=True)
+        seg = segment_image(f.segmentation, self._lut)
+        eta = float(self.bundle.visibility.get("eta_gt", self.agent.eta_gt))
+        need = max(int(math.ceil(eta * seg.size - 1e-9)), 1)  # as the episodes' VisibilityChecker
+        return any(np.count_nonzero(seg == i) >= need for i in ids)
+
+    def start_visibility(self, physics: Physics, yaws: int = 12) -> tuple[bool, bool]:
+        """Return whether a goal is visible from the episode's start pose (its yaw, pitch 0), and from its start
+        point at any of `yaws` headings (turning in place), by the episodes' own visibility definition.
+
+        How hard an episode is, for the tables: the evaluator computes it after the reset, the agent never sees it.
+        """
+        if not len(self.goal_segment_ids):
+            return False, False
+        mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
+        cam = self.start.position + np.array([0.0, 0.0, self.agent.camera_height])
+        ids = [int(i) for i in self.goal_segment_ids]
+        ahead = self._goal_pixels(physics, cam, self.start.yaw, 0.0, ids)
+        around = ahead or any(self._goal_pixels(physics, cam, self.start.yaw + k * 360.0 / yaws, 0.0, ids)
+                              for k in range(1, yaws))
+        return ahead, around
 
     def after_step(self, physics: Physics) -> None:
         """Update the trajectory, step count and distance to goal."""
         self.steps += 1
         self.trajectory.append(self.state.position.copy())
         self._prev_distance = self.distance
-        if np.linalg.norm(self.trajectory[-1] - self.trajectory[-2]) > 1e-4:
+        if self.geodesic is not None and np.linalg.norm(self.trajectory[-1] - self.trajectory[-2]) > 1e-4:
             self.distance = self.geodesic.distance(self.state.position)
 
     # -- specs and observations -------------------------------------------------------------------
@@ -498,7 +553,11 @@ class ObjectNavTask(control.Task):
     # -- reward, termination, metrics --------------------------------------------------------------
 
     def get_reward(self, physics: Physics) -> float:
-        """Return habitat's distance-to-goal reward: the decrease of the geodesic distance to goal."""
+        """Return habitat's distance-to-goal reward: the decrease of the geodesic distance to goal.
+
+        Generator knowledge (it is computed from the goals' view points): for training; the evaluation never sends it
+        to an agent, and an agent that declared it would be an oracle.
+        """
         if not (math.isfinite(self.distance) and math.isfinite(self._prev_distance)):
             return 0.0
         return float(self._prev_distance - self.distance)

@@ -1,0 +1,283 @@
+"""Adversarial agents written only against the agent protocol (docs/evaluation.md), for tests/test_eval_sealed.py.
+
+Each tries one way to learn what a robot could not know and reports what it found in its ``info`` (JSON): the
+evaluator never imports this module (the tests name the agents with `AgentSpec("adversaries:<Class>")`), so it
+runs only in the agent's own process, or in-process when a test asks for that mode to show the attack is real.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import sys
+import time
+import types
+import zlib
+
+import numpy as np
+
+from sdovon_mj.actions import MOVE_FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+from sdovon_mj.knowledge import Knowledge
+
+SENSOR_KEYS = {"rgb", "depth", "category", "gps", "compass", "pitch", "position", "heading", "objectgoal",
+               "objectgoal_text"}
+
+
+class _Base:
+    """Protocol plumbing: setup, reset, act, end; subclasses decide the action."""
+
+    name = "adversary"
+    knowledge = Knowledge(detector="none")
+
+    def __init__(self, seed: int = 0, steps: int = 60) -> None:
+        self.seed, self.steps = int(seed), int(steps)
+        self.wants_frame = False
+        self.info: dict = {}
+        self.extra_keys: set[str] = set()
+        self.rewards: list = []
+
+    def setup(self, sensors) -> None:
+        self.sensors = sensors
+
+    def reset(self, view, ts) -> None:
+        self.view, self.n = view, 0
+        self.rng = np.random.default_rng([self.seed, zlib.crc32(view.episode_id.encode())])
+        self._look(ts)
+
+    def _look(self, ts) -> None:
+        self.extra_keys |= set(ts.observation) - SENSOR_KEYS
+        if ts.reward is not None:
+            self.rewards.append(float(ts.reward))
+
+    def act(self, ts) -> int:
+        self._look(ts)
+        self.n += 1
+        return self.policy(ts)
+
+    def policy(self, ts) -> int:
+        return STOP if self.n > self.steps else int(self.rng.choice([MOVE_FORWARD, TURN_LEFT, TURN_RIGHT]))
+
+    def end(self, view, ts) -> None:
+        self._look(ts)
+        self.info = {"rewards_seen": len(self.rewards), "nonzero_rewards": sum(1 for r in self.rewards if r),
+                     "extra_keys": sorted(self.extra_keys)}
+
+
+class RewardSteerer(_Base):
+    """Blind (it renders nothing and declares no detector) and steers by any reward it gets: forward while the
+    reward says it comes closer, else turns; STOP where no direction helps. Without a reward it walks at random,
+    exactly as `Blind` does."""
+
+    name = "reward-steerer"
+
+    def __init__(self, seed: int = 0, steps: int = 60) -> None:
+        super().__init__(seed, steps)
+        self.turned = 0
+        self.last = None
+
+    def policy(self, ts) -> int:
+        if ts.reward is None:  # nothing to steer by: the blind walk (same random stream as Blind)
+            return super().policy(ts)
+        r = float(ts.reward)
+        if self.last == MOVE_FORWARD and r > 1e-6:
+            self.turned = 0
+        elif self.last == MOVE_FORWARD:
+            self.turned += 1
+        if self.turned >= 12:
+            self.last = STOP
+        elif self.last == MOVE_FORWARD and r <= 1e-6:
+            self.last = TURN_LEFT
+        else:
+            self.last = MOVE_FORWARD
+        return self.last
+
+
+class Blind(_Base):
+    """A blind random walker: the baseline a reward-steering agent must not beat when it gets no reward."""
+
+    name = "blind"
+
+
+class NoPriorPeeker(_Base):
+    """Declares no prior, then tries to get an environment before its episodes: counts every call it gets outside
+    an episode, looks for anything environment-like on what it is handed."""
+
+    name = "no-prior-peeker"
+    knowledge = Knowledge(detector="gt", prior="none")
+
+    def __init__(self, seed: int = 0, steps: int = 5) -> None:
+        super().__init__(seed, steps)
+        self.calls_before_episodes = 0
+        self.episodes_started = 0
+        self.explored = False
+        self.acts = 0
+
+    def setup(self, sensors) -> None:
+        super().setup(sensors)
+        self.handles = _envlike(sensors, "sensors")
+
+    def explore(self, view, ts) -> None:  # never called for prior="none"
+        self.explored = True
+        self.calls_before_episodes += 1
+
+    def reset(self, view, ts) -> None:
+        super().reset(view, ts)
+        self.episodes_started += 1
+        self.handles += _envlike(view, "view") + _envlike(ts, "ts")
+
+    def act(self, ts) -> int:
+        if self.episodes_started == 0:
+            self.calls_before_episodes += 1
+        self.acts += 1
+        return super().act(ts)
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        self.info.update(explored=self.explored, calls_before_episodes=self.calls_before_episodes, acts=self.acts,
+                         handles=sorted(set(self.handles)))
+
+
+def _envlike(obj, where: str) -> list[str]:
+    """Return what on `obj` (and one level below) looks like a way to an environment: something with reset and step,
+    a callable named like an environment (factory), or anything named like a bundle, task or physics."""
+    out = []
+    for n in dir(obj):
+        if n.startswith("__"):
+            continue
+        try:
+            v = getattr(obj, n)
+        except Exception:  # noqa: BLE001 - a property that refuses: nothing handed
+            continue
+        low = n.lower()
+        if (callable(getattr(v, "reset", None)) and callable(getattr(v, "step", None))) or \
+                (callable(v) and "env" in low) or any(w in low for w in ("bundle", "task", "physics")):
+            out.append(f"{where}.{n}")
+    return out
+
+
+GENERATOR_TYPES = {"Bundle", "ObjectNavTask", "Physics", "NavMap", "GeodesicField", "Episode", "Goal", "RegionMap",
+                   "Relevance", "SceneAsset", "Environment", "GroundTruthDetector", "MjModel", "MjData", "ViewPoint",
+                   "OracleView", "ObservationBuilder"}
+
+
+def _label_table(o: object, labels: set[str]) -> bool:
+    """An id -> label table: a dict of int keys to label strings of the dataset's vocabulary."""
+    if not isinstance(o, dict) or len(o) < 2:
+        return False
+    try:
+        return all(isinstance(k, (int, np.integer)) and isinstance(v, str) for k, v in o.items()) and \
+            len({v for v in o.values()} & labels) >= 2
+    except RuntimeError:  # changed size while looking
+        return False
+
+
+class Walker(_Base):
+    """Walks everything reachable from what it is handed (attributes, closures, containers, gc referents, its module's
+    globals) and then the whole heap of its process, looking for the generator's objects and id -> label tables."""
+
+    name = "walker"
+    knowledge = Knowledge(detector="gt", prior="none")
+
+    def __init__(self, seed: int = 0, steps: int = 1) -> None:
+        super().__init__(seed, steps)
+        self.found: set[str] = set()
+        self.tables = 0
+        self.walked = 0
+
+    def _walk(self, roots: list) -> None:
+        labels = set(self.sensors.vocabulary.labels)
+        seen: set[int] = set()
+        todo = list(roots)
+        while todo and len(seen) < 2_000_000:
+            o = todo.pop()
+            if id(o) in seen:
+                continue
+            seen.add(id(o))
+            t = type(o)
+            if t.__name__ in GENERATOR_TYPES:
+                self.found.add(t.__name__)
+            if _label_table(o, labels):
+                self.tables += 1
+            if isinstance(o, (str, bytes, int, float, np.ndarray, type(None))):
+                continue
+            try:
+                todo.extend(gc.get_referents(o))
+            except Exception:  # noqa: BLE001 - an exotic object: skip it
+                pass
+            if isinstance(o, types.FunctionType):
+                todo.extend(c.cell_contents for c in (o.__closure__ or ()) if c is not None and _filled(c))
+            d = getattr(o, "__dict__", None) if not isinstance(o, type) else None
+            if isinstance(d, dict):
+                todo.extend(d.values())
+        self.walked += len(seen)
+
+    def reset(self, view, ts) -> None:
+        super().reset(view, ts)
+        self._walk([view, ts, self.sensors, vars(sys.modules[__name__]), self.act, self.reset])
+        self._walk(gc.get_objects())
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        self.info.update(found=sorted(self.found), label_tables=self.tables, walked=self.walked)
+
+
+def _filled(cell) -> bool:
+    try:
+        cell.cell_contents
+        return True
+    except ValueError:
+        return False
+
+
+class DiskScanner(_Base):
+    """Reads the disk: the dataset's files where it guesses they are (``paths``: a cheater's knowledge of a usual
+    location), the evaluator's /proc entries, and a bounded walk of the whole file system for episode files."""
+
+    name = "disk-scanner"
+    knowledge = Knowledge(detector="none")
+
+    def __init__(self, seed: int = 0, steps: int = 1, paths: tuple[str, ...] = (), walk_dirs: int = 5000) -> None:
+        super().__init__(seed, steps)
+        self.paths, self.walk_dirs = tuple(paths), int(walk_dirs)
+
+    def _try(self, path: str) -> str:
+        try:
+            with open(path, "rb") as f:
+                f.read(64)
+            return "read"
+        except PermissionError:
+            return "denied"
+        except OSError as e:
+            return type(e).__name__
+
+    def reset(self, view, ts) -> None:
+        super().reset(view, ts)
+        tried = {p: self._try(p) for p in self.paths}
+        parent = os.getppid()
+        for leaf in ("cmdline", "environ", "mem"):
+            tried[f"/proc/<evaluator>/{leaf}"] = self._try(f"/proc/{parent}/{leaf}")
+        found, dirs, t0 = [], 0, time.perf_counter()
+        for top, sub, files in os.walk("/"):
+            dirs += 1
+            sub[:] = [d for d in sub if not (top == "/" and d in ("proc", "sys", "dev"))]
+            found += [os.path.join(top, f) for f in files if f in ("episodes.json", "goals.npz", "bundle.json")]
+            if dirs >= self.walk_dirs or time.perf_counter() - t0 > 20:
+                break
+        readable = [p for p in found if self._try(p) == "read"]
+        self.info_scan = {"tried": tried, "walked_dirs": dirs, "episode_files_readable": readable[:20]}
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        self.info.update(self.info_scan)
+
+
+class HalfOracle(_Base):
+    """Declares one oracle part (the navmap) and reads another (the relevance table)."""
+
+    name = "half-oracle"
+    knowledge = Knowledge(detector="none", oracle=("navmap",))
+
+    def reset(self, view, ts) -> None:
+        super().reset(view, ts)
+        assert view.oracle.navmap(0) is not None
+        view.oracle.relevance  # noqa: B018 - undeclared: KnowledgeError
