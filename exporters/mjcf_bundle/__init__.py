@@ -30,8 +30,9 @@ from sdovon_mj.export import (ExportOptions, ExportReport, ExportUnit, Exporter,
 
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
 
-BUNDLE_VERSION = 4  # 2: generator artefacts under oracle/; 3: assets shared per dataset (../assets), "assets" key;
-# 4: goals once per bundle (goals.npz + EpisodeRef rows), scene oracle files once per scene (../oracle/<scene>/)
+BUNDLE_VERSION = 5  # 2: generator artefacts under oracle/; 3: assets shared per dataset (../assets), "assets" key;
+# 4: goals once per bundle (goals.npz + EpisodeRef rows), scene oracle files once per scene (../oracle/<scene>/);
+# 5: the dataset's vocabulary in index.json (a new version so that runs exported before re-export)
 SHARED_ASSETS = "assets"  # under the dataset root; a bundle refers to it as ../assets
 SHARED_ORACLE = "oracle"  # under the dataset root: oracle/<scene>/, a bundle refers to it as ../oracle/<scene>/
 

@@ -19,7 +19,8 @@ Bundle version 4 (``bundle.json`` with ``"bundle_version": 4``) names its files 
 ``EpisodeRef`` rows whose goals live once in ``goals.npz`` (`suite.goals`), and the scene-level oracle files
 (``navmaps``, ``region_maps`` as records.save_npz shards, ``instance_labels``, ``relevance``) may live in the
 dataset's ``../oracle/<scene>/``, shared by every variant of the scene; ``object_labels`` stays in the
-bundle's ``oracle/``. Paths in bundle.json are relative to the bundle folder.
+bundle's ``oracle/``. Paths in bundle.json are relative to the bundle folder. Version 5 adds the dataset's
+vocabulary to the dataset's ``index.json`` (its bundles are laid out as version 4's).
 
 A dataset is a folder of such variant folders (or one variant folder itself).
 """
@@ -35,7 +36,7 @@ from ..records import Episode, NavMap, RecordError, RegionMap, Relevance, SceneA
 from .goals import unpack_episodes
 
 EPISODES = "episodes.json"
-BUNDLE_VERSION = 4  # the newest bundle layout this reader knows (exporters/mjcf_bundle writes it)
+BUNDLE_VERSION = 5  # the newest bundle layout this reader knows (exporters/mjcf_bundle writes it)
 
 
 @dataclass
