@@ -300,12 +300,6 @@ CEILING_M2 = 12.0  # one ceiling light per this floor area (at least one)
 # placing a kit
 
 
-def _interior(room: LA.PlanRoom) -> np.ndarray:
-    """Return the room's interior (x0, y0, x1, y1) between the skirting boards."""
-    t = 0.5 * WALL_T + SKIRTING[0] + 0.003
-    return np.array([room.x0 + t, room.y0 + t, room.x1 - t, room.y1 - t])
-
-
 def _blocks(m: Model) -> bool:
     """Whether a model blocks walking (see `placement`: bottom low, top above a rug; a plate flush with the wall,
     3 cm or thinner, does not)."""
