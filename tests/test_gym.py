@@ -160,3 +160,21 @@ def test_importing_the_package_does_not_import_gymnasium():
             f"assert {ENV_ID!r} in gymnasium.registry")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
+
+
+def test_the_training_example_runs_and_prints_its_returns(dataset):
+    """examples/train_gym.py (REINFORCE in torch) for 40 steps of 15-step episodes: 3 episodes (the last cut short),
+    each return a geodesic gain no larger than its steps times the 0.25 m forward step."""
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "train_gym.py"
+    proc = subprocess.run([sys.executable, str(example), "--bundle", str(dataset / "fixture_apartment_v000"), "--steps",
+                           "40", "--max-steps", "15", "--width", "16", "--height", "12"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("episode ")]
+    assert [ln.split(":")[0] for ln in lines] == ["episode 1", "episode 2", "episode 3"], proc.stdout
+    for ln, steps in zip(lines, (15, 15, 10)):
+        n, ret = ln.split(": ")[1].split(" steps, return ")
+        assert int(n) == steps and abs(float(ret.split(" m")[0])) <= steps * 0.25 + 1e-6, ln
+    assert proc.stdout.splitlines()[-1].startswith("40 steps, 3 episodes; mean return")
