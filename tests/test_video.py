@@ -1,8 +1,11 @@
 """Episode videos (suite/video.py): an episode stepped in the dm_control suite, written as H.264 MP4 by the ffmpeg
 inside the imageio-ffmpeg wheel and read back with it: one frame per step plus the first, each showing that step's
-RGB view beside the top-down map with the agent where it stood."""
+RGB view beside the top-down map with the agent where it stood; and `sdovon-mj eval --video N` recording the first N
+episodes in the evaluator (steps + 1 frames each, named and listed in the results, re-recorded when deleted)."""
 
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import pytest
@@ -92,3 +95,38 @@ def test_recorder_streams_and_leaves_no_partial_file(stepped, tmp_path):
     assert list(tmp_path.iterdir()) == [path]
     with pytest.raises(ValueError, match="one position and yaw per frame"):
         write_episode_video(tmp_path / "x.mp4", s["frames"], s["positions"][:-1], s["yaws"], s["navmap"], s["episode"])
+
+
+def test_eval_writes_a_video_per_episode_asked_for(tmp_path):
+    """`sdovon-mj eval --video 2` (the oracle, sealed, small images) writes 2 MP4s, named by agent and episode and
+    listed in the results; each has the episode's steps + 1 frames, the first showing the start view. A rerun
+    records a deleted video again (its episode runs again) and keeps the others."""
+    from sdovon_mj.cli import main
+
+    root = fixture_bundle(tmp_path / "fx", variants=1, seed=3)
+    out = tmp_path / "ev"
+    args = ["eval", str(root), "--agent", "oracle", "--episodes", "3", "--video", "2", "--width", "64", "--height", "48",
+            "--pictures", "0", "--out", str(out)]
+    assert main(args) == 0
+    results = [json.loads(p.read_text()) for p in sorted((out / "episodes" / "oracle").glob("*.json"))]
+    assert len(results) == 3
+    shot = [r for r in results if r.get("video")]
+    assert sorted(p.relative_to(out).as_posix() for p in (out / "videos").rglob("*.mp4")) == sorted(r["video"] for r in shot)
+    assert len(shot) == 2 and all(r["video"] == f"videos/oracle/{r['episode_id']}.mp4" for r in shot)
+    assert json.loads((out / "summary.json").read_text())["oracle"]["videos"] == [r["video"] for r in shot]
+    env = suite.load("objectnav", task_kwargs={"bundle": root / "fixture_apartment_v000", "width": 64, "height": 48})
+    ids = [e.episode_id for e in env.task.bundle.episodes]
+    for r in shot:
+        frames, meta = read_video(out / r["video"])
+        assert meta["codec"] == "h264" and len(frames) == r["steps"] + 1 > 1
+        env.task.set_next_episode(ids.index(r["episode_id"]))
+        start = env.reset().observation["rgb"][16:]  # under the caption
+        first, last = frames[0][16:48, :64], frames[-1][16:48, :64]
+        assert _nearest(start, [first, last])[0] < _nearest(start, [first, last])[1]
+    env.task.close()
+    gone = out / shot[0]["video"]
+    kept = out / shot[1]["video"]
+    before = kept.stat().st_mtime_ns
+    gone.unlink()
+    assert main(args) == 0
+    assert gone.is_file() and kept.stat().st_mtime_ns == before

@@ -35,6 +35,7 @@ from .bundle import Bundle, find_bundles, load_bundle
 from .objectnav import make_environment
 from .observation import ObservationBuilder, Vocabulary, dataset_vocabulary, make_sensors
 from .protocol import MODES, AgentSpec, InProcessSession, Phase, SceneStart, SealedSession
+from .video import EpisodeVideo
 
 PAPER = {  # SD-OVON tables 4 and 5 (ground-truth detector), for the closing comparison
     "random-astar": {"success": 0.7503, "spl": 0.3494, "soft_spl": 0.3931, "distance_to_goal": 1.5437},
@@ -205,22 +206,36 @@ def open_session(agent: Any, mode: str, width: int, height: int, seal: bool = Tr
     return SealedSession(agent, width, height, seal=seal, read=read, protect=protect)
 
 
-def _phase(session: Any, env: Any, builder: ObservationBuilder, phase: Phase, at_reset: dict | None = None) -> dict:
+def _record(video: EpisodeVideo | None, env: Any, obs: dict, rendered: bool) -> None:
+    """Add the frame of this step to an episode's video: the view the agent got, or (it asked for no frame and got a
+    blank one) the view rendered here for the video alone; the pose from the evaluator's physics."""
+    if video is not None:
+        rgb = obs["rgb"] if rendered else env.task.render(env.physics, segmentation=False)[0]
+        video.add(rgb, env.task.state.position, env.task.state.yaw)
+
+
+def _phase(session: Any, env: Any, builder: ObservationBuilder, phase: Phase, at_reset: dict | None = None,
+           video: EpisodeVideo | None = None) -> dict:
     """Run one phase (a first visit or an episode) from the environment's reset to its end; return the agent's info.
 
-    With ``at_reset``, the episode's difficulty is measured after the reset, before the agent acts (`start_visibility`).
+    With ``at_reset``, the episode's difficulty is measured after the reset, before the agent acts (`start_visibility`);
+    with ``video``, a frame is recorded after the reset and after every step (steps + 1), here in the evaluator.
     """
     env.task.render_frames = True  # every phase's first observation is rendered
     ts = env.reset()
     if at_reset is not None:
         at_reset["in_view"], at_reset["visible"] = env.task.start_visibility(env.physics)
-    reply = session.begin(phase, builder(ts.observation, True), True)
+    obs = builder(ts.observation, True)
+    _record(video, env, obs, True)
+    reply = session.begin(phase, obs, True)
     while True:
         env.task.render_frames = reply.frame
         ts = env.step(reply.action)
+        obs = builder(ts.observation, reply.frame)
+        _record(video, env, obs, reply.frame)
         if ts.last():
-            return session.end(builder(ts.observation, reply.frame), reply.frame)
-        reply = session.step(builder(ts.observation, reply.frame), reply.frame)
+            return session.end(obs, reply.frame)
+        reply = session.step(obs, reply.frame)
 
 
 def _explore(session: Any, bundle: Bundle, know: Any, nav: NavConfig, body: AgentConfig, vocab: Vocabulary,
@@ -247,9 +262,11 @@ def _explore(session: Any, bundle: Bundle, know: Any, nav: NavConfig, body: Agen
 
 def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConfig | None = None, episodes: int | None = None,
              out: Path | None = None, label: str | None = None, progress: bool = True, mode: str = "sealed",
-             seed: int = 0, body: AgentConfig | None = None, seal: bool = True, read: tuple[str, ...] = ()) -> list[dict]:
+             seed: int = 0, body: AgentConfig | None = None, seal: bool = True, read: tuple[str, ...] = (),
+             videos: tuple[str, ...] = ()) -> list[dict]:
     """Run an agent over a dataset's episodes through the agent protocol; return (and optionally write) one result
-    dict per episode. A run with ``out`` resumes: episodes whose result of the same run is there are not run again.
+    dict per episode. A run with ``out`` resumes: episodes whose result of the same run is there are not run again
+    (unless their video is asked for and missing: then they run again).
 
     Parameters
     ----------
@@ -280,6 +297,9 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
         Seal the agent process's file system (sealed mode; False only for debugging, and tables say so).
     read
         More paths the sealed agent may read (its weights or data).
+    videos
+        Episode ids to record as MP4 (`suite.video`: the agent's view beside the top-down map) in
+        ``out/videos/<label>/<episode id>.mp4``; each result names its file (``video``, relative to `out`).
     """
     kw = agent.kwargs if isinstance(agent, AgentSpec) else {}
     nav = nav or getattr(agent, "nav", None) or kw.get("nav") or NavConfig()
@@ -297,6 +317,9 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     label = label or (agent.name if isinstance(agent, AgentSpec) else str(getattr(agent, "name", type(agent).__name__)))
     key = _run_key(label, agent, nav, body, mode, seed)
     out = Path(out) if out is not None else None
+    videos = set(videos)
+    if videos and out is None:
+        raise ValueError("videos are written into the results folder: give out")
     protect = tuple(sorted({b.root.resolve() for b in bundles} | ({root} if root else set()) | ({out.resolve()} if out else set())))
     results: list[dict] = []
     session = None
@@ -304,6 +327,10 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
         with Progress(limit, f"eval {label}", enabled=progress) as bar:
             for scene, items in scenes.items():
                 done = {(b.name, i): _load_done(out, label, key, b.episodes[i].episode_id) for b, i in items}
+                for b, i in items:  # a video asked for and missing: the episode runs again to record it
+                    eid = b.episodes[i].episode_id
+                    if eid in videos and not (out / _video_path(label, eid)).is_file():
+                        done[(b.name, i)] = None
                 if all(done.values()):
                     results += [done[(b.name, i)] for b, i in items]
                     bar.update(len(items), scene)
@@ -333,7 +360,9 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                                 results.append(done[(b.name, i)])
                                 bar.update(1, b.episodes[i].episode_id)
                                 continue
-                            r = _episode(session, env, builder, b, i, know, label, key, visit)
+                            eid = b.episodes[i].episode_id
+                            r = _episode(session, env, builder, b, i, know, label, key, visit,
+                                         (out, _video_path(label, eid)) if eid in videos else None)
                             results.append(r)
                             if out is not None:
                                 atomic_write_text(_result_path(out, label, r["episode_id"]),
@@ -347,15 +376,29 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     return results
 
 
+def _video_path(label: str, episode_id: str) -> str:
+    """Return an episode's video file, relative to the results folder (it names the agent and the episode)."""
+    return f"videos/{label.replace(' ', '_')}/{episode_id}.mp4"
+
+
 def _episode(session: Any, env: Any, builder: ObservationBuilder, b: Bundle, i: int, know: Any, label: str, key: str,
-             visit: dict | None) -> dict:
-    """Run episode `i` of bundle `b`; return its result dict."""
+             visit: dict | None, video: tuple[Path, str] | None = None) -> dict:
+    """Run episode `i` of bundle `b`; return its result dict. With ``video`` (results folder, relative MP4 path) the
+    episode is recorded there."""
     t0 = time.perf_counter()
     ep = b.episodes[i]
     env.task.set_next_episode(i)
     phase = Phase("episode", str(ep.scene), ep.episode_id, i, int(env.task.nav.max_steps), oracle_episode_parts(ep, know))
     start: dict = {}
-    info = _phase(session, env, builder, phase, start)
+    recorder = EpisodeVideo(video[0] / video[1], b.navmap(ep.floor), ep, label=label) if video else None
+    try:
+        info = _phase(session, env, builder, phase, start, recorder)
+    except BaseException:
+        if recorder is not None:
+            recorder.abort()
+        raise
+    if recorder is not None:
+        recorder.close()
     task = env.task
     in_view, visible = start["in_view"], start["visible"]
     m = task.metrics()
@@ -369,6 +412,8 @@ def _episode(session: Any, env: Any, builder: ObservationBuilder, b: Bundle, i: 
          "first_visit": None if visit is None else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")},
          "info": info, "seconds": round(time.perf_counter() - t0, 3),
          "trajectory": np.round(np.array(task.trajectory)[:, :2], 4).tolist()}
+    if video:
+        r["video"] = video[1]
     r["outcome"] = episode_outcome(r, ep, know.pose)
     return r
 
@@ -708,14 +753,14 @@ class Row:
 
 def _row_task(task: tuple) -> list[dict]:
     """Evaluate one row on one scene's bundles (a worker's unit of `run_rows`)."""
-    bundles, row, nav, body, out, seed, seal, read = task
+    bundles, row, nav, body, out, seed, seal, read, videos = task
     return evaluate(bundles, row.agent, nav=nav, out=out, label=row.label, progress=False, mode=row.mode, seed=seed,
-                    body=body, seal=seal, read=read)
+                    body=body, seal=seal, read=read, videos=videos)
 
 
 def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Path | None = None, jobs: int = 1,
              episodes: int | None = None, seed: int = 0, nav: NavConfig | None = None, body: AgentConfig | None = None,
-             seal: bool = True, read: tuple[str, ...] = (), progress: bool = True) -> dict[str, list[dict]]:
+             seal: bool = True, read: tuple[str, ...] = (), progress: bool = True, video: int = 0) -> dict[str, list[dict]]:
     """Evaluate table rows over the same episodes; return each row's results (episode order).
 
     The work is cut into tasks of one row on one scene (its first visit, then its episodes), run on `jobs`
@@ -743,6 +788,8 @@ def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Pa
         As `evaluate`'s.
     progress
         Print one line per finished task.
+    video
+        Record the first N episodes (in results order) of every row as MP4 (needs ``out``; `evaluate`'s ``videos``).
     """
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
@@ -761,7 +808,8 @@ def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Pa
         scenes.setdefault(str(b.episodes[0].scene) if b.episodes else b.name, []).append(b)
     if len({r.label for r in rows}) != len(rows):
         raise ValueError("row labels must be unique")
-    tasks = [(row, sc, (scenes[sc], row, nav, body, out, seed, seal, tuple(read))) for row in rows for sc in scenes]
+    videos = tuple([e.episode_id for sc in scenes for b in scenes[sc] for e in b.episodes][:max(int(video), 0)])
+    tasks = [(row, sc, (scenes[sc], row, nav, body, out, seed, seal, tuple(read), videos)) for row in rows for sc in scenes]
     got: dict[tuple[str, str], list[dict]] = {}
     t0 = time.perf_counter()
     if jobs <= 1:
@@ -816,6 +864,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--height", type=int, default=None, help="camera height (default AgentConfig.sensor_height: 480)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--pictures", type=int, default=5, help="trajectory pictures per agent")
+    parser.add_argument("--video", type=int, default=0, metavar="N",
+                        help="MP4s of the first N episodes per agent: its camera beside the top-down map with the path "
+                             "so far (OUT/videos/<agent>/<episode id>.mp4)")
     parser.add_argument("--in-process", action="store_true",
                         help="run the agents in this process (debugging; every table says so) instead of sealed")
     parser.add_argument("--agent-read", action="append", default=[], metavar="PATH",
@@ -840,15 +891,21 @@ def run(args: argparse.Namespace) -> int:
         variants = [(n, True), (f"{n} no-FN", False)] if astar and args.fn_ablation else \
             [(f"{n} no-FN" if (astar and args.no_fn) else n, not args.no_fn)]
         rows += [Row(label, agent_spec(n, nav, args.seed, final_nav=fn, agent=body), mode) for label, fn in variants]
+    if int(getattr(args, "video", 0) or 0) < 0:
+        raise InputError("--video", "the number of videos must be >= 0")
     per_agent = run_rows(args.dataset, rows, out, jobs=int(getattr(args, "jobs", 1) or 1), episodes=args.episodes,
-                         seed=args.seed, nav=nav, body=body, read=tuple(getattr(args, "agent_read", []) or ()))
+                         seed=args.seed, nav=nav, body=body, read=tuple(getattr(args, "agent_read", []) or ()),
+                         video=int(getattr(args, "video", 0) or 0))
     for label, res in per_agent.items():
         for r in res[: max(0, args.pictures)]:
             trajectory_picture(args.dataset, r, out / "pictures" / label.replace(" ", "_") / f"{r['episode_id']}.png")
     md, summaries = tables_markdown(per_agent)
     for label, sm in summaries.items():
+        shot = [r["video"] for r in per_agent[label] if r.get("video")]
+        if shot:
+            sm["videos"] = shot
         print(f"{label}: {sm['episodes']} episodes, {sm.get('episodes_per_minute', float('nan')):.1f} episodes/min "
-              f"(per process, episodes only); {_mode(sm)}")
+              f"(per process, episodes only); {_mode(sm)}" + (f"; videos: {', '.join(shot)}" if shot else ""))
     atomic_write_text(out / "tables.md", md)
     atomic_write_text(out / "summary.json", json.dumps(_finite(summaries), indent=1, sort_keys=True) + "\n")
     print(md)
