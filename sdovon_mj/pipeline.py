@@ -548,6 +548,12 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
             print(f"note: {lock.note}", file=sys.stderr)
         return _generate(run_root, cfg, scenes, objects, executor, jobs, address, retries, progress, exporters,
                          until, only_scenes)
+    except BaseException:
+        # A signal can land between a writer's temp file and its cleanup (the window inside tempfile.mkstemp); the
+        # lock is ours and the workers are stopped, so every temp file in the run now is a leftover: remove them.
+        if lock.held:
+            clean_temp_files(Path(run_root).resolve())
+        raise
     finally:
         if in_main:
             signal.signal(signal.SIGTERM, old)

@@ -196,20 +196,24 @@ class Walker(_Base):
             t = type(o)
             if t.__name__ in GENERATOR_TYPES:
                 self.found.add(t.__name__)
-            if _label_table(o, labels):
-                self.tables += 1
-            if isinstance(o, (str, bytes, int, float, np.ndarray, type(None))):
-                continue
-            try:
-                todo.extend(gc.get_referents(o))
-            except Exception:  # noqa: BLE001 - an exotic object: skip it
+            try:  # an exotic object (a proxy whose __class__ or __dict__ runs code) is skipped, not fatal
+                self._inspect(o, labels, todo)
+            except Exception:  # noqa: BLE001
                 pass
-            if isinstance(o, types.FunctionType):
-                todo.extend(c.cell_contents for c in (o.__closure__ or ()) if c is not None and _filled(c))
-            d = getattr(o, "__dict__", None) if not isinstance(o, type) else None
-            if isinstance(d, dict):
-                todo.extend(d.values())
         self.walked += len(seen)
+
+    def _inspect(self, o: object, labels: set[str], todo: list) -> None:
+        """Count `o` if it is an id -> label table and queue what it refers to."""
+        if _label_table(o, labels):
+            self.tables += 1
+        if isinstance(o, (str, bytes, int, float, np.ndarray, type(None))):
+            return
+        todo.extend(gc.get_referents(o))
+        if isinstance(o, types.FunctionType):
+            todo.extend(c.cell_contents for c in (o.__closure__ or ()) if c is not None and _filled(c))
+        d = getattr(o, "__dict__", None) if not isinstance(o, type) else None
+        if isinstance(d, dict):
+            todo.extend(d.values())
 
     def reset(self, view, ts) -> None:
         super().reset(view, ts)
