@@ -97,6 +97,7 @@ class StageRunner:
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             self.result.notes.append(f"{key}: finished before, but {problems[0]}{more}; recomputing the stage")
         self.store.invalidate(key)
+        release_memory()
         reset_peak_rss()
         with Timer() as t:
             outputs = fn()
@@ -117,6 +118,24 @@ def stage_name(key: str) -> str:
             return "export:" + parts[1].removesuffix(".units")
         return "export:" + parts[-1].removesuffix(".stage")
     return parts[-1]
+
+
+def release_memory() -> None:
+    """Give what earlier stages freed back to the system before the next stage (a collection, then glibc's
+    ``malloc_trim``; a no-op where there is no glibc).
+
+    Why: a worker runs a scene's stages one after another, and glibc keeps freed heap pages (big numpy arrays
+    below the dynamic mmap threshold) for reuse, so each stage started on the last one's high-water mark. On the
+    HM3D-size scene in one process, place peaked at 5.2 GB after perceive, against 2.3 GB on its own.
+    """
+    import ctypes
+    import gc
+
+    gc.collect()
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
 
 
 def reset_peak_rss() -> None:
