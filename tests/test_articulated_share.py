@@ -46,7 +46,8 @@ def test_default_world_puts_a_fifth_inside_and_hidden_goals_name_their_part(tmp_
     cfg = tmp_path / "art.yaml"
     cfg.write_text(CONFIG, encoding="utf-8")
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-    proc = subprocess.run([sys.executable, "-m", "sdovon_mj.cli", "episodes", str(tmp_path / "run"), "--config", str(cfg)],
+    proc = subprocess.run([sys.executable, "-m", "sdovon_mj.cli", "episodes", str(tmp_path / "run"), "--config", str(cfg),
+                           "--jobs", "2"],  # its two scenes side by side (same bytes on any number of workers)
                           cwd=Path(__file__).resolve().parents[1], env=env, capture_output=True, text=True, timeout=1200)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     a = audit_inside(tmp_path / "run")
