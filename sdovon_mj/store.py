@@ -18,7 +18,9 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
+
+import numpy as np
 
 from . import __version__
 from .errors import RunLockedError
@@ -51,6 +53,30 @@ def dumps(data: Any) -> str:
         return _dumps_fast(data) + "\n"
     except (_NotFast, RecursionError):
         return json.dumps(data, sort_keys=True, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+def json_safe(x: Any, other: Callable[[Any], Any] | None = None) -> Any:
+    """Return `x` as plain JSON data: dict keys as ``str``, tuples as lists, numpy arrays and scalars as Python
+    values, non-finite floats as None (JSON has no inf/nan).
+
+    Anything else goes through `other` (e.g. ``str`` for data from a third party that must always encode); without
+    it, it is returned as is, so that `json.dumps` names a type it cannot write.
+    """
+    if isinstance(x, dict):
+        return {str(k): json_safe(v, other) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_safe(v, other) for v in x]
+    if isinstance(x, np.ndarray):
+        return json_safe(x.tolist(), other)
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if np.isfinite(x) else None
+    if x is None or isinstance(x, str) or other is None:
+        return x
+    return other(x)
 
 
 class _NotFast(Exception):

@@ -64,6 +64,15 @@ def pytest_make_collect_report(collector: pytest.Collector) -> Generator[None, A
 
 
 @pytest.fixture(scope="session")
+def tiny_export_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny generated run of tests/sim_export_run.py (1 apartment, 2 variants), once per session: the USD, URDF
+    and Genesis export tests read the same run (each exports it itself)."""
+    from sim_export_run import tiny_run
+
+    return tiny_run(tmp_path_factory.mktemp("tiny"))
+
+
+@pytest.fixture(scope="session")
 def articulated_closed_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The tiny articulated default-world run (every part closed; tests/test_articulated_pipeline.py's CONFIG) to its
     episodes, exported as MJCF bundles: ``<root>/run`` and ``<root>/mjcf``. One run shared by the pipeline and suite tests.

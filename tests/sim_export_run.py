@@ -1,7 +1,8 @@
 """A tiny generated run (default world: 1 apartment, 4 object categories, 2 variants) for the simulator-export tests.
 
 `tiny_run(root)` runs `sdovon-mj generate` on it (about a minute on 2 cores); the USD, URDF and Genesis
-tests share this helper so they check the same data the pipeline produces (real hulls, masses, textures).
+tests share one such run (`tiny_export_run` in conftest.py, once per session) so they check the same data the
+pipeline produces (real hulls, masses, textures).
 """
 
 from __future__ import annotations
@@ -10,8 +11,6 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-
-import pytest
 
 import test_generate
 
@@ -35,8 +34,3 @@ def tiny_run(root: Path) -> Path:
         raise RuntimeError(f"generate failed ({proc.returncode}): {proc.stderr[-2000:]}")
     return out
 
-
-@pytest.fixture(scope="module")
-def run_dir(tmp_path_factory) -> Path:
-    """The tiny generated run, once per test module that imports this fixture."""
-    return tiny_run(tmp_path_factory.mktemp("tiny"))

@@ -15,7 +15,6 @@ import mujoco
 
 from sdovon_mj.export import ExportOptions, RunView, run_export
 from exporters.mjcf_bundle import MjcfBundleExporter
-from sim_export_run import run_dir  # noqa: F401 (module fixture)
 
 gs = pytest.importorskip("genesis")
 
@@ -25,9 +24,9 @@ SECONDS = 1.0
 
 
 @pytest.fixture(scope="module")
-def bundles(run_dir, tmp_path_factory) -> list[Path]:  # noqa: F811
+def bundles(tiny_export_run, tmp_path_factory) -> list[Path]:
     out = tmp_path_factory.mktemp("mjcf")
-    rep = run_export(MjcfBundleExporter(), RunView(run_dir), out, ExportOptions(name="ds"))
+    rep = run_export(MjcfBundleExporter(), RunView(tiny_export_run), out, ExportOptions(name="ds"))
     assert rep.variants, rep.summary()
     idx = json.loads((out / "ds" / "index.json").read_text())
     return [out / "ds" / b["path"] for b in idx["bundles"]]

@@ -15,7 +15,6 @@ import mujoco
 
 from sdovon_mj.export import ExportOptions, RunView, make_exporter, run_export
 from exporters.urdf import UrdfExporter
-from sim_export_run import run_dir  # noqa: F401 (module fixture)
 
 pybullet = pytest.importorskip("pybullet")
 sapien = pytest.importorskip("sapien")
@@ -25,9 +24,9 @@ MIN_RESTING = 0.9
 
 
 @pytest.fixture(scope="module")
-def urdf_out(run_dir, tmp_path_factory) -> Path:
+def urdf_out(tiny_export_run, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("urdf")
-    rep = run_export(UrdfExporter(), RunView(run_dir), out, ExportOptions(name="ds"))
+    rep = run_export(UrdfExporter(), RunView(tiny_export_run), out, ExportOptions(name="ds"))
     assert rep.variants, rep.summary()
     return out / "ds"
 
@@ -48,9 +47,9 @@ def _com_local(urdf: Path) -> np.ndarray:
 
 
 @pytest.mark.slow
-def test_export_matches_mujoco_and_files_resolve(run_dir, urdf_out):
+def test_export_matches_mujoco_and_files_resolve(tiny_export_run, urdf_out):
     """Poses in scene.json are the settled MuJoCo body poses; masses are MuJoCo's; every mesh/texture file exists."""
-    run = RunView(run_dir)
+    run = RunView(tiny_export_run)
     for vdir in _variants(urdf_out):
         meta = json.loads((vdir / "scene.json").read_text())
         variant = next(v for v in run.all_variants() if v.name == meta["variant"])

@@ -15,7 +15,6 @@ import pytest
 import mujoco
 
 from sdovon_mj.export import ExportOptions, RunView, run_export
-from sim_export_run import run_dir  # noqa: F401 (module fixture)
 
 pxr = pytest.importorskip("pxr")
 from pxr import Usd, UsdPhysics, UsdShade, UsdValidation  # noqa: E402
@@ -25,9 +24,9 @@ from exporters.usd import UsdExporter  # noqa: E402
 
 
 @pytest.fixture(scope="module")
-def usd_out(run_dir, tmp_path_factory) -> Path:
+def usd_out(tiny_export_run, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("usd")
-    rep = run_export(UsdExporter(), RunView(run_dir), out, ExportOptions(name="ds"))
+    rep = run_export(UsdExporter(), RunView(tiny_export_run), out, ExportOptions(name="ds"))
     assert rep.variants and rep.episodes > 0, rep.summary()
     return out / "ds"
 
@@ -69,8 +68,8 @@ def test_validation_catches_a_broken_stage(tmp_path):
 
 
 @pytest.mark.slow
-def test_object_poses_equal_settled_mujoco(run_dir, usd_out):
-    run = RunView(run_dir)
+def test_object_poses_equal_settled_mujoco(tiny_export_run, usd_out):
+    run = RunView(tiny_export_run)
     idx = json.loads((usd_out / "index.json").read_text())
     for v in idx["variants"]:
         variant = next(x for x in run.all_variants() if x.name == v["variant"])
@@ -104,9 +103,9 @@ def test_textures_resolve_inside_export(usd_out):
 
 
 @pytest.mark.slow
-def test_same_run_same_bytes(run_dir, usd_out, tmp_path):
+def test_same_run_same_bytes(tiny_export_run, usd_out, tmp_path):
     out = tmp_path / "again"
-    run_export(UsdExporter(), RunView(run_dir), out, ExportOptions(name="ds"))
+    run_export(UsdExporter(), RunView(tiny_export_run), out, ExportOptions(name="ds"))
     digest = lambda root: {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()  # noqa: E731
                            for p in sorted(root.rglob("*")) if p.is_file()}
     assert digest(out / "ds") == digest(usd_out)

@@ -239,7 +239,7 @@ def test_fn_variants_and_the_distance_aware_order_run_on_fixture(tmp_path):
                                                                    explore_steps=600)),
                          ("semantic-astar no-FN", SemanticAStar(agent=body, final_nav=False, explore_steps=600)),
                          ("semantic-astar per-metre", SemanticAStar(agent=body, per_metre=True, explore_steps=600))):
-        runs[label] = evaluate(root, agent, episodes=12, progress=False)
+        runs[label] = evaluate(root, agent, episodes=6, progress=False)
     n = len(runs["random-astar"])
     from sdovon_mj.suite.evaluate import tables_markdown
 

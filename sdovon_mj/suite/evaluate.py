@@ -29,7 +29,7 @@ from ..config import AgentConfig, NavConfig, to_dict
 from ..errors import InputError
 from ..geometry import quat_yaw
 from ..progress import Progress
-from ..store import atomic_write_bytes, atomic_write_text
+from ..store import atomic_write_bytes, atomic_write_text, json_safe
 from .boundary import oracle_episode_parts, oracle_scene_parts, scene_frame_point
 from .bundle import Bundle, find_bundles, load_bundle
 from .objectnav import make_environment
@@ -346,7 +346,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                     visit = _explore(session, first, know, nav, body, vocab, seed)
                     if out is not None:
                         atomic_write_text(out / "exploration" / label.replace(" ", "_") / f"{scene}.json",
-                                          json.dumps(_finite(visit), sort_keys=True) + "\n")
+                                          json.dumps(json_safe(visit), sort_keys=True) + "\n")
                 by_bundle: dict[str, list[tuple[Bundle, int]]] = {}
                 for b, i in items:
                     by_bundle.setdefault(b.name, []).append((b, i))
@@ -366,7 +366,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                             results.append(r)
                             if out is not None:
                                 atomic_write_text(_result_path(out, label, r["episode_id"]),
-                                                  json.dumps(_finite(r), sort_keys=True) + "\n")
+                                                  json.dumps(json_safe(r), sort_keys=True) + "\n")
                             bar.update(1, r["episode_id"])
                     finally:
                         env.task.close()
@@ -431,17 +431,6 @@ def select_bundles(dataset: str | Path, per_scene: int) -> list[Bundle]:
         if len(kept) < per_scene:
             kept.append(b)
     return [b for scene in sorted(by_scene) for b in by_scene[scene]]
-
-
-def _finite(x: Any) -> Any:
-    """Return x with non-finite floats replaced by None (JSON has no inf/nan)."""
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, list):
-        return [_finite(v) for v in x]
-    return x
 
 
 def summarize(results: list[dict], bootstrap: int = 1000, seed: int = 0) -> dict[str, Any]:
@@ -907,6 +896,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"{label}: {sm['episodes']} episodes, {sm.get('episodes_per_minute', float('nan')):.1f} episodes/min "
               f"(per process, episodes only); {_mode(sm)}" + (f"; videos: {', '.join(shot)}" if shot else ""))
     atomic_write_text(out / "tables.md", md)
-    atomic_write_text(out / "summary.json", json.dumps(_finite(summaries), indent=1, sort_keys=True) + "\n")
+    atomic_write_text(out / "summary.json", json.dumps(json_safe(summaries), indent=1, sort_keys=True) + "\n")
     print(md)
     return 0

@@ -24,7 +24,6 @@ transports carry the same messages to the same runner: `InProcessSession` (debug
 from __future__ import annotations
 
 import json
-import math
 import os
 import pickle
 import socket
@@ -40,6 +39,7 @@ import numpy as np
 from ..actions import ACTION_NAMES
 from ..errors import SdovonError
 from ..knowledge import ORACLE_PARTS, Knowledge, KnowledgeError
+from ..store import json_safe
 
 PHASES = ("explore", "episode")
 MODES = ("sealed", "in-process")
@@ -162,28 +162,9 @@ class AgentView:
         return self._oracle
 
 
-def _jsonable(x: Any) -> Any:
-    """Return x as plain JSON data: numpy scalars and arrays to Python, non-finite floats to None."""
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (np.bool_, bool)):
-        return bool(x)
-    if isinstance(x, (np.integer, int)):
-        return int(x)
-    if isinstance(x, (np.floating, float)):
-        return float(x) if math.isfinite(float(x)) else None
-    if x is None or isinstance(x, str):
-        return x
-    return str(x)
-
-
 def encode_reply(reply: dict) -> bytes:
     """Return an agent reply as JSON bytes (what travels from the agent to the evaluator)."""
-    return json.dumps(_jsonable(reply), allow_nan=False, separators=(",", ":")).encode("utf-8")
+    return json.dumps(json_safe(reply, str), allow_nan=False, separators=(",", ":")).encode("utf-8")
 
 
 @dataclass(frozen=True)

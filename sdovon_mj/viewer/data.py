@@ -18,7 +18,6 @@ from __future__ import annotations
 import base64
 import colorsys
 import json
-import math
 import re
 import sys
 from dataclasses import dataclass, field
@@ -28,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..store import json_safe
 from ..geometry import quat_yaw
 from ..records import Episode, ObjectAsset, SceneAsset, SceneVariant
 from ..runview import RunView
@@ -57,26 +57,9 @@ def palette(names: list[str], saturation: float = 0.7, value: float = 0.95, offs
     return out
 
 
-def _finite(x: Any) -> Any:
-    """Return JSON-safe data: numpy scalars as Python numbers, non-finite floats as None."""
-    if isinstance(x, dict):
-        return {str(k): _finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _finite(x.tolist())
-    if isinstance(x, (np.floating, float)):
-        return float(x) if math.isfinite(float(x)) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
-
-
 def to_json(payload: dict[str, Any]) -> str:
     """Return a payload as compact JSON text (ASCII, no NaN)."""
-    return json.dumps(_finite(payload), separators=(",", ":"), ensure_ascii=True, allow_nan=False)
+    return json.dumps(json_safe(payload), separators=(",", ":"), ensure_ascii=True, allow_nan=False)
 
 
 # -- evaluation results ----------------------------------------------------------------------------------------------
