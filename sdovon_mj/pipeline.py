@@ -21,6 +21,7 @@ else from the run folder, so the same task runs in a local process or on a Ray w
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -28,9 +29,10 @@ import sys
 import threading
 import time
 import traceback
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections import deque
 from dataclasses import asdict, dataclass, field
 from multiprocessing import get_context
+from multiprocessing.connection import wait as mp_wait
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
@@ -76,6 +78,7 @@ class TaskResult:
     attempts: int = 1
     notes: list[str] = field(default_factory=list)  # e.g. a finished stage redone because its outputs changed
     caused_by: str = ""  # a follow-on failure: the task whose failure kept this one from running
+    rest: tuple[str, ...] = ()  # stages left for a fresh process (the worker held too much memory to go on)
 
 
 class StageRunner:
@@ -161,8 +164,36 @@ def peak_rss_mb() -> float:
     return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
 
 
-def run_task(spec: TaskSpec) -> TaskResult:
-    """Execute one task in this process; failures are returned, never raised."""
+def rss_mb() -> float:
+    """Return this process's resident memory now in MiB (Linux; elsewhere its peak, `peak_rss_mb`)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return round(int(line.split()[1]) / 1024.0, 1)
+    except OSError:
+        pass
+    return peak_rss_mb()
+
+
+def holds_too_much(memory_mb: float) -> bool:
+    """Whether this process still holds more than `memory_mb` MiB once it has given freed memory back (0: never).
+
+    What a process keeps after a stage (memoised models and scene fields, heap pages glibc cannot return) is
+    carried into every later stage it runs, so a worker over the limit hands on its work to a fresh process.
+    """
+    if not memory_mb:
+        return False
+    release_memory()
+    return rss_mb() > memory_mb
+
+
+def run_task(spec: TaskSpec, memory_mb: float = 0.0) -> TaskResult:
+    """Execute one task in this process; failures are returned, never raised.
+
+    With `memory_mb`, a stage after the first runs only while the process holds at most that much
+    (`holds_too_much`); the stages left are returned in ``TaskResult.rest`` for a fresh process.
+    """
     if not sys.stderr.isatty():  # model loaders' progress bars would flood non-interactive logs
         os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")
     result = TaskResult(spec, ok=True)
@@ -173,7 +204,12 @@ def run_task(spec: TaskSpec) -> TaskResult:
         cfg = load_config(store.path("config.yaml"))
         runner = StageRunner(store, result)
         scope = {"objects": "run"}.get(spec.kind, spec.kind)
-        stages.run_task(store, cfg, runner, scope, spec.scene, spec.variant, spec.fmt, spec.stages or None)
+        rest = stages.run_task(store, cfg, runner, scope, spec.scene, spec.variant, spec.fmt, spec.stages or None,
+                               fits=lambda: not holds_too_much(memory_mb))
+        result.rest = tuple(rest)
+        if rest:
+            result.notes.append(f"the worker held {rss_mb():.0f} MiB (over {memory_mb:.0f}); {', '.join(rest)} went on "
+                                "in a fresh process")
     except SdovonError as e:
         result.ok, result.error = False, str(e)
     except Exception as e:  # a task must report its cause, whatever it is
@@ -204,12 +240,87 @@ def _worker_init(lp_threads: int) -> None:
     os.environ.setdefault("LP_NUM_THREADS", str(int(lp_threads)))
 
 
-class LocalExecutor:
-    """Runs tasks in a process pool (`jobs` workers; 1 = in this process), with bounded retries."""
+# The worker memory limit (MiB) of `generate` and `LocalExecutor`: a worker that holds more after a stage hands on
+# its work to a fresh process. Why this figure: the demo's worker holds 0.29 GB after its scene and 0.36 GB after
+# its exports (small runs never pay for a new process), and a stage that starts from at most 1 GB has 3 GB of its
+# own under the 4 GB goal per worker: the HM3D-size scene's largest stage, perceive, takes 3.1 GB above a fresh
+# process (docs/results.md).
+WORKER_MEMORY_MB = 1024.0
 
-    def __init__(self, jobs: int = 1, retries: int = 1) -> None:
+
+def _merge(before: TaskResult | None, part: TaskResult) -> TaskResult:
+    """Return `part` (a task's later stages, run in a fresh process) with what `before` (its earlier stages) did."""
+    if before is None:
+        return part
+    for k, v in before.seconds.items():
+        part.seconds[k] = part.seconds.get(k, 0.0) + v
+    part.skipped = before.skipped + part.skipped
+    part.notes = before.notes + part.notes
+    peaks = {**before.counters.get("peak_rss_mb", {})}
+    for k, v in part.counters.get("peak_rss_mb", {}).items():
+        peaks[k] = max(peaks.get(k, 0.0), v)
+    part.counters = {**before.counters, **part.counters, "peak_rss_mb": peaks}
+    part.spec = before.spec
+    return part
+
+
+def _worker_main(conn: Any, lp_threads: int, memory_mb: float) -> None:
+    """A worker process: run the tasks sent over `conn` until told to stop (None) or until it holds more than
+    `memory_mb` after a task, which it reports with the result before it exits (the pool starts a fresh one)."""
+    _worker_init(lp_threads)
+    while True:
+        try:
+            spec = conn.recv()
+        except (EOFError, OSError):  # the parent is gone
+            return
+        if spec is None:
+            return
+        r = run_task(spec, memory_mb)
+        done = bool(r.rest) or holds_too_much(memory_mb)
+        conn.send((r, done))
+        if done:
+            return
+
+
+class _Worker:
+    """One worker process of `LocalExecutor` and its end of the pipe."""
+
+    def __init__(self, lp_threads: int, memory_mb: float) -> None:
+        ctx = get_context("spawn")
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_worker_main, args=(child, lp_threads, memory_mb))
+        self.proc.start()
+        child.close()
+
+    def stop(self, kill: bool = False) -> None:
+        """Ask the worker to end (or end it now) and wait for it."""
+        if kill:
+            self.proc.terminate()
+        else:
+            try:
+                self.conn.send(None)
+            except OSError:
+                pass
+        self.proc.join(10)
+        if self.proc.is_alive():
+            self.proc.kill()
+            self.proc.join()
+        self.conn.close()
+
+
+class LocalExecutor:
+    """Runs tasks in worker processes (`jobs`; 1 = in this process), with bounded retries and a memory limit per
+    worker (`memory_mb`, MiB; 0 = none): a worker holding more after a task is replaced by a fresh one, and a task
+    whose worker is over the limit between two of its stages goes on in a fresh process.
+
+    With one job the tasks run in this process (where the numerics profile holds) until it is over the limit; the
+    rest then run in a worker process.
+    """
+
+    def __init__(self, jobs: int = 1, retries: int = 1, memory_mb: float = WORKER_MEMORY_MB) -> None:
         self.jobs = max(1, int(jobs))
         self.retries = max(0, int(retries))
+        self.memory_mb = max(0.0, float(memory_mb))
 
     def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None,
             follow: Callable[[TaskResult], list[TaskSpec]] | None = None) -> list[TaskResult]:
@@ -220,54 +331,76 @@ class LocalExecutor:
         """
         specs = list(specs)
         results: dict[int, TaskResult] = {}
+        partial: dict[int, TaskResult] = {}
+        attempts = {i: 0 for i in range(len(specs))}
+        queue: deque[tuple[int, TaskSpec]] = deque(enumerate(specs))
+
+        def settle(i: int, spec: TaskSpec, r: TaskResult) -> None:
+            """Account for one run of task i (`spec`: all or the rest of its stages)."""
+            if r.ok and r.rest:  # on in a fresh process, with what this part did
+                partial[i] = _merge(partial.get(i), r)
+                queue.appendleft((i, dataclasses.replace(specs[i], stages=r.rest)))
+                return
+            attempts[i] += 1
+            if not r.ok and attempts[i] <= self.retries:  # again, from the stage that failed
+                queue.appendleft((i, spec))
+                return
+            r = _merge(partial.pop(i, None), r)
+            r.attempts = attempts[i]
+            results[i] = r
+            if progress:
+                progress(r)
+            for extra in follow(r) if follow else []:
+                specs.append(extra)
+                attempts[len(specs) - 1] = 0
+                queue.append((len(specs) - 1, extra))
+
         # in this process only where the numerics profile holds (numpy imported before sdovon_mj: it cannot): a
         # worker process started now inherits the profile's variables and loads its libraries under them
         in_process = numerics.active() and (self.jobs == 1 or (len(specs) <= 1 and follow is None))
-        if in_process:
-            i = 0
-            while i < len(specs):
-                results[i] = self._with_retries(lambda s=specs[i]: run_task(s))
-                if progress:
-                    progress(results[i])
-                if follow:
-                    specs += follow(results[i])
-                i += 1
-            return [results[i] for i in range(len(specs))]
-        pending = {i: 0 for i in range(len(specs))}
-        workers = max(1, self.jobs if follow else min(self.jobs, len(specs)))
-        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_worker_init,
-                                 initargs=(rasterizer_threads(workers),)) as pool:
-            futs = {pool.submit(run_task, specs[i]): i for i in pending}
-            while futs:
-                done, _ = wait(list(futs), return_when=FIRST_COMPLETED)
-                for fut in done:
-                    i = futs.pop(fut)
-                    try:
-                        r = fut.result()
-                    except Exception as e:  # worker crashed (e.g. killed): counts as a failed attempt
-                        r = TaskResult(specs[i], ok=False, error=f"worker died: {type(e).__name__}: {e}")
-                    pending[i] += 1
-                    r.attempts = pending[i]
-                    if not r.ok and pending[i] <= self.retries:
-                        futs[pool.submit(run_task, specs[i])] = i
-                        continue
-                    results[i] = r
-                    if progress:
-                        progress(r)
-                    for extra in follow(r) if follow else []:
-                        specs.append(extra)
-                        pending[len(specs) - 1] = 0
-                        futs[pool.submit(run_task, extra)] = len(specs) - 1
+        while in_process and queue:
+            i, spec = queue.popleft()
+            settle(i, spec, run_task(spec, self.memory_mb))
+            in_process = not holds_too_much(self.memory_mb)
+        if queue:
+            self._pool(queue, settle, max(1, self.jobs if follow else min(self.jobs, len(queue))))
         return [results[i] for i in range(len(specs))]
 
-    def _with_retries(self, fn: Callable[[], TaskResult]) -> TaskResult:
-        """Call `fn` until it succeeds or the retries are spent."""
-        for attempt in range(1, self.retries + 2):
-            r = fn()
-            r.attempts = attempt
-            if r.ok:
-                return r
-        return r
+    def _pool(self, queue: deque[tuple[int, TaskSpec]], settle: Callable[[int, TaskSpec, TaskResult], None],
+              n: int) -> None:
+        """Run the queued tasks (and those `settle` queues) on up to `n` worker processes."""
+        lp = rasterizer_threads(n)
+        idle: list[_Worker] = []
+        busy: dict[Any, tuple[_Worker, int, TaskSpec]] = {}
+        try:
+            while queue or busy:
+                while queue and (idle or len(idle) + len(busy) < n):
+                    w = idle.pop() if idle else _Worker(lp, self.memory_mb)
+                    i, spec = queue.popleft()
+                    try:
+                        w.conn.send(spec)
+                    except OSError:  # died idle: start another for this task
+                        w.stop(kill=True)
+                        queue.appendleft((i, spec))
+                        continue
+                    busy[w.conn] = (w, i, spec)
+                for conn in mp_wait(list(busy)):
+                    w, i, spec = busy.pop(conn)
+                    try:
+                        r, done = conn.recv()
+                    except (EOFError, OSError):  # killed, or crashed outside Python: a failed attempt
+                        w.proc.join(5)
+                        r, done = TaskResult(spec, ok=False, error=f"worker died (exit code {w.proc.exitcode})"), True
+                    if done:
+                        w.stop()
+                    else:
+                        idle.append(w)
+                    settle(i, spec, r)
+        finally:
+            for w in idle:
+                w.stop()
+            for w, _, _ in busy.values():  # interrupted: no task of this run goes on behind its back
+                w.stop(kill=True)
 
 
 class RayExecutor:
@@ -315,10 +448,11 @@ class RayExecutor:
         return [results[i] for i in range(len(specs))]
 
 
-def make_executor(name: str, jobs: int = 1, address: str | None = None, retries: int = 1) -> Any:
-    """Return the executor named `local` or `ray`."""
+def make_executor(name: str, jobs: int = 1, address: str | None = None, retries: int = 1,
+                  memory_mb: float = WORKER_MEMORY_MB) -> Any:
+    """Return the executor named `local` or `ray` (`memory_mb`: the local workers' memory limit, `LocalExecutor`)."""
     if name == "local":
-        return LocalExecutor(jobs, retries)
+        return LocalExecutor(jobs, retries, memory_mb)
     if name == "ray":
         return RayExecutor(address, retries, num_cpus=jobs if not address else None)
     raise StageError(f"unknown executor '{name}' (local, ray)")
@@ -513,7 +647,8 @@ def _raise_interrupted(signum: int, _frame: Any) -> None:
 def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = None, objects: list[str] | None = None,
              executor: str = "local", jobs: int = 1, address: str | None = None, retries: int = 1,
              progress: bool | None = None, exporters: Iterable[str] | None = None,
-             until: Iterable[str] | None = None, only_scenes: Iterable[str] | None = None) -> RunSummary:
+             until: Iterable[str] | None = None, only_scenes: Iterable[str] | None = None,
+             worker_memory_mb: float = WORKER_MEMORY_MB) -> RunSummary:
     """Run the pipeline into `run_root`; finished stages are skipped on a rerun.
 
     Parameters
@@ -542,6 +677,9 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
     only_scenes : iterable of str, optional
         Only the scenes of the run whose names match one of these shell patterns (``apt_000[12]``, ``1023*``; default:
         all); only their inputs are checked up front, and a pattern that matches no scene is a usage error.
+    worker_memory_mb : float
+        The local workers' memory limit in MiB (0: none): a worker holding more after a stage hands on its work to a
+        fresh process (`LocalExecutor`). Outputs are the same bytes whatever the limit.
     """
     from .stages import scene_table, select_scenes
 
@@ -566,7 +704,7 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
         if lock.note:
             print(f"note: {lock.note}", file=sys.stderr)
         return _generate(run_root, cfg, scenes, objects, executor, jobs, address, retries, progress, exporters,
-                         until, only_scenes)
+                         until, only_scenes, worker_memory_mb)
     except BaseException:
         # A signal can land between a writer's temp file and its cleanup (the window inside tempfile.mkstemp); the
         # lock is ours and the workers are stopped, so every temp file in the run now is a leftover: remove them.
@@ -582,13 +720,13 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
 def _generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None, objects: list[str] | None,
               executor: str, jobs: int, address: str | None, retries: int, progress: bool | None,
               exporters: Iterable[str] | None, until: Iterable[str] | None,
-              only_scenes: Iterable[str] | None) -> RunSummary:
+              only_scenes: Iterable[str] | None, worker_memory_mb: float = WORKER_MEMORY_MB) -> RunSummary:
     """Run the pipeline with the run folder locked (`generate` holds the lock; the parameters are its own)."""
     from . import stages
     from .progress import Progress
 
     store = prepare_run(run_root, cfg, scenes, objects)
-    ex = make_executor(executor, jobs, address, retries)
+    ex = make_executor(executor, jobs, address, retries, worker_memory_mb)
     wanted = stages.closure(list(until)) if until is not None else list(stages.STAGES)
     scene_names = stages.scene_names(store, cfg)
     if only_scenes is not None:  # names `generate` selected with the --scene patterns

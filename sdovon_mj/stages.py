@@ -673,8 +673,8 @@ def describe() -> str:
 
 
 def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str = "", variant: int = -1, fmt: str = "",
-             selected: list[str] | tuple[str, ...] | None = None) -> None:
-    """Run the (selected) stages of one scope in declaration order, in one context.
+             selected: list[str] | tuple[str, ...] | None = None, fits: Callable[[], bool] | None = None) -> list[str]:
+    """Run the (selected) stages of one scope in declaration order, in one context; return the stages left.
 
     Parameters
     ----------
@@ -691,6 +691,9 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
         names one export unit to run alone; empty: every unit not done yet, then the finishing step).
     selected : sequence of str, optional
         Only these stages (default: every stage of the scope).
+    fits : callable, optional
+        Asked before each stage after one that ran: False stops here, and the stages not run are returned (the
+        caller runs them in a fresh process; `sdovon_mj.pipeline.run_task`). Default: run them all.
     """
     if scope not in SCOPES:
         raise StageError(f"unknown stage scope '{scope}' ({', '.join(SCOPES)})")
@@ -698,9 +701,14 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
     if scope == "export" and "export" in scope_stages(scope, selected):
         # An exporter's units first (each skipped when done); a task naming one unit (`scene`) runs only it.
         if run_export_units(ctx, runner, only=scene) and scene:
-            return
-    for name in scope_stages(scope, selected):
-        run_stage(name, ctx, runner)
+            return []
+    names = scope_stages(scope, selected)
+    ran = False
+    for i, name in enumerate(names):
+        if ran and fits is not None and not fits():
+            return names[i:]
+        ran = run_stage(name, ctx, runner) or ran
+    return []
 
 
 __all__ = ["COMMAND_STAGES", "STAGES", "SCOPES", "Stage", "StageContext", "closure", "converter", "describe", "run_stage",

@@ -326,3 +326,18 @@ def test_ray_executor_matches_process_pool(reference_run, tiny_config, tmp_path)
     timings = json.loads((run / "timings.json").read_text())
     assert timings["stage_seconds"]["perceive"] > 0  # computed on Ray workers, not copied
     assert_same_outputs(run, ref)
+
+
+@pytest.mark.slow
+def test_workers_over_their_memory_limit_hand_on_to_fresh_processes(reference_run, tiny_config, tmp_path) -> None:
+    """With a memory limit every worker exceeds (1 MiB), each task goes on in a fresh process after every stage and
+    each worker is replaced after each task (`LocalExecutor`): the run writes the reference bytes all the same."""
+    ref, _ = reference_run
+    run = tmp_path / "fresh"
+    proc = cli(*generate_args(run, tiny_config, "--jobs", "2", "--worker-memory", "1"))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    handed_on = [line for line in proc.stderr.splitlines() if "went on in a fresh process" in line]
+    # every scene stage after the first of the scene task, and the episodes stage of each variant
+    assert any(": perceive" in line or ", perceive" in line for line in handed_on), proc.stderr[-3000:]
+    assert any("episodes went on" in line for line in handed_on), proc.stderr[-3000:]
+    assert_same_outputs(run, ref)

@@ -25,6 +25,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
     p.add_argument("--jobs", type=int, default=1, help="parallel tasks (local workers / Ray CPUs)")
     p.add_argument("--retries", type=int, default=1, help="retries of a failed task")
+    p.add_argument("--worker-memory", type=float, default=None, metavar="MIB",
+                   help="a local worker holding more than this after a stage hands on its work to a fresh process "
+                        "(default: sdovon_mj.pipeline.WORKER_MEMORY_MB; 0: never); outputs are the same bytes")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--allow-empty", action="store_true",
                    help="exit 0 even when a scene yields no receptacle or no episode (default: a warning and exit 1)")
@@ -40,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
     summary = generate(args.out, cfg, scenes=expand_scene_inputs(args.scenes, cfg), objects=args.objects,
                        only_scenes=args.scene, executor=args.executor,
                        jobs=args.jobs, address=args.address, retries=args.retries,
-                       progress=False if args.quiet else None)
+                       progress=False if args.quiet else None,
+                       **({} if args.worker_memory is None else {"worker_memory_mb": args.worker_memory}))
     print(summary.table())
     for f in summary.failures:  # root causes; a follow-on failure names its cause instead of repeating it
         print(f"not run: {f.spec.label} (caused by {f.caused_by})" if f.caused_by else f"failed: {f.spec.label}: {f.error}",
