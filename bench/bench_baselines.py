@@ -32,7 +32,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from sdovon_mj.config import AgentConfig, NavConfig, SemanticsConfig, load_config  # noqa: E402
 from sdovon_mj.suite import find_bundles, load_bundle  # noqa: E402
-from sdovon_mj.suite.evaluate import (Row, _finite, agent_spec, run_rows, select_bundles,  # noqa: E402
+from sdovon_mj.store import json_safe  # noqa: E402
+from sdovon_mj.suite.evaluate import (Row, agent_spec, run_rows, select_bundles,  # noqa: E402
                                       tables_markdown)
 
 # The orderings the table is read for, each on the same episodes (paired, cluster bootstrap).
@@ -140,7 +141,7 @@ def main() -> None:
     md += "\n## Speed (shared machine: indicative)\n\n" + speed + "\n"
     out.mkdir(parents=True, exist_ok=True)
     (out / "tables.md").write_text(md, encoding="utf-8")
-    (out / "summary.json").write_text(json.dumps(_finite(summaries), indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    (out / "summary.json").write_text(json.dumps(json_safe(summaries), indent=1, sort_keys=True) + "\n", encoding="utf-8")
     print(md)
 
 

@@ -47,10 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     from support.groundtruth import apartment_instances, apartment_navmap, region_accuracy
     from sdovon_mj.semantics.regions import _windows, floor_instances
 
-    try:
-        from sdovon_mj.world import generate_apartment  # type: ignore[attr-defined]
-    except ImportError:
-        from sdovon_mj.world.apartment import generate_apartment
+    from sdovon_mj.world import generate_apartment
 
     cfg = SemanticsConfig()
     if args.radius is not None:

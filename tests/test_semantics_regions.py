@@ -156,13 +156,8 @@ def test_region_map_cached_second_run_makes_no_request(tmp_path):
 
 
 def _world():
-    try:
-        from sdovon_mj.world import generate_apartment  # type: ignore[attr-defined]
-    except ImportError:
-        try:
-            from sdovon_mj.world.apartment import generate_apartment
-        except ImportError:
-            pytest.skip("default world generator (sdovon_mj.world) not available")
+    from sdovon_mj.world import generate_apartment
+
     return generate_apartment
 
 

@@ -226,3 +226,25 @@ def _module_graph(prefix: str) -> dict[str, set[str]]:
 def test_no_module_circles_in_the_converter():
     """No two files of assets_convert import each other, directly or round a longer circle (lazy imports count)."""
     assert _cycles(_module_graph("assets_convert")) == []
+
+
+def test_every_name_the_scripts_import_from_the_product_exists():
+    """Every ``from sdovon_mj... import name`` in bench/, tools/, examples/ and tests/ (at the top or inside a function,
+    where only running that code path would find it) names something the module has."""
+    import ast
+    import importlib
+
+    missing = []
+    for d in ("bench", "tools", "examples", "tests"):
+        for path in sorted((ROOT / d).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("sdovon_mj"):
+                    try:
+                        module = importlib.import_module(node.module)
+                    except ModuleNotFoundError:
+                        missing.append(f"{path.relative_to(ROOT)}:{node.lineno}: no module {node.module}")
+                        continue
+                    missing += [f"{path.relative_to(ROOT)}:{node.lineno}: {node.module}.{a.name}" for a in node.names
+                                if a.name != "*" and not hasattr(module, a.name)
+                                and importlib.util.find_spec(f"{node.module}.{a.name}") is None]
+    assert not missing, missing
