@@ -314,13 +314,14 @@ class LocalExecutor:
     whose worker is over the limit between two of its stages goes on in a fresh process.
 
     With one job the tasks run in this process (where the numerics profile holds) until it is over the limit; the
-    rest then run in a worker process.
+    rest, and the tasks of later maps, then run in worker processes (what this process keeps stays resident).
     """
 
     def __init__(self, jobs: int = 1, retries: int = 1, memory_mb: float = WORKER_MEMORY_MB) -> None:
         self.jobs = max(1, int(jobs))
         self.retries = max(0, int(retries))
         self.memory_mb = max(0.0, float(memory_mb))
+        self.full = False  # this process went over the memory limit: every later task runs in a worker
 
     def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None,
             follow: Callable[[TaskResult], list[TaskSpec]] | None = None) -> list[TaskResult]:
@@ -356,12 +357,15 @@ class LocalExecutor:
                 queue.append((len(specs) - 1, extra))
 
         # in this process only where the numerics profile holds (numpy imported before sdovon_mj: it cannot): a
-        # worker process started now inherits the profile's variables and loads its libraries under them
-        in_process = numerics.active() and (self.jobs == 1 or (len(specs) <= 1 and follow is None))
+        # worker process started now inherits the profile's variables and loads its libraries under them; and
+        # only while it holds at most the memory limit (what it keeps would be carried into every later task)
+        in_process = (numerics.active() and (self.jobs == 1 or (len(specs) <= 1 and follow is None))
+                      and not self.full and not holds_too_much(self.memory_mb))
         while in_process and queue:
             i, spec = queue.popleft()
             settle(i, spec, run_task(spec, self.memory_mb))
-            in_process = not holds_too_much(self.memory_mb)
+            self.full = holds_too_much(self.memory_mb)
+            in_process = not self.full
         if queue:
             self._pool(queue, settle, max(1, self.jobs if follow else min(self.jobs, len(queue))))
         return [results[i] for i in range(len(specs))]

@@ -330,11 +330,12 @@ def test_ray_executor_matches_process_pool(reference_run, tiny_config, tmp_path)
 
 @pytest.mark.slow
 def test_workers_over_their_memory_limit_hand_on_to_fresh_processes(reference_run, tiny_config, tmp_path) -> None:
-    """With a memory limit every worker exceeds (1 MiB), each task goes on in a fresh process after every stage and
-    each worker is replaced after each task (`LocalExecutor`): the run writes the reference bytes all the same."""
+    """With a memory limit every process exceeds (1 MiB) and one job, the command runs its first task itself, then
+    hands every later task to worker processes; each task goes on in a fresh process after every stage and each
+    worker is replaced after each task (`LocalExecutor`): the run writes the reference bytes all the same."""
     ref, _ = reference_run
     run = tmp_path / "fresh"
-    proc = cli(*generate_args(run, tiny_config, "--jobs", "2", "--worker-memory", "1"))
+    proc = cli(*generate_args(run, tiny_config, "--jobs", "1", "--worker-memory", "1"))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     handed_on = [line for line in proc.stderr.splitlines() if "went on in a fresh process" in line]
     # every scene stage after the first of the scene task, and the episodes stage of each variant
