@@ -313,8 +313,9 @@ class LocalExecutor:
     worker (`memory_mb`, MiB; 0 = none): a worker holding more after a task is replaced by a fresh one, and a task
     whose worker is over the limit between two of its stages goes on in a fresh process.
 
-    With one job the tasks run in this process (where the numerics profile holds) until it is over the limit; the
-    rest, and the tasks of later maps, then run in worker processes (what this process keeps stays resident).
+    With one job the tasks run in this process (where the numerics profile holds) until they have added more than
+    the limit to what it held when the executor was made; the rest, and the tasks of later maps, then run in worker
+    processes (what this process keeps stays resident).
     """
 
     def __init__(self, jobs: int = 1, retries: int = 1, memory_mb: float = WORKER_MEMORY_MB) -> None:
@@ -322,6 +323,9 @@ class LocalExecutor:
         self.retries = max(0, int(retries))
         self.memory_mb = max(0.0, float(memory_mb))
         self.full = False  # this process went over the memory limit: every later task runs in a worker
+        # In this process the limit counts what the tasks add to what it held when the executor was made (a caller
+        # such as a notebook or a test session may hold gigabytes of its own); a worker starts from nothing.
+        self.own_mb = rss_mb() if self.memory_mb else 0.0
 
     def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None,
             follow: Callable[[TaskResult], list[TaskSpec]] | None = None) -> list[TaskResult]:
@@ -360,15 +364,20 @@ class LocalExecutor:
         # worker process started now inherits the profile's variables and loads its libraries under them; and
         # only while it holds at most the memory limit (what it keeps would be carried into every later task)
         in_process = (numerics.active() and (self.jobs == 1 or (len(specs) <= 1 and follow is None))
-                      and not self.full and not holds_too_much(self.memory_mb))
+                      and not self.full and not holds_too_much(self._here_mb))
         while in_process and queue:
             i, spec = queue.popleft()
-            settle(i, spec, run_task(spec, self.memory_mb))
-            self.full = holds_too_much(self.memory_mb)
+            settle(i, spec, run_task(spec, self._here_mb))
+            self.full = holds_too_much(self._here_mb)
             in_process = not self.full
         if queue:
             self._pool(queue, settle, max(1, self.jobs if follow else min(self.jobs, len(queue))))
         return [results[i] for i in range(len(specs))]
+
+    @property
+    def _here_mb(self) -> float:
+        """The memory limit of tasks run in this process: what it held when the executor was made, plus the limit."""
+        return self.own_mb + self.memory_mb if self.memory_mb else 0.0
 
     def _pool(self, queue: deque[tuple[int, TaskSpec]], settle: Callable[[int, TaskSpec, TaskResult], None],
               n: int) -> None:
