@@ -150,15 +150,23 @@ def reset_peak_rss() -> None:
         pass
 
 
-def peak_rss_mb() -> float:
-    """Return this process's peak resident memory in MiB since the last reset (else since start)."""
+def _status_mb(field: str) -> float | None:
+    """Return a memory field of /proc/self/status (``VmHWM``, ``VmRSS``) in MiB; None where there is none."""
     try:
         with open("/proc/self/status", encoding="ascii") as f:
             for line in f:
-                if line.startswith("VmHWM:"):
+                if line.startswith(field + ":"):
                     return round(int(line.split()[1]) / 1024.0, 1)
     except OSError:
         pass
+    return None
+
+
+def peak_rss_mb() -> float:
+    """Return this process's peak resident memory in MiB since the last reset (else since start)."""
+    peak = _status_mb("VmHWM")
+    if peak is not None:
+        return peak
     import resource
 
     return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
@@ -166,14 +174,8 @@ def peak_rss_mb() -> float:
 
 def rss_mb() -> float:
     """Return this process's resident memory now in MiB (Linux; elsewhere its peak, `peak_rss_mb`)."""
-    try:
-        with open("/proc/self/status", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("VmRSS:"):
-                    return round(int(line.split()[1]) / 1024.0, 1)
-    except OSError:
-        pass
-    return peak_rss_mb()
+    now = _status_mb("VmRSS")
+    return peak_rss_mb() if now is None else now
 
 
 def holds_too_much(memory_mb: float) -> bool:
