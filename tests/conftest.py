@@ -63,6 +63,46 @@ def pytest_make_collect_report(collector: pytest.Collector) -> Generator[None, A
         _fail_unaccepted_skip(outcome.get_result())
 
 
+# Session fixtures that generate a run: under pytest-xdist every module reading one of them runs on one worker.
+SHARED_RUNS = ("tiny_export_run", "articulated_closed_run")
+SLOW_COST = 30  # a slow-marked test counts as this many fast ones when groups are ordered (slow: more than ~20 s)
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook reads the groups into the node ids
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Under pytest-xdist (``./run.sh test`` runs ``-n 2 --dist loadgroup``), group tests so that nothing expensive is
+    built twice, and send the costliest groups first.
+
+    A group is a test module (its module fixtures are built once, on one worker), and modules that read the same
+    shared run (`SHARED_RUNS`) form one group. Groups go longest first, estimated from their slow marks: xdist hands
+    them out in collection order (``--no-loadscope-reorder``), and a long test taken last would run alone at the end.
+    Without xdist (a plain ``pytest``), nothing changes.
+    """
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return
+    parent: dict[str, str] = {}
+
+    def find(x: str) -> str:
+        while parent.setdefault(x, x) != x:
+            x = parent[x]
+        return x
+
+    def module(item: pytest.Item) -> str:
+        return item.nodeid.split("::")[0]
+
+    for item in items:
+        for name in SHARED_RUNS:
+            if name in item.fixturenames:
+                parent[find(module(item))] = find(name)
+    group = {item.nodeid: find(module(item)) for item in items}
+    cost: dict[str, int] = {}
+    for item in items:
+        item.add_marker(pytest.mark.xdist_group(group[item.nodeid]))
+        cost[group[item.nodeid]] = cost.get(group[item.nodeid], 0) + (SLOW_COST if item.get_closest_marker("slow") else 1)
+    first = {g: k for k, g in enumerate(dict.fromkeys(group.values()))}
+    items.sort(key=lambda i: (-cost[group[i.nodeid]], first[group[i.nodeid]]))  # stable: a group's tests keep their order
+
+
 @pytest.fixture(scope="session")
 def tiny_export_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The tiny generated run of tests/sim_export_run.py (1 apartment, 2 variants), once per session: the USD, URDF
