@@ -108,7 +108,7 @@ case "$cmd" in
   test)
     # Two pytest workers (SDOVON_TEST_WORKERS; 0: one process): many tests wait on one core (a subprocess, a render),
     # so two keep CI's two cores busy. Tests are grouped per module and sent longest first (tests/conftest.py).
-    quick="${QUICK:-0}"; args=(-n "${SDOVON_TEST_WORKERS:-2}" --dist loadgroup --no-loadscope-reorder)
+    quick="${QUICK:-0}"; args=(-n "${SDOVON_TEST_WORKERS:-2}" --dist loadscope)
     for a in "$@"; do if [ "$a" = --quick ]; then quick=1; else args+=("$a"); fi; done
     if [ "$quick" = 1 ]; then
       exec "$VENV/bin/python" -m pytest -m "not slow" ${args[@]+"${args[@]}"}

@@ -63,44 +63,73 @@ def pytest_make_collect_report(collector: pytest.Collector) -> Generator[None, A
         _fail_unaccepted_skip(outcome.get_result())
 
 
-# Session fixtures that generate a run: under pytest-xdist every module reading one of them runs on one worker.
-SHARED_RUNS = ("tiny_export_run", "articulated_closed_run")
+# Session fixtures that generate a run, and the test modules that read each: under pytest-xdist a shared run's
+# modules run on one worker, so the run is generated once (checked at collection: a module reading one of them
+# must be listed here).
+SHARED_RUNS = {"tiny_export_run": ("test_export_usd.py", "test_export_urdf.py", "test_export_genesis.py"),
+               "articulated_closed_run": ("test_articulated_pipeline.py", "test_articulated_suite.py", "test_viewer.py")}
 SLOW_COST = 30  # a slow-marked test counts as this many fast ones when groups are ordered (slow: more than ~20 s)
 
 
-@pytest.hookimpl(tryfirst=True)  # before xdist's own hook reads the groups into the node ids
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Under pytest-xdist (``./run.sh test`` runs ``-n 2 --dist loadgroup``), group tests so that nothing expensive is
-    built twice, and send the costliest groups first.
+def test_group(nodeid: str) -> str:
+    """Return the group a test runs in under pytest-xdist: its module, or the shared run its module reads."""
+    path = nodeid.split("::", 1)[0]
+    return next((run for run, mods in SHARED_RUNS.items() if Path(path).name in mods), path)
 
-    A group is a test module (its module fixtures are built once, on one worker), and modules that read the same
-    shared run (`SHARED_RUNS`) form one group. Groups go longest first, estimated from their slow marks: xdist hands
-    them out in collection order (``--no-loadscope-reorder``), and a long test taken last would run alone at the end.
-    Without xdist (a plain ``pytest``), nothing changes.
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    """With ``--dist loadscope`` (``./run.sh test``): one work unit per `test_group`, handed out in collection order.
+
+    A module's tests stay on one worker (its module fixtures are built once), and so do the modules of a shared run.
+    (xdist's ``loadgroup`` would do this through marks, but it renames node ids in a way pytest 9 ignores.)
+    """
+    if config.getvalue("dist") != "loadscope":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class GroupScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return test_group(nodeid)
+
+    config.option.loadscopereorder = False  # the collection order is the cost order (pytest_collection_modifyitems)
+    return GroupScheduling(config, log)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Under pytest-xdist: check that every module reading a shared run is listed in `SHARED_RUNS`, and send the
+    costliest groups first (xdist hands groups out in collection order; a long test taken last would run alone at
+    the end). Cost: one per test, `SLOW_COST` per slow-marked test. Without xdist, nothing changes.
     """
     if not os.environ.get("PYTEST_XDIST_WORKER"):
         return
-    parent: dict[str, str] = {}
-
-    def find(x: str) -> str:
-        while parent.setdefault(x, x) != x:
-            x = parent[x]
-        return x
-
-    def module(item: pytest.Item) -> str:
-        return item.nodeid.split("::")[0]
-
     for item in items:
-        for name in SHARED_RUNS:
-            if name in item.fixturenames:
-                parent[find(module(item))] = find(name)
-    group = {item.nodeid: find(module(item)) for item in items}
+        for run in SHARED_RUNS:
+            if run in item.fixturenames and test_group(item.nodeid) != run:
+                raise pytest.UsageError(f"{item.nodeid} reads the shared run {run}: add its module to SHARED_RUNS "
+                                        "in tests/conftest.py")
     cost: dict[str, int] = {}
     for item in items:
-        item.add_marker(pytest.mark.xdist_group(group[item.nodeid]))
-        cost[group[item.nodeid]] = cost.get(group[item.nodeid], 0) + (SLOW_COST if item.get_closest_marker("slow") else 1)
-    first = {g: k for k, g in enumerate(dict.fromkeys(group.values()))}
-    items.sort(key=lambda i: (-cost[group[i.nodeid]], first[group[i.nodeid]]))  # stable: a group's tests keep their order
+        g = test_group(item.nodeid)
+        cost[g] = cost.get(g, 0) + (SLOW_COST if item.get_closest_marker("slow") else 1)
+    first = {g: k for k, g in enumerate(dict.fromkeys(test_group(i.nodeid) for i in items))}
+    items.sort(key=lambda i: (-cost[test_group(i.nodeid)], first[test_group(i.nodeid)]))  # stable: order within kept
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _memory_back_after_each_module(request: pytest.FixtureRequest) -> Generator[None, None, None]:
+    """After a module: empty its functools caches (observations, worlds) and give freed heap back to the system.
+
+    Why: a pytest process runs hundreds of tests, and with two workers (``./run.sh test``) two of them hold what
+    their modules left behind at once; CI's 2-core machine has the memory of a small one.
+    """
+    yield
+    from sdovon_mj.pipeline import release_memory
+
+    for obj in list(vars(request.module).values()):
+        if callable(getattr(obj, "cache_clear", None)) and getattr(obj, "__module__", None) == request.module.__name__:
+            obj.cache_clear()
+    release_memory()
 
 
 @pytest.fixture(scope="session")
