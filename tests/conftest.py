@@ -132,6 +132,17 @@ def _memory_back_after_each_module(request: pytest.FixtureRequest) -> Generator[
     release_memory()
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _subnormals_kept(request: pytest.FixtureRequest) -> Generator[None, None, None]:
+    """Fail a module that leaves flush-to-zero / denormals-are-zero on in the test process (``genesis.init`` does):
+    it would change the arithmetic of every later test in the same process, byte comparisons included."""
+    yield
+    tiny = float.fromhex("0x1p-1074")  # the smallest subnormal double
+    if not tiny * 1.0 > 0.0:
+        pytest.fail(f"{request.module.__name__} left flush-to-zero / denormals-are-zero on in the test process: run "
+                    "what sets it (Genesis' init, a library built with -ffast-math) in a subprocess")
+
+
 @pytest.fixture(scope="session")
 def tiny_export_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The tiny generated run of tests/sim_export_run.py (1 apartment, 2 variants), once per session: the USD, URDF
