@@ -71,7 +71,7 @@ SHARED_RUNS = {"tiny_export_run": ("test_export_usd.py", "test_export_urdf.py", 
 SLOW_COST = 30  # a slow-marked test counts as this many fast ones when groups are ordered (slow: more than ~20 s)
 
 
-def test_group(nodeid: str) -> str:
+def work_group(nodeid: str) -> str:
     """Return the group a test runs in under pytest-xdist: its module, or the shared run its module reads."""
     path = nodeid.split("::", 1)[0]
     return next((run for run, mods in SHARED_RUNS.items() if Path(path).name in mods), path)
@@ -79,7 +79,7 @@ def test_group(nodeid: str) -> str:
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
-    """With ``--dist loadscope`` (``./run.sh test``): one work unit per `test_group`, handed out in collection order.
+    """With ``--dist loadscope`` (``./run.sh test``): one work unit per `work_group`, handed out in collection order.
 
     A module's tests stay on one worker (its module fixtures are built once), and so do the modules of a shared run.
     (xdist's ``loadgroup`` would do this through marks, but it renames node ids in a way pytest 9 ignores.)
@@ -90,7 +90,7 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
 
     class GroupScheduling(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            return test_group(nodeid)
+            return work_group(nodeid)
 
     config.option.loadscopereorder = False  # the collection order is the cost order (pytest_collection_modifyitems)
     return GroupScheduling(config, log)
@@ -105,15 +105,15 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         return
     for item in items:
         for run in SHARED_RUNS:
-            if run in item.fixturenames and test_group(item.nodeid) != run:
+            if run in item.fixturenames and work_group(item.nodeid) != run:
                 raise pytest.UsageError(f"{item.nodeid} reads the shared run {run}: add its module to SHARED_RUNS "
                                         "in tests/conftest.py")
     cost: dict[str, int] = {}
     for item in items:
-        g = test_group(item.nodeid)
+        g = work_group(item.nodeid)
         cost[g] = cost.get(g, 0) + (SLOW_COST if item.get_closest_marker("slow") else 1)
-    first = {g: k for k, g in enumerate(dict.fromkeys(test_group(i.nodeid) for i in items))}
-    items.sort(key=lambda i: (-cost[test_group(i.nodeid)], first[test_group(i.nodeid)]))  # stable: order within kept
+    first = {g: k for k, g in enumerate(dict.fromkeys(work_group(i.nodeid) for i in items))}
+    items.sort(key=lambda i: (-cost[work_group(i.nodeid)], first[work_group(i.nodeid)]))  # stable: order within kept
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -121,7 +121,7 @@ def _memory_back_after_each_module(request: pytest.FixtureRequest) -> Generator[
     """After a module: empty its functools caches (observations, worlds) and give freed heap back to the system.
 
     Why: a pytest process runs hundreds of tests, and with two workers (``./run.sh test``) two of them hold what
-    their modules left behind at once; CI's 2-core machine has the memory of a small one.
+    their modules left behind at the same time, on a CI machine whose memory we do not choose.
     """
     yield
     from sdovon_mj.pipeline import release_memory
