@@ -77,7 +77,7 @@ def work_group(nodeid: str) -> str:
     return next((run for run, mods in SHARED_RUNS.items() if Path(path).name in mods), path)
 
 
-@pytest.hookimpl(tryfirst=True)
+@pytest.hookimpl(tryfirst=True, optionalhook=True)  # optional: a plain pytest without xdist has no such hook
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     """With ``--dist loadscope`` (``./run.sh test``): one work unit per `work_group`, handed out in collection order.
 
@@ -103,17 +103,17 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     """
     if not os.environ.get("PYTEST_XDIST_WORKER"):
         return
-    for item in items:
-        for run in SHARED_RUNS:
-            if run in item.fixturenames and work_group(item.nodeid) != run:
-                raise pytest.UsageError(f"{item.nodeid} reads the shared run {run}: add its module to SHARED_RUNS "
-                                        "in tests/conftest.py")
+    group = {item.nodeid: work_group(item.nodeid) for item in items}
     cost: dict[str, int] = {}
     for item in items:
-        g = work_group(item.nodeid)
+        for run in SHARED_RUNS:
+            if run in item.fixturenames and group[item.nodeid] != run:
+                raise pytest.UsageError(f"{item.nodeid} reads the shared run {run}: add its module to SHARED_RUNS "
+                                        "in tests/conftest.py")
+        g = group[item.nodeid]
         cost[g] = cost.get(g, 0) + (SLOW_COST if item.get_closest_marker("slow") else 1)
-    first = {g: k for k, g in enumerate(dict.fromkeys(work_group(i.nodeid) for i in items))}
-    items.sort(key=lambda i: (-cost[work_group(i.nodeid)], first[work_group(i.nodeid)]))  # stable: order within kept
+    first = {g: k for k, g in enumerate(dict.fromkeys(group.values()))}
+    items.sort(key=lambda i: (-cost[group[i.nodeid]], first[group[i.nodeid]]))  # stable: order within a group kept
 
 
 @pytest.fixture(autouse=True, scope="module")
