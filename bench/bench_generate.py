@@ -395,7 +395,7 @@ def main() -> None:
               f"{n_eps} episodes): wall {wall / 60:.1f} min ({wall_ex / 60:.1f} min without the object library), "
               f"on {args.jobs} workers / {os.cpu_count()} CPUs; the extrapolation from this run's per-stage seconds "
               f"(ideal scaling, {FULL['variants']} variants): {full_cpu / 60 / args.jobs:.1f} min; "
-              f"goal: < {12 if args.full == '3k' else 30} min")
+              f"goal: < {30 if house_preset(args) or args.full != '3k' else 12} min")
     print(f"peak memory, any stage: {max(peak.values()):.0f} MiB (main process {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB)")
     if house_preset(args):
         from sdovon_mj.stats import dataset_statistics, homes_table
