@@ -55,6 +55,10 @@ OPENABLE_LABELS = ("cabinet", "kitchen cabinet", "wall cabinet", "cupboard", "dr
 # A goal seen only beyond the depth range: walks along its bearing to look again, at most this many.
 FAR_APPROACHES = 3
 
+# Two poses stand on the same floor when their heights differ by less than this (m): a storey is more than twice it
+# (the default world's are 3 m; HM3D / MP3D storeys 2.5-3.5 m), steps of a split level less.
+FLOOR_TOLERANCE = 1.0
+
 
 class Agent:
     """Base agent: generator-driven policies; `_run` (an episode) and `_explore` (a first visit) yield actions and
@@ -244,7 +248,9 @@ class ReceptacleAStar(Agent):
         self.oracle_parts = tuple(oracle_parts)
         self.knowledge = Knowledge(detector="gt", pose="absolute", prior="scene", oracle=self.oracle_parts,
                                    fn=self.nav.fn_mode if self.final_nav else "-", explore_steps=int(explore_steps))
-        self.memories: dict[str, SceneMemory] = {}
+        self.memories: dict[tuple[str, float], SceneMemory] = {}  # (scene, floor height in m) -> its first visit's
+        self._explore_key: tuple[str, float] | None = None  # the first visit under way
+        self._memory_key: tuple[str, float] | None = None  # the memory the current episode plans on
         self._relevance: dict[tuple[str, str], Relevance] = {}
         self._backend = None
         self.wants_frame = False
@@ -259,9 +265,24 @@ class ReceptacleAStar(Agent):
             self._backend = get_backend(self.semantics)
         return self._backend
 
+    def _height(self) -> float:
+        """Return the height of the floor the agent stands on (its localized pose's z, m)."""
+        return round(float(np.asarray(self.ts.observation["position"], float)[2]), 2)
+
+    def memory_key(self, scene: str, z: float) -> tuple[str, float] | None:
+        """Return the key of the memory of the first visit of `scene` on the floor at height `z` (m), None without one.
+
+        A multi-storey home gets one first visit per floor with episodes (the evaluator starts each on its floor,
+        as a robot carried there); an episode plans on its own floor's memory.
+        """
+        near = [(abs(h - z), h) for (sc, h) in self.memories if sc == scene and abs(h - z) < FLOOR_TOLERANCE]
+        return (scene, min(near)[1]) if near else None
+
     def _explore(self, env) -> Generator[int, object, None]:
-        """The first visit: frontier exploration (`frontier.Explorer`), then ExtractPlanes on its frames; STOP."""
-        if env.scene in self.memories:  # visited before: nothing to learn
+        """The first visit of a floor: frontier exploration (`frontier.Explorer`), then ExtractPlanes on its frames;
+        STOP."""
+        self._explore_key = (env.scene, self._height())
+        if self.memory_key(*self._explore_key) is not None:  # visited before: nothing to learn
             yield STOP
             return
         s = max(1, int(round(self.sensors.width / max(1, int(self.explore_size[0])))))
@@ -281,10 +302,12 @@ class ReceptacleAStar(Agent):
 
     def end(self, view: Any, ts: Any) -> None:
         """After a first visit the evaluator ended (its step budget): build the memory from what was seen."""
-        if view.phase == "explore" and view.scene not in self.memories and getattr(self, "_explorer", None) is not None:
+        if view.phase == "explore" and getattr(self, "_explorer", None) is not None:
             self._build_memory(view)
         if view.phase == "explore":
             self.info = dict(self.explored)
+        elif self._memory_key is not None:  # the floor whose memory the episode planned on
+            self.info["memory_floor_z"] = self._memory_key[1]
 
     def _build_memory(self, env) -> None:
         """ExtractPlanes on the first visit's frames: instances, receptacle planes, regions -> the scene's memory."""
@@ -301,17 +324,19 @@ class ReceptacleAStar(Agent):
         if self.open_labels:  # furniture with doors or drawers but no plane seen (a closed fridge): keep it too
             planes = planes + container_planes(instances, planes, self.open_labels, navmap, rm)
         trav, frame = occ.traversable(), occ.frame
+        key = self._explore_key
+        floor = env.oracle.floor_at(key[1]) if {"navmap", "region_map"} & set(self.oracle_parts) else 0
         if "navmap" in self.oracle_parts:  # ORACLE: plan on the generator's map
-            nm = env.oracle.navmap(0)
+            nm = env.oracle.navmap(floor)
             trav, frame = nm.navigable, nm.frame
         if "region_map" in self.oracle_parts:  # ORACLE: the generator's regions
-            true_rm = env.oracle.region_map(0)
+            true_rm = env.oracle.region_map(floor)
             if true_rm is not None:
                 planes = [dataclasses.replace(pl, region=true_rm.region_at(np.asarray(pl.polygon, float).mean(axis=0))
                                               or pl.region) for pl in planes]
-        self.memories[env.scene] = build_memory(env.scene, [], {}, trav, frame, labels, planes)
-        self.memories[env.scene].instances = instances
-        self.explored = {"frames": len(frames), "free_cells": int((occ.state == 1).sum()), "steps": int(ex.steps),
+        self.memories[key] = build_memory(env.scene, [], {}, trav, frame, labels, planes)
+        self.memories[key].instances = instances
+        self.explored = {"floor_z": key[1], "frames": len(frames), "free_cells": int((occ.state == 1).sum()), "steps": int(ex.steps),
                          "instances": len(instances), "planes": len(planes), "stop_reason": occ.stop_reason,
                          "regions": sorted({pl.region for pl in planes if pl.region})}
 
@@ -654,11 +679,13 @@ class ReceptacleAStar(Agent):
         return True
 
     def _run(self, env) -> Generator[int, object, None]:
-        scene = env.scene
-        memory = self.memories.get(scene)
+        scene, z = env.scene, self._height()
+        self._memory_key = self.memory_key(scene, z)
+        memory = self.memories.get(self._memory_key) if self._memory_key else None
         if memory is None:
-            raise InputError(scene, "no first visit of this scene: the A* agents declare prior='scene' and need the "
-                                    "evaluator's exploration phase before its episodes")
+            raise InputError(scene, f"no first visit of this scene's floor at z = {z:.2f} m: the A* agents declare "
+                                    "prior='scene' and need the evaluator's exploration phase on each floor before "
+                                    "its episodes")
         rng = np.random.default_rng([self.seed, int(env.episode_index)])
         nv = self._navigator(memory)
         visited = 0

@@ -29,6 +29,8 @@ def oracle_scene_parts(bundle: Any, knowledge: Knowledge) -> dict:
     out: dict = {}
     if "navmap" in parts:
         out["navmap"] = list(bundle.navmaps)
+    if parts & {"navmap", "region_map"}:  # which floor's maps: the agent knows its height, the maps their floor
+        out["floor_heights"] = {int(nm.floor): float(nm.height) for nm in bundle.navmaps}
     if "region_map" in parts:
         out["region_map"] = list(bundle.region_maps)
     if "relevance" in parts:

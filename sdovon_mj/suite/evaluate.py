@@ -131,19 +131,22 @@ def agent_spec(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True,
                             "seed": int(seed), **kwargs})
 
 
-def exploration_start(bundle: Bundle, seed: int = 0) -> tuple[np.ndarray, float]:
-    """Return the evaluator's start pose of a scene's first visit: a navigable cell of the largest connected part of
-    the floor of the bundle's first episode and a heading on the 30-degree lattice, seeded by (seed, scene)."""
+def exploration_start(bundle: Bundle, seed: int = 0, floor: int | None = None) -> tuple[np.ndarray, float]:
+    """Return the evaluator's start pose of a scene's first visit of `floor` (default: the floor of the bundle's first
+    episode): a navigable cell of the largest connected part of the floor and a heading on the 30-degree lattice,
+    seeded by (seed, scene) on that first floor and by (seed, scene, floor) on the others."""
     from scipy import ndimage
 
     ep = bundle.episodes[0]
-    nm = bundle.navmap(ep.floor)
+    floor = int(ep.floor) if floor is None else int(floor)
+    nm = bundle.navmap(floor)
     lab, n = ndimage.label(nm.navigable, structure=np.ones((3, 3), bool))
     if n == 0:
         raise InputError(bundle.root, "the navigable map is empty: no first visit can start")
     big = 1 + int(np.argmax(np.bincount(lab.ravel())[1:]))
     cells = np.argwhere(lab == big)
-    rng = np.random.default_rng([int(seed), zlib.crc32(str(ep.scene).encode("utf-8"))])
+    key = [int(seed), zlib.crc32(str(ep.scene).encode("utf-8"))] + ([] if floor == int(ep.floor) else [floor])
+    rng = np.random.default_rng(key)
     xy = nm.frame.to_world(cells[int(rng.integers(len(cells)))][None])[0]
     return np.array([xy[0], xy[1], float(nm.height)]), float(rng.integers(12) * 30.0 - 180.0)
 
@@ -238,21 +241,31 @@ def _phase(session: Any, env: Any, builder: ObservationBuilder, phase: Phase, at
         reply = session.step(obs, reply.frame)
 
 
+def first_visit_floors(bundle: Bundle, floors: set[int]) -> list[int]:
+    """Return the floors a scene's first visits cover, in visit order: that of the bundle's first episode, then the
+    other floors with episodes to run, ascending (a robot carried to each floor; episodes stay on one floor)."""
+    first = int(bundle.episodes[0].floor)
+    return [first] + sorted(int(f) for f in floors if int(f) != first)
+
+
 def _explore(session: Any, bundle: Bundle, know: Any, nav: NavConfig, body: AgentConfig, vocab: Vocabulary,
-             seed: int) -> dict:
-    """Run a scene's first visit (the exploration phase): the evaluator's seeded start, no goal, the declared
-    budget; return what it took (steps, metres, seconds, whether the agent stopped, its info)."""
+             seed: int, floor: int | None = None) -> dict:
+    """Run a scene's first visit of one floor (the exploration phase; default: the floor of the bundle's first
+    episode): the evaluator's seeded start, no goal, the declared budget; return what it took (steps, metres,
+    seconds, whether the agent stopped, its info)."""
     t0 = time.perf_counter()
     env = make_environment(bundle, nav=replace(nav, max_steps=int(know.explore_steps)), agent=body,
                            semantic=know.detector == "gt")
     try:
-        start, yaw = exploration_start(bundle, seed)
-        env.task.set_exploration(start, yaw)
+        floor = int(bundle.episodes[0].floor) if floor is None else int(floor)
+        start, yaw = exploration_start(bundle, seed, floor)
+        env.task.set_exploration(start, yaw, floor)
         builder = ObservationBuilder(know, vocab, bundle.detector_labels())
         scene = str(bundle.episodes[0].scene)
         info = _phase(session, env, builder, Phase("explore", scene, "", -1, int(know.explore_steps)))
         task = env.task
-        return {"scene": scene, "variant": bundle.name, "start": [round(float(v), 4) for v in start], "yaw": yaw,
+        return {"scene": scene, "variant": bundle.name, "floor": floor,
+                "start": [round(float(v), 4) for v in start], "yaw": yaw,
                 "budget": int(know.explore_steps), "steps": int(task.steps),
                 "metres": round(M.path_length(np.array(task.trajectory)), 3), "stopped": bool(task.stop_called),
                 "seconds": round(time.perf_counter() - t0, 2), "info": info}
@@ -342,8 +355,9 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                 first = items[0][0]
                 session.scene(SceneStart(scene, oracle_scene_parts(first, know)))
                 visit = None
-                if know.prior == "scene":
-                    visit = _explore(session, first, know, nav, body, vocab, seed)
+                if know.prior == "scene":  # one first visit per floor with episodes, each floor's budget its own
+                    floors = first_visit_floors(first, {int(b.episodes[i].floor) for b, i in items})
+                    visit = scene_visit([_explore(session, first, know, nav, body, vocab, seed, f) for f in floors])
                     if out is not None:
                         atomic_write_text(out / "exploration" / label.replace(" ", "_") / f"{scene}.json",
                                           json.dumps(json_safe(visit), sort_keys=True) + "\n")
@@ -374,6 +388,17 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
         if session is not None:
             session.close()
     return results
+
+
+def scene_visit(visits: list[dict]) -> dict:
+    """Return a scene's first visit from those of its floors: steps, metres and seconds summed, the budget per
+    floor; one floor's visit is returned as it is (its record unchanged)."""
+    if len(visits) == 1:
+        return visits[0]
+    return {"scene": visits[0]["scene"], "variant": visits[0]["variant"], "budget": int(visits[0]["budget"]),
+            "steps": int(sum(v["steps"] for v in visits)), "metres": round(sum(v["metres"] for v in visits), 3),
+            "seconds": round(sum(v["seconds"] for v in visits), 2), "stopped": all(v["stopped"] for v in visits),
+            "floors": visits}
 
 
 def _video_path(label: str, episode_id: str) -> str:
@@ -409,7 +434,8 @@ def _episode(session: Any, env: Any, builder: ObservationBuilder, b: Bundle, i: 
          "must_open": bool(ep.goals) and all(g.open_part for g in ep.goals),
          "part_moves": [list(t) for t in task.part_moves], "start_geodesic": float(task.shortest),
          "goal_in_view": bool(in_view), "goal_visible_from_start": bool(visible),
-         "first_visit": None if visit is None else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")},
+         "first_visit": None if visit is None else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")}
+         | ({"floors": len(visit["floors"])} if "floors" in visit else {}),
          "info": info, "seconds": round(time.perf_counter() - t0, 3),
          "trajectory": np.round(np.array(task.trajectory)[:, :2], 4).tolist()}
     if video:
@@ -507,12 +533,14 @@ def difficulty(results: list[dict]) -> dict[str, Any]:
 
 
 def first_visit(results: list[dict]) -> dict[str, Any] | None:
-    """Return the first visits behind results (one per scene): their count, budget, mean steps and metres, seconds."""
+    """Return the first visits behind results (one per scene): their count, budget per floor, mean floors, steps,
+    metres and seconds per scene."""
     visits = {str(r.get("scene")): r["first_visit"] for r in results if r.get("first_visit")}
     if not visits:
         return None
     v = list(visits.values())
     return {"scenes": len(v), "budget": int(max(x["budget"] for x in v)),
+            "floors": round(float(np.mean([x.get("floors", 1) for x in v])), 2),
             "steps": round(float(np.mean([x["steps"] for x in v])), 1),
             "metres": round(float(np.mean([x["metres"] for x in v])), 1),
             "seconds": round(float(np.mean([x.get("seconds", math.nan) for x in v])), 1)}
@@ -672,12 +700,14 @@ def first_visit_table(rows: dict[str, dict[str, Any]]) -> str:
     shown = {n: s["first_visit"] for n, s in rows.items() if s.get("first_visit")}
     if not shown:
         return ""
-    lines = ["| First visit of | Scenes | Budget (steps) | Steps per scene | Metres per scene | Seconds per scene |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| First visit of | Scenes | Floors per scene | Budget (steps per floor) | Steps per scene | Metres per scene "
+             "| Seconds per scene |", "|---|---|---|---|---|---|---|"]
     for name, v in shown.items():
-        lines.append(f"| {name} | {v['scenes']} | {v['budget']} | {v['steps']:.0f} | {v['metres']:.1f} | {v['seconds']:.1f} |")
+        lines.append(f"| {name} | {v['scenes']} | {v.get('floors', 1):g} | {v['budget']} | {v['steps']:.0f} | "
+                     f"{v['metres']:.1f} | {v['seconds']:.1f} |")
     lines += ["", "First visit: the exploration phase an agent with a scene prior gets before a scene's episodes "
-                  "(the evaluator's seeded start, no goal, no reward, placed objects hidden)."]
+                  "(the evaluator's seeded start on each floor with episodes, no goal, no reward, placed objects "
+                  "hidden)."]
     return "\n".join(lines)
 
 

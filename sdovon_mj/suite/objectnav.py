@@ -187,7 +187,7 @@ class ObjectNavTask(control.Task):
         self.frame_mask: np.ndarray | None = None
         self._parts: tuple[Any, list[Part]] | None = None
         self.part_moves: list[tuple[str, str]] = []
-        self._explore_from: tuple[np.ndarray, float] | None = None
+        self._explore_from: tuple[np.ndarray, float, int | None] | None = None
         self.exploring = False  # the current "episode" is a first visit (no goal, placed objects hidden)
         self._groups: tuple[Any, np.ndarray] | None = None  # (model, geom groups as compiled)
 
@@ -209,10 +209,11 @@ class ObjectNavTask(control.Task):
         else:
             m.geom_group[:] = groups
 
-    def set_exploration(self, position: np.ndarray, yaw: float) -> None:
-        """Make the next reset start a first visit of the scene: from this pose (floor position, yaw in degrees), no
-        goal (``objectgoal_text`` ""), placed objects hidden from the camera, until STOP or ``nav.max_steps``."""
-        self._explore_from = (np.asarray(position, float).copy(), float(yaw))
+    def set_exploration(self, position: np.ndarray, yaw: float, floor: int | None = None) -> None:
+        """Make the next reset start a first visit of the scene: from this pose (floor position, yaw in degrees) on
+        `floor` (default: that of the bundle's first episode), no goal (``objectgoal_text`` ""), placed objects
+        hidden from the camera, until STOP or ``nav.max_steps``."""
+        self._explore_from = (np.asarray(position, float).copy(), float(yaw), floor)
 
     @property
     def num_episodes(self) -> int:
@@ -225,11 +226,11 @@ class ObjectNavTask(control.Task):
             mujoco.mj_resetDataKeyframe(physics.model.ptr, physics.data.ptr, 0)
         self.exploring = self._explore_from is not None
         if self.exploring:
-            (pos, yaw), self._explore_from = self._explore_from, None
+            (pos, yaw, floor), self._explore_from = self._explore_from, None
             first = self.bundle.episodes[0]
             idx = -1
             ep = Episode("first-visit", first.scene, first.variant, "", pos, yaw_quat(yaw), [], math.inf, math.inf,
-                         floor=first.floor)
+                         floor=first.floor if floor is None else int(floor))
         elif self.episode_order == "random":
             idx = int(self.random.integers(len(self.bundle.episodes)))
         else:

@@ -105,6 +105,13 @@ class OracleParts:
     def _floor(maps: list, floor: int) -> Any:
         return next((m for m in maps if m.floor == floor), maps[0] if maps else None)
 
+    def floor_at(self, z: float) -> int:
+        """Return the floor whose height is nearest to `z` (m): the index of its navigable and region maps."""
+        if not {"navmap", "region_map"} & set(self._knowledge.oracle):
+            self._grant("navmap")
+        heights = self._scene.get("floor_heights") or {0: 0.0}
+        return int(min(heights, key=lambda f: (abs(heights[f] - float(z)), f)))
+
     def navmap(self, floor: int = 0) -> Any:
         """Return the generator's navigable map of a floor."""
         self._grant("navmap")
