@@ -270,7 +270,7 @@ class ReceptacleAStar(Agent):
         return round(float(np.asarray(self.ts.observation["position"], float)[2]), 2)
 
     def memory_key(self, scene: str, z: float) -> tuple[str, float] | None:
-        """Return the key of the memory of the first visit of `scene` on the floor at height `z` (m), None without one.
+        """Return the key of the memory of `scene`'s first visit of the floor at height `z` (m), None without one.
 
         A multi-storey home gets one first visit per floor with episodes (the evaluator starts each on its floor,
         as a robot carried there); an episode plans on its own floor's memory.
@@ -336,8 +336,8 @@ class ReceptacleAStar(Agent):
                                               or pl.region) for pl in planes]
         self.memories[key] = build_memory(env.scene, [], {}, trav, frame, labels, planes)
         self.memories[key].instances = instances
-        self.explored = {"floor_z": key[1], "frames": len(frames), "free_cells": int((occ.state == 1).sum()), "steps": int(ex.steps),
-                         "instances": len(instances), "planes": len(planes), "stop_reason": occ.stop_reason,
+        self.explored = {"floor_z": key[1], "frames": len(frames), "free_cells": int((occ.state == 1).sum()),
+                         "steps": int(ex.steps), "instances": len(instances), "planes": len(planes), "stop_reason": occ.stop_reason,
                          "regions": sorted({pl.region for pl in planes if pl.region})}
 
     def relevance_for(self, memory: SceneMemory, category: str) -> Relevance | None:

@@ -256,8 +256,8 @@ def _explore(session: Any, bundle: Bundle, know: Any, nav: NavConfig, body: Agen
     t0 = time.perf_counter()
     env = make_environment(bundle, nav=replace(nav, max_steps=int(know.explore_steps)), agent=body,
                            semantic=know.detector == "gt")
+    floor = int(bundle.episodes[0].floor) if floor is None else int(floor)
     try:
-        floor = int(bundle.episodes[0].floor) if floor is None else int(floor)
         start, yaw = exploration_start(bundle, seed, floor)
         env.task.set_exploration(start, yaw, floor)
         builder = ObservationBuilder(know, vocab, bundle.detector_labels())
