@@ -54,7 +54,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
     from sdovon_mj.config import AgentConfig, NavConfig
     from sdovon_mj.suite import find_bundles, load_bundle
     from sdovon_mj.suite.boundary import oracle_scene_parts
-    from sdovon_mj.suite.evaluate import _dataset_root, _episode, _explore, agent_spec, open_session
+    from sdovon_mj.suite.evaluate import _dataset_root, _episode, agent_spec, open_session, run_first_visits
     from sdovon_mj.suite.objectnav import make_environment
     from sdovon_mj.suite.observation import ObservationBuilder, dataset_vocabulary, make_sensors
     from sdovon_mj.suite.protocol import SceneStart
@@ -84,7 +84,8 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
                     sessions[m].scene(SceneStart(str(scene), oracle_scene_parts(b, know)))
                     if know.prior == "scene":
                         t0 = time.perf_counter()
-                        visits[m] = _explore(sessions[m], b, know, nav, body, vocab, 0)
+                        floors = {int(bb.episodes[j].floor) for bb, j in plan if bb.episodes[j].scene == scene}
+                        visits[m] = run_first_visits(sessions[m], b, floors, know, nav, body, vocab, 0)
                         out[m]["visit"] += time.perf_counter() - t0
             if b.name not in envs:
                 for e, _bd in envs.values():

@@ -355,9 +355,9 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                 first = items[0][0]
                 session.scene(SceneStart(scene, oracle_scene_parts(first, know)))
                 visit = None
-                if know.prior == "scene":  # one first visit per floor with episodes, each floor's budget its own
-                    floors = first_visit_floors(first, {int(b.episodes[i].floor) for b, i in items})
-                    visit = scene_visit([_explore(session, first, know, nav, body, vocab, seed, f) for f in floors])
+                if know.prior == "scene":
+                    floors = {int(b.episodes[i].floor) for b, i in items}
+                    visit = run_first_visits(session, first, floors, know, nav, body, vocab, seed)
                     if out is not None:
                         atomic_write_text(out / "exploration" / label.replace(" ", "_") / f"{scene}.json",
                                           json.dumps(json_safe(visit), sort_keys=True) + "\n")
@@ -388,6 +388,26 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
         if session is not None:
             session.close()
     return results
+
+
+def run_first_visits(session: Any, bundle: Bundle, floors: set[int], know: Any, nav: NavConfig,
+                     body: AgentConfig, vocab: Vocabulary, seed: int) -> dict:
+    """Run a scene's first visits, one per floor with episodes to run (`first_visit_floors`, each floor's budget its
+    own), and return the scene's visit (`scene_visit`).
+
+    Parameters
+    ----------
+    session
+        The agent's session (`open_session`), its scene started.
+    bundle : Bundle
+        The scene's first variant (its environment hosts the visits).
+    floors : set of int
+        The floors of the scene's episodes to run.
+    know, nav, body, vocab, seed
+        The agent's knowledge, actions, body, the dataset's vocabulary and the evaluation seed (as `evaluate`).
+    """
+    return scene_visit([_explore(session, bundle, know, nav, body, vocab, seed, f)
+                        for f in first_visit_floors(bundle, floors)])
 
 
 def scene_visit(visits: list[dict]) -> dict:
