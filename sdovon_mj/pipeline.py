@@ -100,8 +100,11 @@ class StageRunner:
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             self.result.notes.append(f"{key}: finished before, but {problems[0]}{more}; recomputing the stage")
         self.store.invalidate(key)
-        release_memory()
+        global _TRIMMED
+        if not _TRIMMED:  # after `holds_too_much` nothing has run that a collection would find
+            release_memory()
         reset_peak_rss()
+        _TRIMMED = False
         with Timer() as t:
             outputs = fn()
         self.store.mark_done(key, fp, outputs, t.seconds)
@@ -121,6 +124,12 @@ def stage_name(key: str) -> str:
             return "export:" + parts[1].removesuffix(".units")
         return "export:" + parts[-1].removesuffix(".stage")
     return parts[-1]
+
+
+# True from a `holds_too_much` until a stage runs: the next stage's `release_memory` (a full collection, ~50 ms in a
+# worker that has imported the stages' libraries) would find nothing (the worker's loop and a task's stages check
+# between tasks and stages, right before the next one starts).
+_TRIMMED = False
 
 
 def release_memory() -> None:
@@ -186,7 +195,9 @@ def holds_too_much(memory_mb: float) -> bool:
     """
     if not memory_mb:
         return False
+    global _TRIMMED
     release_memory()
+    _TRIMMED = True
     return rss_mb() > memory_mb
 
 

@@ -37,12 +37,32 @@ SHARED_ASSETS = "assets"  # under the dataset root; a bundle refers to it as ../
 SHARED_ORACLE = "oracle"  # under the dataset root: oracle/<scene>/, a bundle refers to it as ../oracle/<scene>/
 
 
-def _resolve(spec_dir: Path, subdir: str, file: str) -> Path:
-    """Return the absolute path MuJoCo would open for an asset file of a spec."""
+def _resolve(spec_dir: Path, subdir: str, file: str, memo: dict[Any, Path] | None = None) -> Path:
+    """Return the absolute path MuJoCo would open for an asset file of a spec.
+
+    ``memo`` (a dict the caller keeps across the variants of a scene) saves resolving again: the spec's asset
+    folder is resolved once, the file's leading ``..`` are taken off it as its parents (the parent of a resolved
+    folder is what ``..`` resolves to), and the rest is resolved once per (folder, rest), which the variants of a
+    scene share.
+    """
     p = Path(file)
     if p.is_absolute():
         return p
-    return (spec_dir / subdir / p).resolve()
+    if memo is None:
+        return (spec_dir / subdir / p).resolve()
+    key: Any = (spec_dir, subdir)
+    base = memo.get(key)
+    if base is None:
+        base = memo[key] = (spec_dir / subdir).resolve()
+    parts = p.parts
+    k = 0
+    while k < len(parts) and parts[k] == "..":
+        base, k = base.parent, k + 1
+    key = (base, parts[k:])
+    hit = memo.get(key)
+    if hit is None:
+        hit = memo[key] = base.joinpath(*parts[k:]).resolve()
+    return hit
 
 
 def retarget_assets(spec: "mujoco.MjSpec", take: Any) -> None:
@@ -88,7 +108,7 @@ def _shared_name(run: RunView, src: Path) -> str:
 
 
 def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, shared: Path | None = None,
-                       seen: set[Path] | None = None) -> tuple[str, list[Path]]:
+                       seen: set[Path] | None = None, memo: dict[Any, Any] | None = None) -> tuple[str, list[Path]]:
     """Return the variant's MJCF text (objects posed settled) and the asset files it uses (copied where needed).
 
     Parameters
@@ -105,6 +125,9 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
         ``assets/`` (self-contained).
     seen : set of Path, optional
         Shared asset files already written by this caller (skipped, and added to as files are written).
+    memo : dict, optional
+        Kept by the caller across the variants it bundles: resolved asset paths and, with ``shared``, each source
+        file's shared name (found once; the files do not change while an export runs).
     """
     path = run.path(variant.mjcf)
     if not path.exists():
@@ -126,12 +149,16 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
             return file
         if (file, subdir) in taken:
             return taken[(file, subdir)]
-        src = _resolve(spec_dir, subdir, file)
-        if not src.exists():
+        src = _resolve(spec_dir, subdir, file, memo)
+        if shared is not None and memo is not None and ("shared", src) in memo:
+            name, dst = memo[("shared", src)]
+        elif not src.exists():
             raise InputError(src, f"asset referenced by {path} not found")
-        if shared is not None:
+        elif shared is not None:
             name = _shared_name(run, src)
             dst = shared / name
+            if memo is not None:
+                memo[("shared", src)] = (name, dst)
         else:
             name = _bundle_name(src, used, run.root)
             dst = bundle_dir / "assets" / name
@@ -353,6 +380,7 @@ class MjcfBundleExporter(Exporter):
         scratch = ExportReport(format=self.name, out_dir=str(out_dir), name=options.name)
         written: list[Path] = []
         seen: set[Path] = set()
+        memo: dict[object, object] = {}  # asset paths resolved and named once for the scene's variants
         cfg = run.config()
         # The episodes' visibility definition: the suite's "goal seen" check renders the same way.
         visibility = {"width": cfg.episodes.vis_width, "height": cfg.episodes.vis_height, "eta_gt": cfg.agent.eta_gt}
@@ -366,7 +394,7 @@ class MjcfBundleExporter(Exporter):
                     scratch.skipped[variant.name] = "no valid goals (zero episodes)"
                     continue
                 bdir = root / variant.name
-                xml, copied = bundle_variant_xml(run, variant, bdir, shared, seen)
+                xml, copied = bundle_variant_xml(run, variant, bdir, shared, seen, memo)
                 atomic_write_text(bdir / "scene.xml", xml)
                 written += copied + [bdir / "scene.xml"]
                 if navmaps is None:

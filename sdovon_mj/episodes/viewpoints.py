@@ -45,10 +45,10 @@ from ..config import AgentConfig, EpisodeConfig
 from ..errors import InputError
 from ..geometry import yaw_quat
 from ..records import NavMap, SceneVariant, ViewPoint
-from ..sim import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from ..sim.camera import pose_cv
 from ..sim.model import geom_segment_ids, object_segment_id, pose_settled, segment_image
-from ..sim.render import SceneRenderer
+from ..sim.render import SceneRenderer, hiding, spheres_meet_box
 
 
 @dataclass
@@ -260,10 +260,7 @@ class VisibilityChecker:
         # where a hit counts as clear anyway. Hiding those geoms leaves every answer as it was (cheaper).
         hidden = self._drawn[~self._near_aabb(np.minimum(cams.min(axis=0), box.lo), np.maximum(cams.max(axis=0), box.hi),
                                               box)]
-        groups = self.model.geom_group
-        saved = groups[hidden].copy()
-        groups[hidden] = GROUP_AGENT  # a group the rays do not see
-        try:
+        with hiding(self.model, hidden):
             todo = np.arange(len(cams))  # cameras with no clear ray yet: only these are cast again
             for g in grid:
                 src = box.center + g * half
@@ -282,19 +279,13 @@ class VisibilityChecker:
                 todo = todo[~ok]
                 if len(todo) == 0:
                     break
-        finally:
-            groups[hidden] = saved
         self.timing["rays_s"] += time.perf_counter() - t0
         self.timing["rays"] += len(cams)
         return out
 
     def _near_aabb(self, lo: np.ndarray, hi: np.ndarray, box: ObjectBox) -> np.ndarray:
         """Return a mask over the drawn geoms: those whose bounding sphere meets the box [lo, hi] (planes and the object's own always)."""
-        d = np.maximum(np.maximum(lo[None] - self._drawn_xpos, 0.0), self._drawn_xpos - hi[None])
-        keep = np.einsum("ij,ij->i", d, d) <= (self._rbound + 1e-3) ** 2
-        keep |= self._always
-        keep |= self._drawn_body == box.body
-        return keep
+        return spheres_meet_box(self._drawn_xpos, self._rbound, lo, hi) | (self._drawn_body == box.body)
 
     def occluder_candidates(self, camera: np.ndarray, box: ObjectBox) -> np.ndarray:
         """Return a mask over the drawn geoms: those that may cover a pixel of the object seen from `camera`.
@@ -381,13 +372,8 @@ class VisibilityChecker:
             others = self._others_cache.get(box.body)
             if others is None:
                 others = self._others_cache[box.body] = self._drawn[~own[self._drawn]]
-            groups = self.model.geom_group
-            saved = groups[others].copy()
-            groups[others] = GROUP_AGENT
-            try:
+            with hiding(self.model, others):
                 gid = self._cast(cam, d)
-            finally:
-                groups[others] = saved
             meets = (gid >= 0) & own[np.maximum(gid, 0)]
             if int(np.count_nonzero(meets)) < self._need:
                 return None
@@ -483,10 +469,7 @@ class VisibilityChecker:
         pitches = [float(np.clip(pitch0, -80.0, 80.0))] + ([] if aimed_only else [float(p) for p in self.cfg.pitches])
         # Geoms that cannot touch the object's pixels are neither drawn nor ray-tested (same counts, cheaper).
         hidden = self._drawn[~(self.occluder_candidates(camera, box) if keep is None else keep)]
-        groups = self.model.geom_group
-        saved = groups[hidden].copy()
-        groups[hidden] = GROUP_AGENT  # a group neither the visibility renderer nor the rays see
-        try:
+        with hiding(self.model, hidden):  # neither the visibility renderer nor the rays see them
             quick = None if aimed_only else self.ray_pixels(camera, box, yaw, pitches[0])
             if quick is not None:
                 return quick, yaw, pitches[0]
@@ -509,8 +492,6 @@ class VisibilityChecker:
                     # in frame, so the object is hidden from here and no other pitch of this camera shows it.
                     break
             self.timing["render_s"] += time.perf_counter() - t0
-        finally:
-            groups[hidden] = saved
         return best
 
 

@@ -20,7 +20,7 @@ import numpy as np
 from ..config import AgentConfig, ConfigError, ObserveConfig
 from ..records import NavMap, Observation
 from ..sim.camera import backproject, pose_cv
-from ..sim.render import SceneRenderer, clip_depth
+from ..sim.render import SceneRenderer, clip_depth, hiding, spheres_meet_box
 from .render_views import observation_at, segment_lut
 
 SEEN_TOL = 0.015  # m: a depth point within this of the target height lies on the target surface
@@ -113,6 +113,8 @@ def plan_target_views(renderer: SceneRenderer, navmaps: list[NavMap], targets: l
     cell, per_target = float(cfg.targeted_cell), int(cfg.targeted_views)
     poses: list[np.ndarray] = []
     K = renderer.K
+    centres = np.asarray(renderer.data.geom_xpos).copy()  # the geoms' bounding spheres (the scene does not move)
+    radii = np.asarray(renderer.model.geom_rbound).copy()
     for t in targets:
         nm = by_floor.get(int(t.floor))
         if nm is None or per_target <= 0:
@@ -122,6 +124,12 @@ def plan_target_views(renderer: SceneRenderer, navmaps: list[NavMap], targets: l
         if t.seen_points is not None and len(t.seen_points):
             seen[surface_cells(t, t.seen_points, cell)] = True
         centre = np.array([(t.lo[0] + t.hi[0]) / 2.0, (t.lo[1] + t.hi[1]) / 2.0, t.height])
+        # What `surface_cells` counts lies in this box (the grid's cells, SEEN_TOL about the height); a pixel
+        # counts when its ray's first hit is there, and that ray runs inside the box of the camera and it. A geom
+        # whose bounding sphere misses that box can be met only beyond, so hiding it leaves the cells as a render
+        # of everything gives them (the nearest fragment's depth is the same), and the render is cheaper.
+        cells_lo = np.array([t.lo[0], t.lo[1], t.height - SEEN_TOL]) - 1e-6
+        cells_hi = np.array([t.lo[0] + nx * cell, t.lo[1] + ny * cell, t.height + SEEN_TOL]) + 1e-6
         cands: list[tuple[np.ndarray, np.ndarray]] = []
         for xy in candidate_positions(nm, t, cfg):
             for h in camera_heights(cfg, agent):
@@ -129,7 +137,9 @@ def plan_target_views(renderer: SceneRenderer, navmaps: list[NavMap], targets: l
                 if pos[2] <= t.height + 0.05:
                     continue  # a camera at or below a surface cannot see its top
                 T = aim(pos, centre)
-                fr = renderer.render(T, rgb=False, depth=True, segmentation=False)
+                far = np.nonzero(~spheres_meet_box(centres, radii, np.minimum(cells_lo, pos), np.maximum(cells_hi, pos)))[0]
+                with hiding(renderer.model, far):
+                    fr = renderer.render(T, rgb=False, depth=True, segmentation=False)
                 dep = clip_depth(fr.depth, cfg.depth_min, cfg.depth_max)
                 cands.append((T, surface_cells(t, backproject(dep, K, T), cell)))
         for _k in range(per_target):

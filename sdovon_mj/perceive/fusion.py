@@ -32,6 +32,34 @@ from .backproject import make_instance, voxel_stats
 MAX_OVERLAP_QUERY = 500  # points of a new instance tested for overlap (evenly strided subset: the fraction to ~2%)
 
 
+def query_points(points: np.ndarray) -> np.ndarray:
+    """Return the points of an instance that the overlap test queries (all, or an evenly strided MAX_OVERLAP_QUERY)."""
+    if len(points) > MAX_OVERLAP_QUERY:
+        return points[np.linspace(0, len(points) - 1, MAX_OVERLAP_QUERY).astype(np.int64)]
+    return points
+
+
+class _Chunk:
+    """Points a fused instance's overlap test searches, with their box; the KD-tree is built on the first query
+    that reaches the box (many chunks are never searched: a query point outside the box has no neighbour there)."""
+
+    __slots__ = ("data", "mins", "maxes", "_tree")
+
+    def __init__(self, points: np.ndarray) -> None:
+        self.data = np.asarray(points, dtype=np.float64)
+        self.mins, self.maxes = self.data.min(axis=0), self.data.max(axis=0)  # the values cKDTree keeps
+        self._tree = None
+
+    @property
+    def tree(self):  # noqa: ANN201 - scipy's cKDTree
+        """Return the chunk's KD-tree (built once)."""
+        if self._tree is None:
+            from scipy.spatial import cKDTree
+
+            self._tree = cKDTree(self.data, balanced_tree=False, compact_nodes=False)  # half the build time; exact queries
+        return self._tree
+
+
 def label_similarity(a: str, b: str, mode: str = "minilm") -> float:
     """Return the label term of fusion in [0, 1] (embedding cosine, or exact equality)."""
     if mode == "exact":
@@ -49,8 +77,8 @@ class _Fused:
     """A fused instance being built: a voxel map of its points plus what its detections brought.
 
     Points are kept as per-voxel sums and counts (merging is a sorted-key union, no re-sorting of
-    points); the overlap test queries KD-trees of the chunks added since the last consolidation, so
-    a big instance (the floor) is not re-indexed on every view.
+    points); the overlap test queries KD-trees of the chunks added since the last consolidation (each
+    built on its first query), so a big instance (the floor) is not re-indexed on every view.
     """
 
     voxel: float
@@ -62,7 +90,7 @@ class _Fused:
     views: list[int] = field(default_factory=list)
     label_votes: dict[str, float] = field(default_factory=dict)
     gt_votes: dict[int, int] = field(default_factory=dict)
-    trees: list = field(default_factory=list)
+    trees: list[_Chunk] = field(default_factory=list)
     lo: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
     hi: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
 
@@ -89,36 +117,43 @@ class _Fused:
         return min(self.gt_votes.items(), key=lambda kv: (-kv[1], kv[0]))[0] if self.gt_votes else -1
 
     def overlap(self, points: np.ndarray, radius: float) -> float:
-        """Return the fraction of `points` within `radius` of this instance's points."""
+        """Return the fraction of `points` (`query_points` of them) within `radius` of this instance's points."""
         if len(points) == 0:
             return 0.0
-        if len(points) > MAX_OVERLAP_QUERY:  # an evenly strided subset estimates the fraction
-            points = points[np.linspace(0, len(points) - 1, MAX_OVERLAP_QUERY).astype(np.int64)]
+        points = query_points(points)  # an evenly strided subset estimates the fraction
         todo = np.ones(len(points), dtype=bool)
-        # A point farther than the radius from a tree's box (on one axis) has no neighbour in that tree:
+        # A point farther than the radius from a chunk's box (on one axis) has no neighbour in that chunk:
         # it is not queried there (the margin keeps every point that could be within the radius).
         margin = radius * (1.0 + 1e-6) + 1e-9
-        for tree in reversed(self.trees):
+        for chunk in reversed(self.trees):
             idx = np.nonzero(todo)[0]
             if len(idx) == 0:
                 break
             q = points[idx]
-            inside = ((q >= tree.mins - margin) & (q <= tree.maxes + margin)).all(axis=1)
+            inside = ((q >= chunk.mins - margin) & (q <= chunk.maxes + margin)).all(axis=1)
             if not inside.all():
                 idx, q = idx[inside], q[inside]
                 if len(idx) == 0:
                     continue
-            d, _ = tree.query(q, k=1, distance_upper_bound=radius)
+            d, _ = chunk.tree.query(q, k=1, distance_upper_bound=radius)
             todo[idx[np.isfinite(d)]] = False
         return float(1.0 - np.count_nonzero(todo) / len(points))
 
+    def overlap_bound(self, points: np.ndarray, radius: float) -> float:
+        """Return an upper bound on `overlap(points, radius)`: the fraction of the queried points within the
+        instance's box widened by the overlap test's margin (a point outside it is outside every chunk's)."""
+        if len(points) == 0:
+            return 0.0
+        points = query_points(points)
+        margin = radius * (1.0 + 1e-6) + 1e-9
+        outside = ~((points >= self.lo - margin) & (points <= self.hi + margin)).all(axis=1)
+        return float(1.0 - np.count_nonzero(outside) / len(points))
+
     def merge(self, other: "_Fused") -> None:
         """Absorb another fused instance (points, votes, confidences)."""
-        from scipy.spatial import cKDTree
-
         self._union(other.keys, other.sums, other.counts, other.heights)
         self.lo, self.hi = np.minimum(self.lo, other.lo), np.maximum(self.hi, other.hi)
-        self.trees = [cKDTree(self.points)]
+        self.trees = [_Chunk(self.points)]
         self.confidences.extend(other.confidences)
         self.views.extend(other.views)
         for k, v in other.label_votes.items():
@@ -160,8 +195,6 @@ class _Fused:
 
         ``world``, when given, is the instance's (world points, their min, their max) already computed.
         """
-        from scipy.spatial import cKDTree
-
         p, plo, phi = world if world is not None else _world(inst)
         vh = inst.view_height
         if vh is not None and len(vh) != len(p):
@@ -171,8 +204,8 @@ class _Fused:
         self.lo = np.minimum(self.lo, plo)
         self.hi = np.maximum(self.hi, phi)
         if len(self.trees) >= self.MAX_TREES:
-            self.trees = [cKDTree(self.points)]
-        self.trees.append(cKDTree(p))
+            self.trees = [_Chunk(self.points)]
+        self.trees.append(_Chunk(p))
         self.confidences.extend(float(x) for x in inst.confidences)
         self.views.extend(int(v) for v in inst.source_views)
         w = float(sum(inst.confidences)) if inst.confidences else 1.0
@@ -226,17 +259,48 @@ class InstanceFuser:
             phi[j] = cfg.k_sem * sem + cfg.k_geo * geo
         return phi
 
+    def best_match(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                   bounds: tuple[np.ndarray, np.ndarray] | None = None, allowed: np.ndarray | None = None) -> int:
+        """Return the fused j with the highest phi(inst, j) (the first of equals) if it reaches phi_min, else -1.
+
+        The same answer as thresholding the argmax of `similarity` (over the ``allowed`` mask, when given), with
+        fewer overlap tests: phi(inst, j) <= k_sem * label + k_geo * `_Fused.overlap_bound`, so the candidates are
+        tested in order of that bound and the search stops at the first whose bound is below phi_min or below the
+        best phi found (floating-point sums and products are monotone: the bound holds exactly).
+        """
+        cfg = self.cfg
+        if not self.fused:
+            return -1
+        p, p_lo, p_hi = world if world is not None else _world(inst)
+        lo, hi = p_lo - cfg.overlap_radius, p_hi + cfg.overlap_radius
+        flo, fhi = bounds if bounds is not None else self._bounds()
+        near = ~(np.any(flo > hi, axis=1) | np.any(fhi < lo, axis=1))
+        if allowed is not None:
+            near &= allowed
+        cands = np.nonzero(near)[0]
+        if len(cands) == 0:
+            return -1
+        q = query_points(p)
+        sems = [self._label_sim(inst.label, self.fused[j].label) for j in cands]
+        bound = np.array([cfg.k_sem * sem + cfg.k_geo * self.fused[j].overlap_bound(q, cfg.overlap_radius)
+                          for j, sem in zip(cands, sems)])
+        best_j, best = -1, -np.inf
+        for k in np.lexsort((cands, -bound)):  # highest bound first, then lowest index
+            if bound[k] < max(best, cfg.phi_min):
+                break
+            j = int(cands[k])
+            phi = cfg.k_sem * sems[k] + cfg.k_geo * self.fused[j].overlap(q, cfg.overlap_radius)
+            if phi > best or (phi == best and j < best_j):
+                best_j, best = j, phi
+        return best_j if best >= cfg.phi_min else -1
+
     def add_view(self, instances: list[Instance]) -> list[int]:
         """Associate one view's instances with the map as it was before the view; return the fused index of each."""
         if self.cfg.label_similarity == "minilm":
             embed_labels(sorted({i.label for i in instances} | {f.label for f in self.fused}))
-        matches = []
         worlds = [_world(inst) for inst in instances]
         bounds = self._bounds() if self.fused else None  # the map before the view
-        for inst, w in zip(instances, worlds):
-            phi = self.similarity(inst, w, bounds)
-            j = int(np.argmax(phi)) if len(phi) else -1
-            matches.append(j if j >= 0 and phi[j] >= self.cfg.phi_min else -1)
+        matches = [self.best_match(inst, w, bounds) for inst, w in zip(instances, worlds)]
         out = []
         for inst, j, w in zip(instances, matches, worlds):
             if j < 0:
@@ -268,12 +332,10 @@ class InstanceFuser:
                 if id(small) in settled:
                     continue
                 probe = Instance(id=-1, label=small.label, points=small.points.astype(np.float32), center=np.zeros(3))
-                phi = self.similarity(probe, bounds=bounds)
-                phi[i] = -np.inf
-                # Only merge into a bigger instance, so every pass strictly shrinks the list.
-                phi[(sizes < sizes[i]) | ((sizes == sizes[i]) & (index < i))] = -np.inf
-                j = int(np.argmax(phi))
-                if phi[j] >= self.cfg.phi_min:
+                # Only merge into a bigger instance (never itself), so every pass strictly shrinks the list.
+                allowed = (sizes > sizes[i]) | ((sizes == sizes[i]) & (index > i))
+                j = self.best_match(probe, bounds=bounds, allowed=allowed)
+                if j >= 0:
                     target = self.fused[j]
                     target.merge(small)
                     del self.fused[i]

@@ -10,13 +10,15 @@ from __future__ import annotations
 import atexit
 import math
 import weakref
+from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Iterator
 
 import numpy as np
 
 import mujoco
 
-from . import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
+from . import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from .camera import intrinsics, vfov_from_hfov
 
 
@@ -239,6 +241,26 @@ def _register_cleanup() -> None:
     if not _CLEANUP_REGISTERED:
         atexit.register(_close_all)
         _CLEANUP_REGISTERED = True
+
+
+def spheres_meet_box(centres: np.ndarray, radii: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Return, per geom bounding sphere (world centres (N, 3), radii (N,), metres), whether it may meet the box
+    [lo, hi]: the sphere, grown by 1 mm, meets it, or the radius is not positive (a plane: infinite extent)."""
+    d = np.maximum(np.maximum(lo[None] - centres, 0.0), centres - hi[None])
+    return (np.einsum("ij,ij->i", d, d) <= (radii + 1e-3) ** 2) | (radii <= 0.0)
+
+
+@contextmanager
+def hiding(model: mujoco.MjModel, geoms: np.ndarray) -> Iterator[None]:
+    """Hide these geoms (ids) from renders and rays while the block runs: their group becomes GROUP_AGENT, which
+    no scene render or ray cast of ours shows, and is restored after."""
+    groups = model.geom_group
+    saved = groups[geoms].copy()
+    groups[geoms] = GROUP_AGENT
+    try:
+        yield
+    finally:
+        groups[geoms] = saved
 
 
 def clip_depth(depth: np.ndarray, dmin: float, dmax: float) -> np.ndarray:
