@@ -105,9 +105,43 @@ class SceneRenderer:
             self.camera.azimuth = math.degrees(math.atan2(fwd[1], fwd[0]))
         self.camera.elevation = math.degrees(math.asin(np.clip(fwd[2], -1.0, 1.0)))
 
+    def outside_view(self, T_cam: np.ndarray) -> np.ndarray:
+        """Return the ids of the geoms that no pixel of a view from T_cam can show (they are not drawn).
+
+        A geom is out when its bounding sphere (grown by 1 mm) lies wholly outside the circular cone about the
+        optical axis, from the camera, that holds the view frustum with 5 % to spare on its diagonal half-angle
+        (the model's vertical field of view and this renderer's aspect): a roll-free test, so it holds however the
+        free camera turns the image about its axis. Planes (no bounding radius) always count as in view.
+        """
+        m = self.model
+        tan_hy = math.tan(math.radians(float(m.vis.global_.fovy)) / 2.0)
+        tan_d = 1.05 * math.hypot(tan_hy, tan_hy * self.width / self.height)
+        if not 0.0 < tan_d < 50.0:  # a view this wide (or no field of view) culls nothing worth the test
+            return np.zeros(0, dtype=np.int64)
+        a = math.atan(tan_d)
+        fwd = np.asarray(T_cam[:3, 2], dtype=float)
+        u = fwd / np.linalg.norm(fwd)
+        v = np.asarray(self.data.geom_xpos) - np.asarray(T_cam[:3, 3], dtype=float)[None]
+        t = v @ u
+        q = np.sqrt(np.maximum(np.einsum("ij,ij->i", v, v) - t * t, 0.0))
+        rb = np.asarray(m.geom_rbound)
+        r = rb + 1e-3
+        # q cos a - t sin a is 1-Lipschitz and <= 0 on the cone: a sphere where it exceeds r misses the cone
+        out = ((t + r < 0.0) | (q * math.cos(a) - t * math.sin(a) > r)) & (rb > 0.0)
+        return np.nonzero(out)[0]
+
     def render(self, T_cam: np.ndarray, rgb: bool = True, depth: bool = True, segmentation: bool = False) -> Frame:
-        """Render the requested images from pose T_cam (world <- OpenCV camera)."""
+        """Render the requested images from pose T_cam (world <- OpenCV camera).
+
+        Geoms out of view (`outside_view`) are hidden while it renders: the images are those of a render of
+        everything (a geom that covers no pixel changes none), made with less geometry to draw.
+        """
         self._pose_camera(T_cam)
+        with hiding(self.model, self.outside_view(T_cam)):
+            return self._render(rgb, depth, segmentation)
+
+    def _render(self, rgb: bool, depth: bool, segmentation: bool) -> Frame:
+        """Render the posed camera's requested images."""
         r = self._renderer
         r.update_scene(self.data, camera=self.camera, scene_option=self.option)
         scn = r.scene
