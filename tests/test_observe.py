@@ -244,6 +244,32 @@ def test_combined_pass_equals_separate_passes(two_storey):
         r.close()
 
 
+def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
+    """A render that skips the geoms outside the view cone gives the images of a render of everything, byte for
+    byte, and the geoms it skips are none of those the full render shows."""
+    from sdovon_mj.observe.render_views import load_model, make_renderer
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    scene, root, *_ = two_storey
+    r = make_renderer(load_model(scene, root), dataclasses.replace(ObserveConfig(), width=160, height=120))
+    poses = [pose_cv(np.array([x, y, z]), yaw, pitch) for x, y, z in ((2.0, 4.0, 0.88), (6.0, 2.5, 3.68), (1.0, 1.0, 2.0))
+             for yaw in (0.0, 100.0, 215.0) for pitch in (-60.0, -10.0, 25.0)]
+    poses.append(pose_cv(np.array([3.0, 3.0, 2.5]), 30.0, -90.0))  # straight down: the image's up sets the roll
+    try:
+        culled = [r.render(T, rgb=True, depth=True, segmentation=True) for T in poses]
+        skipped = [r.outside_view(T) for T in poses]
+        monkeypatch.setattr(SceneRenderer, "outside_view", lambda self, T: np.zeros(0, dtype=np.int64))
+        full = [r.render(T, rgb=True, depth=True, segmentation=True) for T in poses]
+    finally:
+        r.close()
+    assert sum(len(s) for s in skipped) > 0  # the cull does hide geoms in these views
+    for a, b, out in zip(culled, full, skipped):
+        assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
+        assert np.array_equal(a.segmentation, b.segmentation)
+        assert not set(np.unique(b.segmentation).tolist()) & set(out.tolist())
+
+
 # ---------------------------------------------------------------------------------------------- stage + CLI
 
 def test_observe_scene_writes_everything_deterministically(two_storey, tmp_path):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 
 import numpy as np
@@ -169,3 +170,67 @@ def test_fused_voxel_map_is_the_voxel_map_of_all_points_and_overlap_is_the_near_
     d = np.sqrt(((q[:, None, :] - tree_pts[None]) ** 2).sum(-1)).min(axis=1)
     for r in (0.02, 0.1, 0.5):
         assert f.overlap(q, r) == pytest.approx(float(np.mean(d <= r)), abs=1e-12)
+
+
+@pytest.mark.parametrize("preset", ["paper", "conceptgraphs"])
+def test_best_match_is_the_thresholded_argmax_of_the_similarity(preset: str) -> None:
+    """`InstanceFuser.best_match` (overlap tested only where its bound can still win) answers exactly as the
+    argmax of `similarity` thresholded at phi_min, ties to the first index, with and without an allowed mask."""
+    from sdovon_mj.perceive.fusion import InstanceFuser, _Fused
+
+    rng = np.random.default_rng(11)
+    cfg = PerceiveConfig(fusion_preset=preset, label_similarity="exact")
+    fuser = InstanceFuser(cfg)
+    labels = ["chair", "table", "sofa"]
+    centres = rng.uniform(-1.0, 1.0, size=(4, 3))
+    for k in range(30):
+        f = _Fused(voxel=cfg.voxel_size)
+        for _chunk in range(int(rng.integers(1, 12))):  # past MAX_TREES: consolidated chunks too
+            p = centres[k % 4] + rng.normal(size=(int(rng.integers(5, 200)), 3)) * rng.uniform(0.02, 0.3)
+            f.absorb(Instance(id=-1, label=labels[k % 3], points=p.astype(np.float32), center=np.zeros(3)))
+        fuser.fused.append(f)
+    fuser.fused.append(copy.deepcopy(fuser.fused[3]))  # an equal copy of instance 3 later in the list: exact ties
+    matched = 0
+    for i in range(150):
+        # a probe made of some points of the instances about one centre, or of one instance (jittered): several
+        # candidates overlap it, some in part, so the order of the tests and where the search stops decide
+        if i % 10 == 9:
+            p = rng.uniform(-3.0, 3.0, size=3) + rng.normal(size=(int(rng.integers(1, 900)), 3)) * 0.2
+        else:  # of all the instances about a centre, or of one of them
+            c = int(rng.integers(4))
+            members = [f for k, f in enumerate(fuser.fused) if k % 4 == c]
+            pts = np.concatenate([m.points for m in (members[int(rng.integers(len(members)))],)] if i % 3 == 0
+                                 else [m.points for m in members])
+            p = pts[rng.random(len(pts)) < rng.uniform(0.02, 0.6)]
+            p = p + rng.normal(size=p.shape) * rng.uniform(0.0, 0.03)
+        if i == 1:
+            p = fuser.fused[3].points
+        if len(p) == 0:
+            continue
+        inst = Instance(id=-1, label=fuser.fused[3].label if i == 1 else labels[int(rng.integers(3))],
+                        points=p.astype(np.float32), center=np.zeros(3))
+        phi = fuser.similarity(inst)
+        for allowed in (None, rng.random(len(fuser.fused)) < 0.6):
+            ph = phi if allowed is None else np.where(allowed, phi, -np.inf)
+            j = int(np.argmax(ph))
+            want = j if ph[j] >= fuser.cfg.phi_min else -1  # the preset's threshold
+            assert fuser.best_match(inst, allowed=allowed) == want, (i, want)
+            matched += want >= 0
+    assert matched > 10
+
+
+def test_best_match_still_tests_a_candidate_whose_bound_beats_the_best_so_far() -> None:
+    """The probe overlaps B (same label, box holding all of it) in 74 of 100 points and A (another label) in all:
+    phi(B) = 0.4 + 1.6 * 0.74 = 1.584 is found first (bound 2.0), A's bound 1.6 still beats it and A wins (1.6)."""
+    from sdovon_mj.perceive.fusion import InstanceFuser, _Fused
+
+    cfg = PerceiveConfig(fusion_preset="paper", label_similarity="exact")
+    fuser = InstanceFuser(cfg)
+    g = np.stack(np.meshgrid(np.arange(10) * 0.1, np.arange(10) * 0.1, [0.5]), -1).reshape(-1, 3)  # 100 points
+    for label, pts in (("chair", np.vstack([g[:74], [[0.9, 0.9, 0.0]]])), ("table", g)):
+        f = _Fused(voxel=cfg.voxel_size)
+        f.absorb(Instance(id=-1, label=label, points=pts.astype(np.float32), center=np.zeros(3)))
+        fuser.fused.append(f)
+    probe = Instance(id=-1, label="chair", points=g.astype(np.float32), center=np.zeros(3))
+    assert fuser.similarity(probe) == pytest.approx([0.4 + 1.6 * 0.74, 1.6])
+    assert fuser.best_match(probe) == 1

@@ -94,6 +94,34 @@ def test_targeted_views_show_a_hidden_shelf_level_and_are_deterministic(model):
     assert _fraction(model, poses, table, cfg) > 0.95
 
 
+def test_candidate_renders_skip_far_geometry_and_keep_the_plan(model, monkeypatch):
+    """Scoring candidates with only the geoms near camera and surface drawn chooses the very poses that scoring
+    with everything drawn chooses (the surface cells of every candidate are the same)."""
+    import sdovon_mj.observe.targeted as targeted
+
+    cfg = ObserveConfig(width=160, height=120)
+    shelf = ViewTarget(lo=np.array([-0.6, 2.55]), hi=np.array([0.6, 2.95]), height=0.40, floor=0)
+    table = ViewTarget(lo=np.array([-0.5, -0.3]), hi=np.array([0.5, 0.3]), height=0.75, floor=0)
+    real = targeted.spheres_meet_box
+    hidden = []
+
+    def counting(*args):
+        keep = real(*args)
+        hidden.append(int((~keep).sum()))
+        return keep
+
+    r = make_renderer(model, dataclasses.replace(cfg, width=96, height=72))
+    try:
+        monkeypatch.setattr(targeted, "spheres_meet_box", counting)
+        culled = plan_target_views(r, [_navmap()], [shelf, table], cfg)
+        monkeypatch.setattr(targeted, "spheres_meet_box", lambda c, rad, lo, hi: np.ones(len(rad), dtype=bool))
+        full = plan_target_views(r, [_navmap()], [shelf, table], cfg)
+    finally:
+        r.close()
+    assert max(hidden) > 0  # the table's candidates do not draw the bookshelf, and the shelf's not the table
+    assert len(culled) == len(full) >= 2 and all(np.array_equal(a, b) for a, b in zip(culled, full))
+
+
 def test_already_seen_surface_gets_no_view_and_zero_views_turns_it_off(model):
     cfg = ObserveConfig(width=160, height=120)
     lo, hi = np.array([-0.5, -0.3]), np.array([0.5, 0.3])
