@@ -32,6 +32,12 @@ from .backproject import make_instance, voxel_stats
 MAX_OVERLAP_QUERY = 500  # points of a new instance tested for overlap (evenly strided subset: the fraction to ~2%)
 
 
+def box_margin(radius: float) -> float:
+    """Return how far past a box a point may lie and still be within `radius` of a point in it (with room for
+    rounding): the overlap test's box filters keep every such point."""
+    return radius * (1.0 + 1e-6) + 1e-9
+
+
 def query_points(points: np.ndarray) -> np.ndarray:
     """Return the points of an instance that the overlap test queries (all, or an evenly strided MAX_OVERLAP_QUERY)."""
     if len(points) > MAX_OVERLAP_QUERY:
@@ -124,7 +130,7 @@ class _Fused:
         todo = np.ones(len(points), dtype=bool)
         # A point farther than the radius from a chunk's box (on one axis) has no neighbour in that chunk:
         # it is not queried there (the margin keeps every point that could be within the radius).
-        margin = radius * (1.0 + 1e-6) + 1e-9
+        margin = box_margin(radius)
         for chunk in reversed(self.trees):
             idx = np.nonzero(todo)[0]
             if len(idx) == 0:
@@ -145,7 +151,7 @@ class _Fused:
         if len(points) == 0:
             return 0.0
         points = query_points(points)
-        margin = radius * (1.0 + 1e-6) + 1e-9
+        margin = box_margin(radius)
         outside = ~((points >= self.lo - margin) & (points <= self.hi + margin)).all(axis=1)
         return float(1.0 - np.count_nonzero(outside) / len(points))
 
@@ -237,6 +243,15 @@ class InstanceFuser:
         """Return the fused instances' box corners (F, 3) each (read once per view or consolidation pass)."""
         return np.array([f.lo for f in self.fused]), np.array([f.hi for f in self.fused])
 
+    def _near(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+              bounds: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+        """Return the instance's world points and the mask of the fused instances whose boxes come within the
+        overlap radius of its box (the others have phi -inf)."""
+        p, p_lo, p_hi = world if world is not None else _world(inst)
+        lo, hi = p_lo - self.cfg.overlap_radius, p_hi + self.cfg.overlap_radius
+        flo, fhi = bounds if bounds is not None else self._bounds()
+        return p, ~(np.any(flo > hi, axis=1) | np.any(fhi < lo, axis=1))
+
     def similarity(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
                    bounds: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Return phi(inst, j) for every fused j (-inf where the boxes are too far apart to overlap).
@@ -248,10 +263,7 @@ class InstanceFuser:
         phi = np.full(len(self.fused), -np.inf)
         if not self.fused:
             return phi
-        p, p_lo, p_hi = world if world is not None else _world(inst)
-        lo, hi = p_lo - cfg.overlap_radius, p_hi + cfg.overlap_radius
-        flo, fhi = bounds if bounds is not None else self._bounds()
-        near = ~(np.any(flo > hi, axis=1) | np.any(fhi < lo, axis=1))
+        p, near = self._near(inst, world, bounds)
         for j in np.nonzero(near)[0]:
             f = self.fused[j]
             geo = f.overlap(p, cfg.overlap_radius)
@@ -271,10 +283,7 @@ class InstanceFuser:
         cfg = self.cfg
         if not self.fused:
             return -1
-        p, p_lo, p_hi = world if world is not None else _world(inst)
-        lo, hi = p_lo - cfg.overlap_radius, p_hi + cfg.overlap_radius
-        flo, fhi = bounds if bounds is not None else self._bounds()
-        near = ~(np.any(flo > hi, axis=1) | np.any(fhi < lo, axis=1))
+        p, near = self._near(inst, world, bounds)
         if allowed is not None:
             near &= allowed
         cands = np.nonzero(near)[0]
