@@ -253,8 +253,9 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
 
     scene, root, *_ = two_storey
     r = make_renderer(load_model(scene, root), dataclasses.replace(ObserveConfig(), width=160, height=120))
-    poses = [pose_cv(np.array([x, y, z]), yaw, pitch) for x, y, z in ((2.0, 4.0, 0.88), (6.0, 2.5, 3.68), (1.0, 1.0, 2.0))
-             for yaw in (0.0, 100.0, 215.0) for pitch in (-60.0, -10.0, 25.0)]
+    spots = ((2.0, 4.0, 0.88), (6.0, 2.5, 3.68), (1.0, 1.0, 2.0))
+    poses = [pose_cv(np.array(xyz), yaw, pitch) for xyz in spots for yaw in (0.0, 100.0, 215.0)
+             for pitch in (-60.0, -10.0, 25.0)]
     poses.append(pose_cv(np.array([3.0, 3.0, 2.5]), 30.0, -90.0))  # straight down: the image's up sets the roll
     try:
         culled = [r.render(T, rgb=True, depth=True, segmentation=True) for T in poses]

@@ -166,7 +166,7 @@ def test_fused_voxel_map_is_the_voxel_map_of_all_points_and_overlap_is_the_near_
     assert np.allclose(f.sums, sums, atol=1e-9)
     assert np.all(np.diff(f.keys) > 0)
     q = rng.normal(size=(300, 3)) + rng.uniform(-1, 1, size=3)
-    tree_pts = np.concatenate([t.data for t in f.trees])
+    tree_pts = np.concatenate([t.data for t in f.chunks])
     d = np.sqrt(((q[:, None, :] - tree_pts[None]) ** 2).sum(-1)).min(axis=1)
     for r in (0.02, 0.1, 0.5):
         assert f.overlap(q, r) == pytest.approx(float(np.mean(d <= r)), abs=1e-12)
@@ -185,7 +185,7 @@ def test_best_match_is_the_thresholded_argmax_of_the_similarity(preset: str) -> 
     centres = rng.uniform(-1.0, 1.0, size=(4, 3))
     for k in range(30):
         f = _Fused(voxel=cfg.voxel_size)
-        for _chunk in range(int(rng.integers(1, 12))):  # past MAX_TREES: consolidated chunks too
+        for _chunk in range(int(rng.integers(1, 12))):  # past MAX_CHUNKS: consolidated chunks too
             p = centres[k % 4] + rng.normal(size=(int(rng.integers(5, 200)), 3)) * rng.uniform(0.02, 0.3)
             f.absorb(Instance(id=-1, label=labels[k % 3], points=p.astype(np.float32), center=np.zeros(3)))
         fuser.fused.append(f)

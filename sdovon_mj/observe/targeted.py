@@ -137,7 +137,8 @@ def plan_target_views(renderer: SceneRenderer, navmaps: list[NavMap], targets: l
                 if pos[2] <= t.height + 0.05:
                     continue  # a camera at or below a surface cannot see its top
                 T = aim(pos, centre)
-                far = np.nonzero(~spheres_meet_box(centres, radii, np.minimum(cells_lo, pos), np.maximum(cells_hi, pos)))[0]
+                near = spheres_meet_box(centres, radii, np.minimum(cells_lo, pos), np.maximum(cells_hi, pos))
+                far = np.nonzero(~near)[0]
                 with hiding(renderer.model, far):
                     fr = renderer.render(T, rgb=False, depth=True, segmentation=False)
                 dep = clip_depth(fr.depth, cfg.depth_min, cfg.depth_max)
