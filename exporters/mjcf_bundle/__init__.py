@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -37,31 +38,37 @@ SHARED_ASSETS = "assets"  # under the dataset root; a bundle refers to it as ../
 SHARED_ORACLE = "oracle"  # under the dataset root: oracle/<scene>/, a bundle refers to it as ../oracle/<scene>/
 
 
-def _resolve(spec_dir: Path, subdir: str, file: str, memo: dict[Any, Path] | None = None) -> Path:
+@dataclass
+class AssetMemo:
+    """What an export finds once and keeps across the variants of a scene (the files do not change while it runs)."""
+
+    folders: dict[tuple[Path, str], Path] = field(default_factory=dict)  # (spec folder, asset subdir) -> resolved
+    files: dict[tuple[Path, tuple[str, ...]], Path] = field(default_factory=dict)  # (folder, rest of path) -> file
+    shared: dict[Path, tuple[str, Path]] = field(default_factory=dict)  # source file -> (shared name, its copy)
+
+
+def _resolve(spec_dir: Path, subdir: str, file: str, memo: AssetMemo | None = None) -> Path:
     """Return the absolute path MuJoCo would open for an asset file of a spec.
 
-    ``memo`` (a dict the caller keeps across the variants of a scene) saves resolving again: the spec's asset
-    folder is resolved once, the file's leading ``..`` are taken off it as its parents (the parent of a resolved
-    folder is what ``..`` resolves to), and the rest is resolved once per (folder, rest), which the variants of a
-    scene share.
+    ``memo`` (kept by the caller across the variants of a scene) saves resolving again: the spec's asset folder is
+    resolved once, the file's leading ``..`` are taken off it as its parents (the parent of a resolved folder is
+    what ``..`` resolves to), and the rest is resolved once per (folder, rest), which the variants of a scene share.
     """
     p = Path(file)
     if p.is_absolute():
         return p
     if memo is None:
         return (spec_dir / subdir / p).resolve()
-    key: Any = (spec_dir, subdir)
-    base = memo.get(key)
+    base = memo.folders.get((spec_dir, subdir))
     if base is None:
-        base = memo[key] = (spec_dir / subdir).resolve()
+        base = memo.folders[(spec_dir, subdir)] = (spec_dir / subdir).resolve()
     parts = p.parts
     k = 0
     while k < len(parts) and parts[k] == "..":
         base, k = base.parent, k + 1
-    key = (base, parts[k:])
-    hit = memo.get(key)
+    hit = memo.files.get((base, parts[k:]))
     if hit is None:
-        hit = memo[key] = base.joinpath(*parts[k:]).resolve()
+        hit = memo.files[(base, parts[k:])] = base.joinpath(*parts[k:]).resolve()
     return hit
 
 
@@ -108,7 +115,7 @@ def _shared_name(run: RunView, src: Path) -> str:
 
 
 def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, shared: Path | None = None,
-                       seen: set[Path] | None = None, memo: dict[Any, Any] | None = None) -> tuple[str, list[Path]]:
+                       seen: set[Path] | None = None, memo: AssetMemo | None = None) -> tuple[str, list[Path]]:
     """Return the variant's MJCF text (objects posed settled) and the asset files it uses (copied where needed).
 
     Parameters
@@ -125,7 +132,7 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
         ``assets/`` (self-contained).
     seen : set of Path, optional
         Shared asset files already written by this caller (skipped, and added to as files are written).
-    memo : dict, optional
+    memo : AssetMemo, optional
         Kept by the caller across the variants it bundles: resolved asset paths and, with ``shared``, each source
         file's shared name (found once; the files do not change while an export runs).
     """
@@ -150,15 +157,15 @@ def bundle_variant_xml(run: RunView, variant: SceneVariant, bundle_dir: Path, sh
         if (file, subdir) in taken:
             return taken[(file, subdir)]
         src = _resolve(spec_dir, subdir, file, memo)
-        if shared is not None and memo is not None and ("shared", src) in memo:
-            name, dst = memo[("shared", src)]
+        if shared is not None and memo is not None and src in memo.shared:
+            name, dst = memo.shared[src]
         elif not src.exists():
             raise InputError(src, f"asset referenced by {path} not found")
         elif shared is not None:
             name = _shared_name(run, src)
             dst = shared / name
             if memo is not None:
-                memo[("shared", src)] = (name, dst)
+                memo.shared[src] = (name, dst)
         else:
             name = _bundle_name(src, used, run.root)
             dst = bundle_dir / "assets" / name
@@ -380,7 +387,7 @@ class MjcfBundleExporter(Exporter):
         scratch = ExportReport(format=self.name, out_dir=str(out_dir), name=options.name)
         written: list[Path] = []
         seen: set[Path] = set()
-        memo: dict[object, object] = {}  # asset paths resolved and named once for the scene's variants
+        memo = AssetMemo()  # asset paths resolved and named once for the scene's variants
         cfg = run.config()
         # The episodes' visibility definition: the suite's "goal seen" check renders the same way.
         visibility = {"width": cfg.episodes.vis_width, "height": cfg.episodes.vis_height, "eta_gt": cfg.agent.eta_gt}

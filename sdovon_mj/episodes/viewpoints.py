@@ -48,7 +48,7 @@ from ..records import NavMap, SceneVariant, ViewPoint
 from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from ..sim.camera import pose_cv
 from ..sim.model import geom_segment_ids, object_segment_id, pose_settled, segment_image
-from ..sim.render import SceneRenderer, hiding, spheres_meet_box
+from ..sim.render import SceneRenderer, hiding, spheres_meet_box, spheres_off_cone
 
 
 @dataclass
@@ -310,10 +310,9 @@ class VisibilityChecker:
         sin_a = np.where(inside, 0.0, R / Ds)
         cos_a = np.sqrt(np.maximum(1.0 - sin_a * sin_a, 0.0))
         p = self._drawn_xpos[None] - cams[:, None]  # (N, G, 3)
-        t = np.einsum("ngk,nk->ng", p, u)
-        q = np.sqrt(np.maximum(np.einsum("ngk,ngk->ng", p, p) - t * t, 0.0))
         r = (self._rbound + 1e-3)[None]
-        keep = (t + r >= 0.0) & (t - r <= (D + R)[:, None]) & (q * cos_a[:, None] - t * sin_a[:, None] <= r)
+        off, t = spheres_off_cone(p, r, u[:, None], sin_a[:, None], cos_a[:, None])
+        keep = ~off & (t - r <= (D + R)[:, None])
         keep[inside] = True
         keep |= (self._always | (self._drawn_body == box.body))[None]
         return keep

@@ -120,15 +120,10 @@ class SceneRenderer:
             return np.zeros(0, dtype=np.int64)
         a = math.atan(tan_d)
         fwd = np.asarray(T_cam[:3, 2], dtype=float)
-        u = fwd / np.linalg.norm(fwd)
         v = np.asarray(self.data.geom_xpos) - np.asarray(T_cam[:3, 3], dtype=float)[None]
-        t = v @ u
-        q = np.sqrt(np.maximum(np.einsum("ij,ij->i", v, v) - t * t, 0.0))
         rb = np.asarray(m.geom_rbound)
-        r = rb + 1e-3
-        # q cos a - t sin a is 1-Lipschitz and <= 0 on the cone: a sphere where it exceeds r misses the cone
-        out = ((t + r < 0.0) | (q * math.cos(a) - t * math.sin(a) > r)) & (rb > 0.0)
-        return np.nonzero(out)[0]
+        out, _ = spheres_off_cone(v, rb + 1e-3, fwd / np.linalg.norm(fwd), math.sin(a), math.cos(a))
+        return np.nonzero(out & (rb > 0.0))[0]
 
     def render(self, T_cam: np.ndarray, rgb: bool = True, depth: bool = True, segmentation: bool = False) -> Frame:
         """Render the requested images from pose T_cam (world <- OpenCV camera).
@@ -282,6 +277,38 @@ def spheres_meet_box(centres: np.ndarray, radii: np.ndarray, lo: np.ndarray, hi:
     [lo, hi]: the sphere, grown by 1 mm, meets it, or the radius is not positive (a plane: infinite extent)."""
     d = np.maximum(np.maximum(lo[None] - centres, 0.0), centres - hi[None])
     return (np.einsum("ij,ij->i", d, d) <= (radii + 1e-3) ** 2) | (radii <= 0.0)
+
+
+def spheres_off_cone(p: np.ndarray, r: np.ndarray, u: np.ndarray, sin_a: float | np.ndarray,
+                     cos_a: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return whether each sphere lies wholly outside a circular cone, and each centre's distance along its axis.
+
+    The one sphere-versus-cone test of the renderer's view culling and the visibility checker's occluder culling.
+    A sphere is outside when it lies wholly behind the apex or off the cone's side: ``q cos a - t sin a`` (``t`` the
+    centre's distance along the axis, ``q`` its distance from the axis) is 1-Lipschitz and at most 0 on the cone,
+    so a sphere where it exceeds the radius misses the cone. Arrays broadcast over the leading axes.
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        (..., 3) sphere centres relative to the cone's apex, metres.
+    r : numpy.ndarray
+        (...) sphere radii, metres (callers add their own margin).
+    u : numpy.ndarray
+        (..., 3) unit axis of the cone, broadcast against ``p``.
+    sin_a, cos_a : float or numpy.ndarray
+        Sine and cosine of the cone's half-angle, broadcast against ``r``.
+
+    Returns
+    -------
+    out : numpy.ndarray
+        (...) bool, the sphere misses the cone.
+    t : numpy.ndarray
+        (...) the centres' distances along the axis, metres.
+    """
+    t = np.einsum("...k,...k->...", p, u)
+    q = np.sqrt(np.maximum(np.einsum("...k,...k->...", p, p) - t * t, 0.0))
+    return (t + r < 0.0) | (q * cos_a - t * sin_a > r), t
 
 
 @contextmanager
