@@ -63,6 +63,7 @@ class Reading:
     meta: dict[int, dict[str, Any]]
     rooms: list[Room] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
+    unused: list[str] = field(default_factory=list)  # what the input held and the reader did not use (SceneAsset.unused)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -519,10 +519,13 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
         for s in sidecar.get("support_surfaces", []):
             supports.append(SupportSurface(instance_id=int(s["instance_id"]), height=float(s["height"]),
                                            polygon=np.asarray(s["polygon"], dtype=np.float64)))
+    unused: list[str] = []
     if reading is not None:
         rooms = list(reading.rooms)
+        unused = list(reading.unused)
     return SceneAsset(name=name, mjcf="scene.xml", source=display_path(path), floors=floors, instances=instances,
-                      bounds=np.stack([lo, hi]), rooms=rooms, support_surfaces=supports, mesh="scene_mesh.npz")
+                      bounds=np.stack([lo, hi]), rooms=rooms, support_surfaces=supports, mesh="scene_mesh.npz",
+                      unused=unused)
 
 
 def _scannet_pairs(parts: list[Part], files: tuple[Path, Path]) -> tuple[list[tuple[Part, int]], dict[int, dict]]:

@@ -259,12 +259,16 @@ class SceneAsset(Record):
     mesh: str = ""  # merged Z-up metre mesh of the whole scene (for ray casts, slicing)
     content_hash: str = ""
     articulated: list[ArticulatedFixture] = field(default_factory=list)  # omitted from the JSON when empty
+    # What the input held that the conversion did not use (a texture it could not decode, an instance whose template
+    # is missing, a sidecar it did not read...), one line each naming the file and why; printed at the end of a run.
+    unused: list[str] = field(default_factory=list)  # omitted from the JSON when empty
 
     def to_dict(self) -> dict[str, Any]:
-        """Return the record as JSON-able data; `articulated` left out when empty (older bytes kept)."""
+        """Return the record as JSON-able data; `articulated` and `unused` left out when empty (older bytes kept)."""
         out = super().to_dict()
-        if not out.get("articulated", 1):
-            del out["articulated"]
+        for key in ("articulated", "unused"):
+            if not out.get(key, 1):
+                del out[key]
         return out
 
     def instance(self, instance_id: int) -> SemanticInstance:

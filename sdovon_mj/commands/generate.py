@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     for f in summary.failures:  # root causes; a follow-on failure names its cause instead of repeating it
         print(f"not run: {f.spec.label} (caused by {f.caused_by})" if f.caused_by else f"failed: {f.spec.label}: {f.error}",
               file=sys.stderr)
-    for line in library_warnings(summary.run_root):
+    for line in library_warnings(summary.run_root) + unused_input_warnings(summary.run_root):
         print(f"WARNING: {line}", file=sys.stderr)
     empty = empty_warnings(summary.run_root, {f.spec.label for f in summary.failures})
     for line in empty:
@@ -71,6 +71,24 @@ def library_warnings(run_root: str) -> list[str]:
         return []
     failures = json.loads(path.read_text(encoding="utf-8"))
     return [f"object {f} left out of the library: {why}" for f, why in sorted(failures.items())]
+
+
+def unused_input_warnings(run_root: str) -> list[str]:
+    """Return one line per thing a scene input held that its conversion did not use (`SceneAsset.unused`), then one
+    summary line counting them; nothing when every input was used."""
+    from pathlib import Path
+
+    from ..runview import RunView
+
+    if not (Path(run_root) / "scenes").is_dir():  # the run stopped before any scene was converted
+        return []
+    view = RunView(run_root)
+    lines = [f"scene {sc.name}: not used: {what}" for sc in view.scenes() for what in sc.unused]
+    if lines:
+        scenes = sum(1 for sc in view.scenes() if sc.unused)
+        lines.append(f"{len(lines)} thing(s) the scene inputs held were not used, in {scenes} scene(s) (named above; "
+                     "each scene's scene.json lists them under `unused`)")
+    return lines
 
 
 def empty_warnings(run_root: str, failed: set[str] | None = None) -> list[str]:
