@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
 from pathlib import Path
 
@@ -23,7 +24,9 @@ import numpy as np
 import mujoco
 from sdovon_mj.config import ConvertConfig
 from sdovon_mj.errors import InputError
-from sdovon_mj.records import ArticulatedFixture, ArticulatedPart, InteriorSurface, SceneAsset, SemanticInstance
+from sdovon_mj.geometry import points_in_polygon, quat_to_mat
+from sdovon_mj.records import (ArticulatedFixture, ArticulatedPart, InteriorSurface, SceneAsset, SemanticInstance,
+                               SupportSurface)
 from sdovon_mj.sim.model import instance_geom_name, load_scene_mesh, save_scene_mesh
 from sdovon_mj.store import atomic_write_text
 
@@ -108,20 +111,35 @@ def _geom_triangles(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> tuple
     return v @ R.T + data.geom_xpos[g], f
 
 
-def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, sidecar: Path,
+def pieces_from_sidecar(sidecar: str | Path) -> list[dict]:
+    """Return a sidecar's pieces as `add_articulated` takes them (URDF path resolved, pose as a wxyz quaternion)."""
+    sidecar = Path(sidecar)
+    out = []
+    for p in read_sidecar(sidecar):
+        yaw = math.radians(float(p["yaw"]))
+        out.append({**p, "urdf": sidecar.parent / p["urdf"], "source": str(p["urdf"]),
+                    "quat": [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]})
+    return out
+
+
+def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, pieces: Path | list[dict],
                     config: ConvertConfig | None = None, cache_dir: str | Path | None = None) -> SceneAsset:
-    """Convert the sidecar's URDF pieces and build them into the scene written in folder `work`; return the asset.
+    """Convert URDF pieces and build them into the scene written in folder `work`; return the asset.
 
     Parameters
     ----------
     work : Path
         The scene's output folder (``scene.xml``, ``assets/``, the mesh sidecar), rewritten in place.
     scene_path : Path
-        The scene input file (for error messages).
+        The scene input file (for error messages and the pieces' recorded sources).
     asset : SceneAsset
-        The scene as `convert_scene` built it (instances, mesh sidecar name).
-    sidecar : Path
-        The ``<stem>.articulated.json`` file.
+        The scene as `convert_scene` built it (instances, rooms, mesh sidecar name).
+    pieces : Path or list of dict
+        A ``<stem>.articulated.json`` sidecar, or pieces as a dataset reader gives them (`habitat.Reading.
+        articulated`): ``id``, ``label``, ``urdf`` (path), ``position`` (m) and ``quat`` (wxyz) of the URDF root
+        frame in the world, optionally ``scale`` (uniform, on top of the URDF's own), ``room``/``floor``, ``source``
+        (recorded in the converted piece), and ``interiors`` (the sidecar's, local to a ``yaw``) -- without them the
+        interior and top surfaces are derived from the piece's collision geometry (`derive_surfaces`).
     config : ConvertConfig, optional
         Conversion settings for the URDFs.
     cache_dir : str or Path, optional
@@ -129,7 +147,11 @@ def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, sidecar: Pa
     """
     from .urdf import convert_urdf_report
 
-    pieces = read_sidecar(sidecar)
+    if isinstance(pieces, (str, Path)):
+        where = Path(pieces)
+        pieces = pieces_from_sidecar(where)
+    else:
+        where = Path(scene_path)
     if not pieces:
         return asset
     xml = work / asset.mjcf
@@ -142,12 +164,15 @@ def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, sidecar: Pa
     for p in pieces:
         iid = int(p["id"])
         if iid in taken:
-            raise InputError(display_path(sidecar), f"piece {p['urdf']}: instance id {iid} is taken by the scene mesh")
+            raise InputError(display_path(where), f"piece {p['urdf']}: instance id {iid} is taken by the scene mesh")
         taken.add(iid)
         name = f"art_{iid}"
-        obj, _info = convert_urdf_report(sidecar.parent / p["urdf"], work / "articulated", category=str(p["label"]),
-                                         name=name, config=config, cache_dir=cache_dir,
-                                         source=str(p["urdf"]))
+        source = p.get("source") or Path(os.path.relpath(p["urdf"], Path(scene_path).parent)).as_posix()
+        obj, info = convert_urdf_report(p["urdf"], work / "articulated", category=str(p["label"]), name=name,
+                                        config=config, cache_dir=cache_dir, source=str(source),
+                                        scale=float(p.get("scale", 1.0)))
+        asset.unused += [f"{display_path(Path(p['urdf']))} (piece {p.get('name', name)}): {u}"
+                         for u in info.get("unused", [])]
         model_xml = work / "articulated" / obj.mjcf
         child = mujoco.MjSpec.from_file(str(model_xml))
         cm, ct = model_xml.parent / (child.meshdir or ""), model_xml.parent / (child.texturedir or "")
@@ -159,9 +184,7 @@ def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, sidecar: Pa
                 t.file = _copy_in(ct / t.file, texdir, name)
         child.meshdir, child.texturedir = spec.meshdir, spec.texturedir
         child.modelfiledir = spec.modelfiledir
-        yaw = math.radians(float(p["yaw"]))
-        frame = spec.worldbody.add_frame(pos=[float(c) for c in p["position"]],
-                                         quat=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+        frame = spec.worldbody.add_frame(pos=[float(c) for c in p["position"]], quat=[float(c) for c in p["quat"]])
         root = child.worldbody.first_body()
         if root is None:
             raise InputError(display_path(model_xml), "articulated model has no body")
@@ -202,22 +225,34 @@ def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, sidecar: Pa
             nv += len(tri[0])
             vs.append(tri[0])
         v = np.concatenate(vs) if vs else np.zeros((1, 3)) + np.asarray(p["position"], float)
+        bounds = np.stack([v.min(axis=0), v.max(axis=0)])
+        room, floor = int(p.get("room", -1)), int(p.get("floor", -1))
+        if "room" not in p and "yaw" not in p:  # a dataset's piece: the room its box centre lies in
+            room, floor = _room_of(asset, (bounds[0] + bounds[1]) / 2)
         instances.append(SemanticInstance(id=iid, label=str(p["label"]), geoms=geoms_of.get(iid, []),
-                                          room=int(p.get("room", -1)), floor=int(p.get("floor", -1)), kind="receptacle",
-                                          bounds=np.stack([v.min(axis=0), v.max(axis=0)]), receptacle=True))
-        yaw = math.radians(float(p["yaw"]))
-        R = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+                                          room=room, floor=floor, kind="receptacle", bounds=bounds, receptacle=True))
         pos = np.asarray(p["position"], dtype=np.float64)
-        interiors = []
-        for s in p.get("interiors", []):
-            poly = np.asarray(s["polygon"], dtype=np.float64) @ R.T + pos[:2]
-            joint = f"{name}/{s['joint']}" if s.get("joint") else None
-            body = f"{name}/{s['link']}" if s.get("link") and s["link"] != "body" else f"{name}/object"
-            interiors.append(InteriorSurface(height=float(pos[2] + float(s["height"])), polygon=poly, joint=joint,
-                                             body=body))
-        out.append(ArticulatedFixture(instance_id=iid, label=str(p["label"]),
-                                      model=f"articulated/objects/{name}/model.xml", position=pos,
-                                      yaw=float(p["yaw"]), parts=parts, interiors=interiors))
+        if "interiors" in p or "yaw" in p:  # our generator's pieces: yaw-only pose, interiors in its local frame
+            yaw = math.radians(float(p["yaw"]))
+            R = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+            interiors = []
+            for s in p.get("interiors", []):
+                poly = np.asarray(s["polygon"], dtype=np.float64) @ R.T + pos[:2]
+                joint = f"{name}/{s['joint']}" if s.get("joint") else None
+                body = f"{name}/{s['link']}" if s.get("link") and s["link"] != "body" else f"{name}/object"
+                interiors.append(InteriorSurface(height=float(pos[2] + float(s["height"])), polygon=poly, joint=joint,
+                                                 body=body))
+            fx = ArticulatedFixture(instance_id=iid, label=str(p["label"]), model=f"articulated/objects/{name}/model.xml",
+                                    position=pos, yaw=float(p["yaw"]), parts=parts, interiors=interiors)
+        else:
+            interiors, tops = derive_surfaces(model, data, name)
+            asset.support_surfaces += [SupportSurface(instance_id=iid, height=h, polygon=poly) for h, poly in tops]
+            Rm = quat_to_mat(np.asarray(p["quat"], float))
+            fx = ArticulatedFixture(instance_id=iid, label=str(p["label"]), model=f"articulated/objects/{name}/model.xml",
+                                    position=pos, yaw=math.degrees(math.atan2(Rm[1, 0], Rm[0, 0])), parts=parts,
+                                    interiors=interiors, quat=np.asarray(p["quat"], dtype=np.float64),
+                                    scale=float(p.get("scale", 1.0)))
+        out.append(fx)
     save_scene_mesh(work / asset.mesh, np.concatenate(Vs), np.concatenate(Fs), np.concatenate(FIs))
     Vall = np.concatenate(Vs)
     asset.instances = sorted(instances, key=lambda i: i.id)
@@ -226,4 +261,158 @@ def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, sidecar: Pa
     return asset
 
 
-__all__ = ["FORMAT", "add_articulated", "input_files", "read_sidecar", "sidecar_for"]
+def _room_of(asset: SceneAsset, point: np.ndarray) -> tuple[int, int]:
+    """Return (room id, floor) of the scene's room whose polygon holds `point` (XY), else (-1, -1)."""
+    for r in asset.rooms:
+        if points_in_polygon(np.asarray(r.polygon, float), np.asarray(point, float)[None, :2])[0]:
+            return int(r.id), int(r.floor)
+    return -1, -1
+
+
+# ----------------------------------------------------------------------------------------------
+# interior and top surfaces from a piece's collision geometry
+
+UP_COS = math.cos(math.radians(10.0))  # a face within 10 degrees of horizontal, facing up, can hold an object
+MIN_AREA = 0.02  # m^2: smaller upward faces (panel edges, a door's top rim) hold no object
+MIN_WIDTH = 0.08  # m: twice area / perimeter (a rectangle's ab / (a + b)); a thinner face (a door's top edge) holds none
+MIN_CLEARANCE = 0.06  # m: an upward face with less free height above it (a panel under a panel) holds no object
+RAY_EPS = 1e-4  # m: hits nearer than this along a ray are the face the ray starts on
+HORIZONTAL_RAYS = 16  # directions around a surface in which an opening is looked for
+
+
+def _collision_triangles(model: mujoco.MjModel, data: mujoco.MjData, prefix: str) -> list[tuple[int, np.ndarray]]:
+    """Return (geom id, (T, 3, 3) world triangles) of the collision geoms (group 3) on bodies named ``prefix...``."""
+    out = []
+    for g in range(model.ngeom):
+        body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g])) or ""
+        if int(model.geom_group[g]) != 3 or not body.startswith(prefix):
+            continue
+        tri = _geom_triangles(model, data, g)
+        if tri is not None:
+            out.append((g, tri[0][tri[1]]))
+    return out
+
+
+def _first_hit(origin: np.ndarray, direction: np.ndarray, tris: np.ndarray) -> float:
+    """Return the distance along a ray to the first triangle it crosses beyond `RAY_EPS` (inf: none; Moller-Trumbore)."""
+    a, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    pv = np.cross(direction, e2)
+    det = np.einsum("ij,ij->i", e1, pv)
+    ok = np.abs(det) > 1e-12
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    sv = origin - a
+    u = np.einsum("ij,ij->i", sv, pv) * inv
+    qv = np.cross(sv, e1)
+    v = (qv @ direction) * inv
+    t = np.einsum("ij,ij->i", e2, qv) * inv
+    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > RAY_EPS)
+    return float(t[hit].min()) if hit.any() else math.inf
+
+
+def _escapes(point: np.ndarray, tris: np.ndarray) -> bool:
+    """Return whether a ray from `point` straight up or in one of `HORIZONTAL_RAYS` directions leaves the piece."""
+    dirs = [np.array([0.0, 0.0, 1.0])] + [np.array([math.cos(a), math.sin(a), 0.0]) for a in
+                                          np.linspace(0, 2 * math.pi, HORIZONTAL_RAYS, endpoint=False)]
+    return any(math.isinf(_first_hit(point, d, tris)) for d in dirs)
+
+
+def _upward_caps(g: int, tris: np.ndarray, data: mujoco.MjData) -> tuple[float, np.ndarray] | None:
+    """Return (height, CCW XY polygon) of a convex collision geom's upward-facing cap, or None when it has none
+    of `MIN_AREA`."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    norm = np.linalg.norm(n, axis=1)
+    keep = norm > 1e-12
+    n[keep] /= norm[keep, None]
+    out = np.einsum("ij,ij->i", n, tris.mean(axis=1) - data.geom_xpos[g]) < 0  # convex: normals point away from it
+    n[out] *= -1
+    up = keep & (n[:, 2] >= UP_COS)
+    if not up.any():
+        return None
+    pts = tris[up].reshape(-1, 3)
+    try:
+        hull = ConvexHull(pts[:, :2])
+    except QhullError:
+        return None
+    if hull.volume < MIN_AREA or 2 * hull.volume / hull.area < MIN_WIDTH:  # 2-D hull: volume = area, area = perimeter
+        return None
+    return float(pts[:, 2].mean()), pts[hull.vertices, :2]
+
+
+def derive_surfaces(model: mujoco.MjModel, data: mujoco.MjData,
+                    name: str) -> tuple[list[InteriorSurface], list[tuple[float, np.ndarray]]]:
+    """Return the interior surfaces and the tops (height, CCW polygon) of piece `name` (bodies ``<name>/...``).
+
+    Every upward cap of a collision geom (at the model's default joint state, every part closed) of at least
+    `MIN_AREA` with `MIN_CLEARANCE` free above it is a candidate: nothing of the piece above it makes it a top (a
+    counter top); else it is inside (a shelf, a drawer or carcass bottom), reachable as it is when a ray from just
+    above its centre leaves the piece (up or sideways: an open shelf), else through the movable joint whose opening
+    (to the limit farthest from its default) lets such a ray out -- the surface moving with its own body (a drawer
+    bottom slides out with its drawer); joints that move the surface's own body are tried first. An inside surface
+    that no single joint opens (behind two doors, under a drawer) is left out.
+    """
+    prefix = f"{name}/"
+    closed = _collision_triangles(model, data, prefix)
+    if not closed:
+        return [], []
+    every = np.concatenate([t for _g, t in closed])
+    joints = [j for j in range(model.njnt) if (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or "").startswith(prefix)
+              and int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
+    qpos0 = data.qpos.copy()
+    opened = []  # (joint, its body's ancestors-or-self set, triangles, body poses) with that one joint open
+    for j in joints:
+        a = int(model.jnt_qposadr[j])
+        lo, hi = (float(v) for v in model.jnt_range[j]) if model.jnt_limited[j] else (qpos0[a] - 1.5, qpos0[a] + 1.5)
+        data.qpos[:] = qpos0
+        data.qpos[a] = hi if abs(hi - qpos0[a]) >= abs(lo - qpos0[a]) else lo
+        mujoco.mj_kinematics(model, data)
+        moved = {int(b) for b in range(model.nbody) if _below(model, b, int(model.jnt_bodyid[j]))}
+        opened.append((j, moved, np.concatenate([t for _g, t in _collision_triangles(model, data, prefix)]),
+                       data.xpos.copy(), data.xmat.copy()))
+    data.qpos[:] = qpos0
+    mujoco.mj_kinematics(model, data)
+    interiors: list[InteriorSurface] = []
+    tops: list[tuple[float, np.ndarray]] = []
+    for g, tris in closed:
+        cap = _upward_caps(g, tris, data)
+        if cap is None:
+            continue
+        h, poly = cap
+        centre = np.append(poly.mean(axis=0), h)
+        clearance = _first_hit(centre + [0, 0, 1e-3], np.array([0.0, 0.0, 1.0]), every)
+        if math.isinf(clearance):
+            tops.append((h, poly))
+            continue
+        if clearance < MIN_CLEARANCE:
+            continue
+        b = int(model.geom_bodyid[g])
+        probe = centre + [0.0, 0.0, min(clearance / 2, 0.1)]
+        body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+        if _escapes(probe, every):
+            interiors.append(InteriorSurface(height=h, polygon=poly, joint=None, body=body))
+            continue
+        p0, R0 = data.xpos[b].copy(), data.xmat[b].reshape(3, 3).copy()
+        found = None
+        for j, moved, tris_j, xpos, xmat in sorted(opened, key=lambda o: b not in o[1]):  # own body's joints first
+            q = (probe - p0) @ R0 @ xmat[b].reshape(3, 3).T + xpos[b]  # the probe moves with its body
+            if _escapes(q, tris_j):
+                found = j
+                break
+        if found is not None:
+            interiors.append(InteriorSurface(height=h, polygon=poly, body=body,
+                                             joint=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, found)))
+    return interiors, tops
+
+
+def _below(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
+    """Return whether `body` is `ancestor` or one of its descendants."""
+    while body > 0:
+        if body == ancestor:
+            return True
+        body = int(model.body_parentid[body])
+    return False
+
+
+__all__ = ["FORMAT", "add_articulated", "derive_surfaces", "input_files", "pieces_from_sidecar", "read_sidecar",
+           "sidecar_for"]

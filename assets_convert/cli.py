@@ -44,6 +44,12 @@ def run(args: argparse.Namespace) -> int:
             print(f"sdovon-mj convert: {row['file']}: {row['error']}", file=sys.stderr)
     for row in report.get("skipped", []):
         print(f"sdovon-mj convert: skipped {row['file']}: {row['reason']}", file=sys.stderr)
+    unused = [f"sdovon-mj convert: {row['file']}: not used: {u}" for row in report["items"] for u in row.get("unused", [])]
+    for line in unused:
+        print(line, file=sys.stderr)
+    if unused:
+        print(f"sdovon-mj convert: {len(unused)} thing(s) the inputs held were not used (named above; listed under "
+              "`unused` in the report)", file=sys.stderr)
     print(f"converted {report['ok']}/{report['count']} {args.kind}s in {report['seconds']:.1f} s"
           + (f", skipped {len(report['skipped'])} file(s) of other formats" if report.get("skipped") else "")
           + f"; report: {Path(args.out) / 'convert_report.json'}")

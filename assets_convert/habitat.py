@@ -64,6 +64,8 @@ class Reading:
     rooms: list[Room] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
     unused: list[str] = field(default_factory=list)  # what the input held and the reader did not use (SceneAsset.unused)
+    # articulated pieces to build into the scene (`articulated_scene.add_articulated`'s piece dicts: URDF, MuJoCo pose)
+    articulated: list[dict[str, Any]] = field(default_factory=list)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -393,6 +395,7 @@ def read_mp3d(path: str | Path, units: str | float = "auto", up: str = "auto") -
 
 STAGE_CONFIG = ".stage_config.json"
 OBJECT_CONFIG = ".object_config.json"
+AO_CONFIG = ".ao_config.json"
 ASSET_SUFFIXES = (".glb", ".gltf", ".obj", ".ply")  # render assets a ``paths`` entry may register directly
 ANCESTORS = 4  # how many folders up from a scene file a dataset config is looked for
 
@@ -507,14 +510,15 @@ def _scene_and_dataset(path: Path) -> tuple[Path, _Dataset]:
 class _Registry:
     """The templates a dataset config registers (stages, objects, semantic configs) by handle (memoised)."""
 
-    SUFFIX = {"stages": STAGE_CONFIG, "objects": OBJECT_CONFIG,
+    SUFFIX = {"stages": STAGE_CONFIG, "objects": OBJECT_CONFIG, "articulated_objects": AO_CONFIG,
               "semantic_scene_descriptor_instances": ".semantic_config.json"}
 
     def __init__(self, ds: _Dataset) -> None:
         self.ds = ds
         self._files: dict[tuple[str, str], list[Path]] = {}
         self._handles: dict[str, list[tuple[str, dict[str, Any], Path]]] = {}
-        self._resolved: dict[tuple[str, str], tuple[dict[str, Any], Path, Path | None]] = {}
+        self._resolved: dict[tuple[str, str], tuple[dict[str, Any], Path, Path | None] | None] = {}
+        self._urdfs: list[tuple[str, Path]] | None = None  # articulated-object templates (urdf_handles)
         self.read: dict[Path, tuple[int, int]] = {}  # template config files read -> (mtime_ns, size) when read
 
     def _json(self, f: Path) -> Any:
@@ -596,14 +600,31 @@ class _Registry:
         """Return (attributes, folder) of the template `name`: an exact handle, else the first handle containing it.
 
         The attributes carry ``__file__``, the config file they were read from (absent for a registered render asset).
+        Raise InputError naming the scene (`where`) and the dataset when no template matches.
         """
+        found = self.lookup(section, name)
+        if found is None:
+            raise InputError(display_path(where), self.missing(section, name))
+        return found
+
+    def lookup(self, section: str, name: str) -> tuple[dict[str, Any], Path] | None:
+        """Return (attributes, folder) of the template `name` as `resolve` finds it, or None when none matches."""
         key = (section, name)
         if key not in self._resolved:
-            self._resolved[key] = self._resolve(section, name, where)
-        attrs, base, _f = self._resolved[key]
-        return attrs, base
+            self._resolved[key] = self._resolve(section, name)
+        hit = self._resolved[key]
+        return None if hit is None else (hit[0], hit[1])
 
-    def _resolve(self, section: str, name: str, where: Path) -> tuple[dict[str, Any], Path, Path | None]:
+    def missing(self, section: str, name: str) -> str:
+        """Return the sentence saying that template `name` is not in the dataset (with the first handles it has)."""
+        kind = {"stages": "stage", "objects": "object", "articulated_objects": "articulated object"}.get(section, section)
+        handles = [h for h, _p in self.urdf_handles()] if section == "articulated_objects" else \
+            [h for h, _a, _b in self.handles(section)]
+        known = ", ".join(sorted(handles)[:8]) or "none"
+        return (f"{kind} template '{name}' is not in the dataset "
+                f"({display_path(self.ds.path) if self.ds.path else 'no dataset config'}; registered: {known})")
+
+    def _resolve(self, section: str, name: str) -> tuple[dict[str, Any], Path, Path | None] | None:
         entries = self.handles(section)
         for handle, attrs, base in entries:
             if handle == name:
@@ -614,11 +635,48 @@ class _Registry:
         direct = self.ds.root / name
         if direct.is_file() and direct.name.lower().endswith(self.SUFFIX[section]):
             return {**self._json(direct), "__file__": direct}, direct.parent, None
-        kind = {"stages": "stage", "objects": "object"}.get(section, section)
-        known = ", ".join(sorted(h for h, _a, _b in entries)[:8]) or "none"
-        raise InputError(display_path(where), f"{kind} template '{name}' is not in the dataset "
-                                              f"({display_path(self.ds.path) if self.ds.path else 'no dataset config'}; "
-                                              f"registered: {known})")
+        return None
+
+    def urdf_handles(self) -> list[tuple[str, Path]]:
+        """Return (handle, URDF file) of the articulated-object templates the config registers, sorted by handle.
+
+        ``articulated_objects.paths``: ``".urdf"`` entries are folders (searched recursively), globs or files, as
+        ReplicaCAD's ``{".urdf": ["urdf/*/"]}``; ``".json"`` entries name ``*.ao_config.json`` files whose
+        ``urdf_filepath`` (relative to the config file) is the URDF. The handle is the file's path relative to the
+        dataset config (the config's, for an ao_config).
+        """
+        if self._urdfs is None:
+            out: dict[str, Path] = {}
+            for entry in self._entries("articulated_objects", ".urdf"):
+                for hit in sorted(glob.glob(str(self.ds.root / entry))):
+                    p = Path(hit)
+                    for q in (sorted(p.rglob("*.urdf")) if p.is_dir() else [p]):
+                        if q.is_file() and q.suffix.lower() == ".urdf":
+                            out[q.relative_to(self.ds.root).as_posix()] = q
+            for f in self.files("articulated_objects", AO_CONFIG):
+                doc = self._json(f)
+                rel = doc.get("urdf_filepath") if isinstance(doc, dict) else None
+                if rel and (f.parent / str(rel)).is_file():
+                    out[f.relative_to(self.ds.root).as_posix()] = f.parent / str(rel)
+            self._urdfs = sorted(out.items())
+        return self._urdfs
+
+    def lookup_urdf(self, name: str) -> Path | None:
+        """Return the URDF of articulated-object template `name`, or None: a handle equal to it, else one whose file
+        stem is it (ReplicaCAD's ``fridge`` for ``urdf/fridge/fridge.urdf``), else the first handle containing it
+        (habitat-sim's substring rule), else a URDF at that path under the dataset folder."""
+        entries = self.urdf_handles()
+        for handle, urdf in entries:
+            if handle == name:
+                return urdf
+        for handle, urdf in entries:
+            if Path(handle).name.split(".")[0] == name or urdf.stem == name:
+                return urdf
+        for handle, urdf in entries:
+            if name in handle:
+                return urdf
+        direct = self.ds.root / name
+        return direct if direct.is_file() and direct.suffix.lower() == ".urdf" else None
 
 
 def _scene_doc(scene: Path, reg: _Registry) -> dict[str, Any]:
@@ -660,12 +718,18 @@ def scene_files(path: str | Path) -> list[Path]:
         if not name:
             raise InputError(display_path(scene), f"object_instances[{k - 1}] has no template_name" if k else
                                                   "stage_instance has no template_name")
+        if section == "objects" and reg.lookup(section, name) is None:
+            continue  # not imported: the conversion names it (Reading.unused)
         attrs, base = reg.resolve(section, name, scene)
         if not attrs.get("render_asset") or not (base / str(attrs["render_asset"])).is_file():
             raise InputError(display_path(scene), f"render asset '{attrs.get('render_asset', '')}' of template "
                                                   f"'{name}' not found (looked at "
                                                   f"{display_path(base / str(attrs.get('render_asset', '')))})")
         files += _template_files(attrs, base)
+    for inst in _articulated_entries(doc, scene):
+        urdf = reg.lookup_urdf(str(inst.get("template_name", "")))
+        if urdf is not None:
+            files += _urdf_files(urdf)
     sem = _semantic_config_path(doc, scene, ds, reg)
     if sem is not None:
         _read_json(sem)
@@ -844,10 +908,14 @@ def read_habitat(path: str | Path) -> Reading:
         meta[nxt] = {**meta.pop(tmp), "id": nxt}
         nxt += 1
     pairs = [(p, renum.get(i, i)) for p, i in pairs]
+    unused = _scene_unused(doc, scene, reg)
     for k, inst in enumerate(doc.get("object_instances") or []):
         name = str(inst.get("template_name", ""))
         if not name:
             raise InputError(display_path(scene), f"object_instances[{k}] has no template_name")
+        if reg.lookup("objects", name) is None:
+            unused.append(f"{display_path(scene)}: object_instances[{k}] not imported: {reg.missing('objects', name)}")
+            continue
         attrs, base = reg.resolve("objects", name, scene)
         parts = _placed_parts(attrs, base, inst, origin, scene)
         sid = attrs.get("semantic_id", inst.get("semantic_id"))
@@ -859,7 +927,164 @@ def read_habitat(path: str | Path) -> Reading:
         nxt += 1
     if rooms:
         _assign_rooms(pairs, meta, rooms, semantic)
-    return Reading(pairs, meta, rooms, [scene] + ([ds.path] if ds.path else []))
+    pieces = _read_articulated(doc, scene, reg, lexicon, nxt, unused)
+    return Reading(pairs, meta, rooms, [scene] + ([ds.path] if ds.path else []), unused, pieces)
+
+
+# ----------------------------------------------------------------------------------------------
+# Habitat articulated objects (URDF furniture: ReplicaCAD's fridge, counter, cupboards, drawers, doors)
+
+AO_KEYS = {"template_name", "translation", "rotation", "uniform_scale", "non_uniform_scale", "translation_origin",
+           "fixed_base", "motion_type", "auto_clamp_joint_limits", "initial_joint_pose", "initial_joint_velocities",
+           "user_defined"}  # articulated_object_instances fields this reader reads (any other is named unused)
+SCENE_KEYS = {"stage_instance", "object_instances", "articulated_object_instances", "translation_origin",
+              "semantic_scene_instance", "default_lighting"}  # scene-instance keys read (others are named)
+
+
+def _articulated_entries(doc: dict[str, Any], scene: Path) -> list[dict[str, Any]]:
+    """Return a scene instance's ``articulated_object_instances`` (InputError naming the scene when malformed)."""
+    entries = doc.get("articulated_object_instances") or []
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise InputError(display_path(scene), "'articulated_object_instances' must be a list of objects")
+    return entries
+
+
+def _urdf_files(urdf: Path) -> list[Path]:
+    """Return a URDF with its ao_config and meshes (the URDF alone when it does not parse: its conversion says why)."""
+    from .urdf import read_urdf
+
+    try:
+        return read_urdf(urdf).files()
+    except InputError:
+        return [urdf]
+
+
+def _scene_unused(doc: dict[str, Any], scene: Path, reg: "_Registry") -> list[str]:
+    """Return what a scene instance holds at its top level that the conversion does not use (lights, navmesh, ...)."""
+    where = display_path(scene)
+    out = []
+    light = doc.get("default_lighting")
+    if light not in (None, "", "no_lights"):
+        sec = reg.ds.doc.get("light_setups") or {}
+        handles = [f.name for f in reg.files("light_setups", ".lighting_config.json")] + \
+            [str(c.get("template_handle", "")) for c in (sec.get("configs") or []) if isinstance(c, dict)]
+        setups = [h for h in handles if str(light) in h]
+        out.append(f"{where}: default_lighting '{light}' (a light setup{'' if setups else ', not in the dataset'}) "
+                   "not used: a converted scene is lit by its own two directional lights")
+    for key in sorted(set(doc) - SCENE_KEYS):
+        out.append(f"{where}: '{key}' not used (the converter reads {', '.join(sorted(SCENE_KEYS))})")
+    return out
+
+
+def _ao_label(name: str, semantic_id: int | None, lexicon: dict[int, str]) -> str:
+    """Return an articulated object's label: its semantic class, else its template name (``kitchenCupboard_01`` ->
+    "kitchen cupboard")."""
+    if semantic_id is not None and semantic_id in lexicon:
+        return lexicon[semantic_id]
+    stem = Path(name).name.split(".")[0]
+    return label_from_node(re.sub(r"(?<=[a-z0-9])(?=[A-Z])", " ", stem))
+
+
+def _joint_pose(inst: dict[str, Any], movable: list[str], where: str) -> dict[str, float]:
+    """Return joint name -> initial position of an instance: ``initial_joint_pose`` (a list in the URDF's movable
+    joint order, or a dict by name), else ``user_defined.joint_states`` (by name, as our Habitat export writes it)."""
+    pose = inst.get("initial_joint_pose")
+    if pose is None:
+        pose = (inst.get("user_defined") or {}).get("joint_states") if isinstance(inst.get("user_defined"), dict) else None
+    if pose is None:
+        return {}
+    if isinstance(pose, list):
+        if len(pose) > len(movable):
+            raise InputError(where, f"initial_joint_pose has {len(pose)} values; the URDF has {len(movable)} movable joints")
+        pose = dict(zip(movable, pose))
+    if not isinstance(pose, dict):
+        raise InputError(where, "initial_joint_pose must be a list or an object (joint name -> position)")
+    unknown = sorted(set(map(str, pose)) - set(movable))
+    if unknown:
+        raise InputError(where, f"initial_joint_pose names joints the URDF has not: {', '.join(unknown)}")
+    try:
+        return {str(k): float(v) for k, v in pose.items()}
+    except (TypeError, ValueError):
+        raise InputError(where, f"initial_joint_pose values must be numbers, got {pose!r}") from None
+
+
+def _read_articulated(doc: dict[str, Any], scene: Path, reg: "_Registry", lexicon: dict[int, str], first_id: int,
+                      unused: list[str]) -> list[dict[str, Any]]:
+    """Return the scene instance's articulated objects as `articulated_scene` pieces; what is not imported goes to
+    `unused` (a template the dataset lacks, a URDF that does not convert, fields not read).
+
+    Pose as habitat-sim sets it (``BulletArticulatedObject::resetStateFromSceneInstanceAttr``): the instance's
+    rotation and translation become the multibody's base transform, which is the root link's inertial frame (the
+    URDF root ``<inertial><origin>``, scaled; identity without one). ``translation_origin`` gets no COM correction
+    for articulated objects there (its ``defaultCOMCorrection`` is unused), so ``"COM"`` and ``"asset_local"`` both
+    place that frame. The URDF's coordinates are taken in Habitat's Y-up world as they are (no up/front for
+    URDFs); the root link's frame then goes to MuJoCo's Z-up world: (x, y, z) -> (x, -z, y).
+    """
+    from .urdf import mat_to_quat, read_urdf
+
+    pieces = []
+    iid = first_id
+    for k, inst in enumerate(_articulated_entries(doc, scene)):
+        name = str(inst.get("template_name", ""))
+        what = f"{display_path(scene)}: articulated_object_instances[{k}] '{name}'"
+        if not name:
+            raise InputError(display_path(scene), f"articulated_object_instances[{k}] has no template_name")
+        urdf = reg.lookup_urdf(name)
+        if urdf is None:
+            unused.append(f"{display_path(scene)}: articulated_object_instances[{k}] not imported: "
+                          f"{reg.missing('articulated_objects', name)}")
+            continue
+        try:
+            robot = read_urdf(urdf)
+        except InputError as e:
+            unused.append(f"{what} not imported: its URDF does not convert: {e}")
+            continue
+        origin = str(inst.get("translation_origin", doc.get("translation_origin", "asset_local"))).lower()
+        if origin not in ("asset_local", "com"):
+            raise InputError(display_path(scene), f"articulated_object_instances[{k}]: translation_origin must be "
+                                                  f"'asset_local' or 'COM', got {origin!r}")
+        scale = float(inst.get("uniform_scale", 1.0))
+        nus = np.asarray(inst.get("non_uniform_scale", [1.0, 1.0, 1.0]), dtype=float)
+        if not (np.isfinite(scale) and scale > 0) or nus.shape != (3,) or not (nus > 0).all():
+            raise InputError(display_path(scene), f"articulated_object_instances[{k}]: uniform_scale must be positive "
+                                                  "and non_uniform_scale 3 positive numbers")
+        if np.ptp(nus) > 1e-9:
+            unused.append(f"{what}: non_uniform_scale {nus.tolist()} not applied (a URDF scales uniformly): "
+                          f"scaled by {float(nus.mean()):g}")
+        scale *= float(nus.mean())
+        movable = [j.name for j in robot.joints if j.type != "fixed"]
+        pose = _joint_pose(inst, movable, what)
+        if any(abs(v) > 1e-9 for v in pose.values()):
+            unused.append(f"{what}: initial joint state {pose} not kept: each variant draws its parts' states "
+                          "(place.part_open_p / part_closed_p / part_ajar_p)")
+        if any(abs(float(v)) > 1e-9 for v in (inst.get("initial_joint_velocities") or [])):
+            unused.append(f"{what}: initial_joint_velocities not used (parts start at rest)")
+        motion = str(inst.get("motion_type", "DYNAMIC")).upper()
+        if motion not in ("DYNAMIC", "KINEMATIC", "STATIC", "UNDEFINED"):
+            raise InputError(display_path(scene), f"articulated_object_instances[{k}]: unknown motion_type {motion!r}")
+        if motion == "STATIC":
+            unused.append(f"{what}: motion_type STATIC not kept: its doors and drawers move here like any piece's")
+        if inst.get("fixed_base") is False:
+            unused.append(f"{what}: fixed_base false not kept: imported with its base fixed where the scene puts it")
+        extra = sorted(set(inst) - AO_KEYS)
+        if extra:
+            unused.append(f"{what}: fields not used: {', '.join(extra)}")
+        # habitat-sim: base (root inertial frame) = instance transform; root link frame = base * inertial^-1
+        T_i = np.eye(4)
+        ine = robot.links[robot.root].inertial
+        if ine is not None:
+            T_i = ine.origin.copy()
+            T_i[:3, 3] *= robot.scale * scale
+        T = np.eye(4)
+        T[:3, :3] = _quat_wxyz(inst.get("rotation"), scene)
+        T[:3, 3] = np.asarray(inst.get("translation", [0.0, 0.0, 0.0]), dtype=float)
+        root = T @ np.linalg.inv(T_i)
+        sid = robot.semantic_id
+        pieces.append({"id": iid, "label": _ao_label(name, sid, lexicon), "urdf": urdf, "name": name,
+                       "position": (HAB_TO_MJ @ root[:3, 3]).tolist(),
+                       "quat": mat_to_quat(HAB_TO_MJ @ root[:3, :3]).tolist(), "scale": scale})
+        iid += 1
+    return pieces
 
 
 def _assign_rooms(pairs: list[tuple[Part, int]], meta: dict[int, dict[str, Any]], rooms: list[Room],

@@ -210,6 +210,9 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         if art_sidecar is not None:
             asset = articulated_scene.add_articulated(tmp, path, asset, art_sidecar,
                                                       ConvertConfig(texture_max_size=texture_max_size), cache_dir)
+        elif reading is not None and reading.articulated:  # a dataset's articulated objects (Habitat URDF furniture)
+            asset = articulated_scene.add_articulated(tmp, path, asset, reading.articulated,
+                                                      ConvertConfig(texture_max_size=texture_max_size), cache_dir)
         asset.content_hash = key
         atomic_write_text(tmp / "asset.json", asset.to_json())
         cache.store(root, key, tmp)

@@ -3,7 +3,7 @@
 Workers are spawned processes (CoACD's threads do not survive fork); a worker past its timeout is
 killed and replaced, a crashed worker is reported, and the batch goes on. The report
 ``<out_dir>/convert_report.json`` lists per input: file, status, error, faces, hulls, volume ratio,
-mass, seconds, cache hit.
+mass, seconds, cache hit; for a scene its articulated pieces and what the input held that was not used (``unused``).
 """
 
 from __future__ import annotations
@@ -197,6 +197,10 @@ def _work(task: dict[str, Any]) -> dict[str, Any]:
                               cache_dir=task["cache_dir"], texture_max_size=task["config"].texture_max_size,
                               add_floor=task["config"].add_floor)
             row.update(name=a.name, mjcf=a.mjcf, instances=len(a.instances), cache_hit=False)
+            if a.articulated:  # only then: rows of scenes without articulated pieces keep their bytes
+                row["articulated"] = [f"{fx.instance_id} {fx.label} ({len(fx.parts)} joints)" for fx in a.articulated]
+            if a.unused:  # what the input held that the conversion did not use (SceneAsset.unused)
+                row["unused"] = list(a.unused)
         elif task.get("parts"):
             import tempfile
 

@@ -120,6 +120,7 @@ class Robot:
     scale: float = 1.0
     mass_scale: float = 1.0
     ao_config: Path | None = None
+    unused: list[str] = field(default_factory=list)  # elements read past (transmissions, mimic joints, ...), named
 
     def children(self, link: str) -> list[Joint]:
         """Return the joints whose parent is `link` (file order)."""
@@ -374,6 +375,7 @@ def read_urdf(path: str | Path) -> Robot:
     if not roots:
         raise InputError(where, f"the joints form a cycle: {_cycle(parent_of, joints)}")
     robot = Robot(path, root.get("name") or path.stem, links, joints, roots[0])
+    robot.unused = _unread_elements(root)
     seen = {robot.root}
     stack = [robot.root]
     while stack:
@@ -386,6 +388,25 @@ def read_urdf(path: str | Path) -> Robot:
     if cfg_path is not None:
         _apply_ao_config(robot, cfg_path, ao)
     return robot
+
+
+READ_TAGS = {"robot": {"link", "joint", "material"}, "link": {"visual", "collision", "inertial"},
+             "joint": {"parent", "child", "origin", "axis", "limit", "dynamics"}}  # what `read_urdf` reads
+
+
+def _unread_elements(root: ET.Element) -> list[str]:
+    """Return one line per kind of URDF element `read_urdf` reads past (``<transmission>``, ``<gazebo>``, a joint's
+    ``<mimic>`` or ``<safety_controller>``, ...), with how many there are."""
+    counts: dict[str, int] = {}
+    for el in root:
+        if el.tag not in READ_TAGS["robot"]:
+            counts[f"<{el.tag}>"] = counts.get(f"<{el.tag}>", 0) + 1
+        elif el.tag in READ_TAGS:
+            for sub in el:
+                if sub.tag not in READ_TAGS[el.tag]:
+                    key = f"<{el.tag}><{sub.tag}>"
+                    counts[key] = counts.get(key, 0) + 1
+    return [f"{n} {tag} not converted" for tag, n in sorted(counts.items())]
 
 
 def _cycle(parent_of: dict[str, str], joints: list[Joint], within: set[str] | None = None) -> str:
@@ -796,6 +817,8 @@ def write_mjcf(robot: Robot, work: Path, name: str, density: float, cfg: Convert
             "hulls": hull_count, "coacd_links": coacd_links, "hull_seconds": round(hull_t, 3), "mass": mass,
             "density": density, "scale": s, "warnings": warnings,
             "render_asset": display_path(robot.render_asset) if robot.render_asset else None}
+    if robot.unused:  # only then: reports of URDFs read in full keep their bytes
+        info["unused"] = list(robot.unused)
     return asset, info
 
 
@@ -819,8 +842,8 @@ def _moves(robot: Robot, link: str) -> bool:
 
 def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | None = None,
                         density: float | None = None, name: str | None = None, config: ConvertConfig | None = None,
-                        cache_dir: str | Path | None = None,
-                        source: str | None = None) -> tuple[ObjectAsset, dict[str, Any]]:
+                        cache_dir: str | Path | None = None, source: str | None = None,
+                        scale: float = 1.0) -> tuple[ObjectAsset, dict[str, Any]]:
     """Convert one URDF to ``<out_dir>/objects/<name>/model.xml`` (cached); return its ObjectAsset and report figures.
 
     Parameters
@@ -843,6 +866,9 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
         Conversion cache folder (default: the user cache).
     source : str, optional
         The source recorded in the asset (default: `path`).
+    scale : float
+        Uniform scale applied on top of the ao_config's ``uniform_scale`` (a Habitat scene instance's
+        ``uniform_scale``): every length, as habitat-sim scales a URDF.
     """
     from . import cache
     from .metadata import meta_for
@@ -853,13 +879,16 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
     cfg = config or ConvertConfig()
     path, out_dir = Path(path), Path(out_dir)
     robot = read_urdf(path)
+    if not (np.isfinite(scale) and scale > 0):
+        raise InputError(display_path(path), f"scale must be a positive number, got {scale!r}")
+    robot.scale *= float(scale)
     meta = meta_for(path)
     name = object_name(path, name)
     # the URDF's robot name is no category (pybullet_data's duck_vhacd.urdf names its robot 'cube.urdf')
     category = category or meta.category or default_category(path, path.parent)
     dens = float(density) if density else density_for(category, cfg.default_density)
     params = {"kind": "urdf", "name": name, "category": category, "density": dens,
-              **({"source": source} if source else {}),
+              **({"source": source} if source else {}), **({"scale": float(scale)} if scale != 1.0 else {}),
               "config": {k: getattr(cfg, k) for k in sorted(cfg.__dataclass_fields__)
                          if k not in ("jobs", "timeout_s", "add_floor", "units", "up", "target_size")}}
     key = cache.cache_key(robot.files() + meta.sources, params)

@@ -31,7 +31,7 @@ import numpy as np
 
 from .errors import SdovonError
 from .store import dumps
-from .geometry import polygon_area
+from .geometry import polygon_area, quat_to_mat
 from .grid import GridFrame, lookup
 
 T = TypeVar("T", bound="Record")
@@ -317,7 +317,10 @@ class ArticulatedFixture(Record):
 
     `model` is the converted piece's model.xml (relative to the store root, like `SceneAsset.mjcf`), `position` (m)
     and `yaw` (degrees about +Z) its root frame in the world, `parts` its movable joints with scene names (``art_<id>/
-    <joint>``), `interiors` its inside surfaces.
+    <joint>``), `interiors` its inside surfaces. A piece from a dataset (a Habitat articulated object instance) may
+    stand at any orientation: `quat` (wxyz) is then its root frame's rotation and `yaw` only that frame's heading;
+    `scale` is the uniform scale its URDF was converted at, beyond the URDF's own (both left out of the JSON at
+    their defaults, None and 1).
     """
 
     instance_id: int
@@ -327,6 +330,24 @@ class ArticulatedFixture(Record):
     yaw: float
     parts: list[ArticulatedPart] = field(default_factory=list)
     interiors: list[InteriorSurface] = field(default_factory=list)
+    quat: np.ndarray | None = None
+    scale: float = 1.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `quat` and `scale` only when set (our own pieces keep their bytes)."""
+        out = super().to_dict()
+        if self.quat is None:
+            del out["quat"]
+        if self.scale == 1.0:
+            del out["scale"]
+        return out
+
+    def rotation(self) -> np.ndarray:
+        """Return the 3x3 rotation of the root frame in the world (`quat`, else the yaw about +Z)."""
+        if self.quat is not None:
+            return quat_to_mat(np.asarray(self.quat, dtype=float))
+        c, s = float(np.cos(np.radians(self.yaw))), float(np.sin(np.radians(self.yaw)))
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 OMIT_WHEN_NONE = ("parts", "semantic_id")  # ObjectAsset fields left out of the JSON when None (older bytes kept)

@@ -19,8 +19,10 @@ Articulated pieces (``SceneAsset.articulated``, issue 17) stay out of the stage:
 it, with the meshes it names) is copied under ``urdf/`` and each variant's scene instance lists them in
 ``articulated_object_instances`` (habitat-sim's scene instance format): ``template_name`` (the URDF's stem, found
 through the dataset config's ``articulated_objects`` paths), ``translation`` / ``rotation`` of the URDF root
-(`frames.urdf_rotation_wxyz`), ``fixed_base``, and the variant's joint state as ``initial_joint_pose`` (one value
-per movable joint, in the URDF's joint order) and by joint name in ``user_defined.joint_states``.
+(`frames.urdf_rotation_wxyz`; of its inertial frame when the root link has one, as habitat-sim places it; a
+dataset's piece at any orientation and scale: `articulated_instance`), ``fixed_base``, and the variant's joint
+state as ``initial_joint_pose`` (one value per movable joint, in the URDF's joint order) and by joint name in
+``user_defined.joint_states``.
 """
 
 from __future__ import annotations
@@ -169,17 +171,52 @@ def urdf_movable_joints(urdf: Path) -> list[tuple[str, float, float]]:
     return out
 
 
+def urdf_root_inertial(urdf: Path) -> np.ndarray:
+    """Return the 4x4 inertial frame of a URDF's root link in that link's frame (identity when it has none)."""
+    from scipy.spatial.transform import Rotation
+
+    root = ET.parse(urdf).getroot()
+    children = {c.get("link") for j in root.iter("joint") for c in j.findall("child")}
+    T = np.eye(4)
+    for link in root.findall("link"):
+        if link.get("name") in children:
+            continue
+        o = link.find("inertial/origin")
+        if o is not None:
+            T[:3, :3] = Rotation.from_euler("xyz", [float(v) for v in o.get("rpy", "0 0 0").split()]).as_matrix()
+            T[:3, 3] = [float(v) for v in o.get("xyz", "0 0 0").split()]
+        break
+    return T
+
+
+def urdf_scale(urdf: Path) -> float:
+    """Return the ``uniform_scale`` of the Habitat ``<stem>.ao_config.json`` beside a URDF (1 without one)."""
+    cfg = urdf.with_name(urdf.stem + ".ao_config.json")
+    if not cfg.is_file():
+        return 1.0
+    try:
+        return float(json.loads(cfg.read_text(encoding="utf-8")).get("uniform_scale", 1.0))
+    except (OSError, ValueError, TypeError, AttributeError) as e:
+        raise InputError(cfg, f"articulated-object config does not read ({e})") from None
+
+
 def articulated_instance(scene: str, fx: ArticulatedFixture, urdf: Path, state: dict[str, float]) -> dict[str, Any]:
     """Return a habitat-sim ``articulated_object_instances`` entry for a piece in a variant's joint state.
+
+    habitat-sim puts the instance transform on the multibody's base, the root link's inertial frame: a URDF whose
+    root link has an ``<inertial><origin>`` gets that frame's pose (``translation_origin: "COM"``), one without it
+    its root frame's (``"asset_local"``). A piece converted at a scale (`ArticulatedFixture.scale`, times the
+    ao_config's, which the copy leaves behind) carries it as ``uniform_scale``.
 
     Parameters
     ----------
     scene : str
         The scene name (prefix of the template name).
     fx : ArticulatedFixture
-        The piece: root position (m, MuJoCo world) and yaw (degrees), its parts' scene joint names.
+        The piece: root position (m, MuJoCo world), yaw (degrees) or full rotation (`quat`), scale, its parts'
+        scene joint names.
     urdf : Path
-        Its source URDF (joint order and names).
+        Its source URDF (joint order and names, root inertial frame).
     state : dict of str to float
         Scene joint name (``art_<id>/<joint>``) -> position (rad or m), e.g. ``SceneVariant.articulation``; joints
         missing here are at 0 clamped into their limits.
@@ -187,9 +224,22 @@ def articulated_instance(scene: str, fx: ArticulatedFixture, urdf: Path, state: 
     prefix = f"art_{fx.instance_id}/"
     joints = urdf_movable_joints(urdf)
     pose = [float(state.get(prefix + n, min(max(0.0, lo), hi) if hi > lo else 0.0)) for n, lo, hi in joints]
-    return {"template_name": urdf_template_name(scene, urdf), "translation_origin": "asset_local", "fixed_base": True,
-            "motion_type": "DYNAMIC", "translation": frames.position(fx.position),
-            "rotation": frames.urdf_rotation_wxyz(float(fx.yaw)), "initial_joint_pose": pose,
+    scale = float(fx.scale) * urdf_scale(urdf)
+    inertial = urdf_root_inertial(urdf)
+    inertial[:3, 3] *= scale
+    if np.array_equal(inertial, np.eye(4)):
+        origin, translation = "asset_local", frames.position(fx.position)
+        rotation = frames.urdf_rotation_wxyz(float(fx.yaw)) if fx.quat is None else \
+            frames.urdf_rotation_matrix_wxyz(fx.rotation())
+    else:
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = fx.rotation(), fx.position
+        base = T @ inertial
+        origin, translation = "COM", frames.position(base[:3, 3])
+        rotation = frames.urdf_rotation_matrix_wxyz(base[:3, :3])
+    return {"template_name": urdf_template_name(scene, urdf), "translation_origin": origin, "fixed_base": True,
+            "motion_type": "DYNAMIC", "translation": translation, "rotation": rotation,
+            **({"uniform_scale": scale} if scale != 1.0 else {}), "initial_joint_pose": pose,
             "user_defined": {"joint_states": {n: v for (n, _lo, _hi), v in zip(joints, pose)},
                              "instance_id": int(fx.instance_id), "label": fx.label}}
 

@@ -42,3 +42,9 @@ def urdf_rotation_wxyz(yaw_deg: float) -> list[float]:
     c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
     Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     return [float(v) for v in mat_to_quat(C @ Rz)]
+
+
+def urdf_rotation_matrix_wxyz(R_mj: np.ndarray) -> list[float]:
+    """Return the Habitat rotation (wxyz) of a URDF frame with rotation `R_mj` in MuJoCo's world: C R (the URDF's
+    coordinates are taken in Habitat's world as they are, as for `urdf_rotation_wxyz`)."""
+    return [float(v) for v in mat_to_quat(C @ np.asarray(R_mj, dtype=float))]
