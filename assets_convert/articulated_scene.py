@@ -9,6 +9,10 @@ visual geoms are renamed ``inst_<id>_<j>`` so segmentation and the ground-truth 
 and its collision geoms (group 3) stay, so placed objects rest on its shelves and doors push them. The piece's
 visual triangles with every part closed join the scene mesh sidecar (ray casts, navigation slices) under its
 instance id, and `SceneAsset.articulated` lists each piece (`ArticulatedFixture`).
+
+A dataset's pieces (a Habitat scene's ``articulated_object_instances``, `habitat.Reading.articulated`) come the same
+way with a full pose and a scale and no sidecar: their interior and top surfaces are derived from their collision
+geometry (`derive_surfaces`).
 """
 
 from __future__ import annotations
@@ -229,9 +233,8 @@ def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, pieces: Pat
         room, floor = int(p.get("room", -1)), int(p.get("floor", -1))
         if "room" not in p and "yaw" not in p:  # a dataset's piece: the room its box centre lies in
             room, floor = _room_of(asset, (bounds[0] + bounds[1]) / 2)
-        instances.append(SemanticInstance(id=iid, label=str(p["label"]), geoms=geoms_of.get(iid, []),
-                                          room=room, floor=floor, kind="receptacle", bounds=bounds, receptacle=True))
         pos = np.asarray(p["position"], dtype=np.float64)
+        receptacle: bool | None = True
         if "interiors" in p or "yaw" in p:  # our generator's pieces: yaw-only pose, interiors in its local frame
             yaw = math.radians(float(p["yaw"]))
             R = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
@@ -247,12 +250,15 @@ def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, pieces: Pat
         else:
             interiors, tops = derive_surfaces(model, data, name)
             asset.support_surfaces += [SupportSurface(instance_id=iid, height=h, polygon=poly) for h, poly in tops]
+            receptacle = True if interiors or tops else None  # a room door holds nothing: its label decides
             Rm = quat_to_mat(np.asarray(p["quat"], float))
             fx = ArticulatedFixture(instance_id=iid, label=str(p["label"]), model=f"articulated/objects/{name}/model.xml",
                                     position=pos, yaw=math.degrees(math.atan2(Rm[1, 0], Rm[0, 0])), parts=parts,
                                     interiors=interiors, quat=np.asarray(p["quat"], dtype=np.float64),
                                     scale=float(p.get("scale", 1.0)))
         out.append(fx)
+        instances.append(SemanticInstance(id=iid, label=str(p["label"]), geoms=geoms_of.get(iid, []), room=room,
+                                          floor=floor, kind="receptacle", bounds=bounds, receptacle=receptacle))
     save_scene_mesh(work / asset.mesh, np.concatenate(Vs), np.concatenate(Fs), np.concatenate(FIs))
     Vall = np.concatenate(Vs)
     asset.instances = sorted(instances, key=lambda i: i.id)

@@ -25,7 +25,10 @@ bounding-box centre). Habitat's Y-up world becomes MuJoCo's Z up: (x, y, z) -> (
 instances labelled by their glTF node extras ``label`` or their node name; each object instance is one instance,
 labelled by the dataset's semantic lexicon (``classes``, through the template's ``semantic_id``), else by its
 template name. ``region_annotations`` of the scene's semantic config become `Room` records (label = type) and
-assign each instance whose centre lies inside one its room.
+assign each instance whose centre lies inside one its room. ``articulated_object_instances`` (URDF templates under the
+config's ``articulated_objects.paths``) become `Reading.articulated` pieces posed as habitat-sim poses them
+(`_read_articulated`), built into the scene by `articulated_scene.add_articulated`. What the scene instance holds
+and is not imported (a template the dataset lacks, a light setup, fields not read) is named in `Reading.unused`.
 """
 
 from __future__ import annotations

@@ -298,13 +298,22 @@ def test_colour_absent_from_txt_is_named(layouts: dict, tmp_path: Path) -> None:
 
 
 def test_scene_instance_naming_missing_template_is_named(shared_assets: Path, tmp_path: Path) -> None:
+    """An object instance whose template the dataset lacks is left out and named (issue 44); the stage's is an error."""
     d = _copy(_fixtures(shared_assets) / "dataset_0", tmp_path / "ds")
     scene = d / "scenes" / "dataset_test_scene.scene_instance.json"
     doc = json.loads(scene.read_text())
+    full = convert_scene(scene, tmp_path / "full", cache_dir="off")
     doc["object_instances"][1]["template_name"] = "no_such_chair"
     scene.write_text(json.dumps(doc))
-    with pytest.raises(InputError, match=r"dataset_test_scene\.scene_instance\.json.*object template 'no_such_chair'"):
-        convert_scene(scene, tmp_path / "out", cache_dir="off")
+    asset = convert_scene(scene, tmp_path / "out", cache_dir="off")
+    assert len(asset.instances) == len(full.instances) - 1
+    missing = [u for u in asset.unused if "object_instances[1] not imported" in u]
+    assert len(missing) == 1 and "object template 'no_such_chair' is not in the dataset" in missing[0]
+    assert "dataset_test_scene.scene_instance.json" in missing[0]
+    doc["stage_instance"]["template_name"] = "no_such_stage"
+    scene.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=r"dataset_test_scene\.scene_instance\.json.*stage template 'no_such_stage'"):
+        convert_scene(scene, tmp_path / "out2", cache_dir="off")
 
 
 # ------------------------------------------------------------------------------------------------
