@@ -172,9 +172,15 @@ def add_articulated(work: Path, scene_path: Path, asset: SceneAsset, pieces: Pat
         taken.add(iid)
         name = f"art_{iid}"
         source = p.get("source") or Path(os.path.relpath(p["urdf"], Path(scene_path).parent)).as_posix()
-        obj, info = convert_urdf_report(p["urdf"], work / "articulated", category=str(p["label"]), name=name,
-                                        config=config, cache_dir=cache_dir, source=str(source),
-                                        scale=float(p.get("scale", 1.0)))
+        try:
+            obj, info = convert_urdf_report(p["urdf"], work / "articulated", category=str(p["label"]), name=name,
+                                            config=config, cache_dir=cache_dir, source=str(source),
+                                            scale=float(p.get("scale", 1.0)))
+        except InputError as e:
+            if "yaw" in p:  # our own generator's piece: its URDF must convert
+                raise
+            asset.unused.append(f"{display_path(Path(p['urdf']))} (piece {p.get('name', name)}) not imported: {e.cause}")
+            continue
         asset.unused += [f"{display_path(Path(p['urdf']))} (piece {p.get('name', name)}): {u}"
                          for u in info.get("unused", [])]
         model_xml = work / "articulated" / obj.mjcf

@@ -1056,17 +1056,19 @@ def _read_articulated(doc: dict[str, Any], scene: Path, reg: "_Registry", lexico
                           f"scaled by {float(nus.mean()):g}")
         scale *= float(nus.mean())
         movable = [j.name for j in robot.joints if j.type != "fixed"]
-        pose = _joint_pose(inst, movable, what)
+        try:
+            pose = _joint_pose(inst, movable, what)
+        except InputError as e:  # habitat-sim warns and skips such values; so does this reader, naming them
+            unused.append(f"{what}: initial joint state not read: {e.cause}")
+            pose = {}
         if any(abs(v) > 1e-9 for v in pose.values()):
             unused.append(f"{what}: initial joint state {pose} not kept: each variant draws its parts' states "
                           "(place.part_open_p / part_closed_p / part_ajar_p)")
         if any(abs(float(v)) > 1e-9 for v in (inst.get("initial_joint_velocities") or [])):
             unused.append(f"{what}: initial_joint_velocities not used (parts start at rest)")
         motion = str(inst.get("motion_type", "DYNAMIC")).upper()
-        if motion not in ("DYNAMIC", "KINEMATIC", "STATIC", "UNDEFINED"):
-            raise InputError(display_path(scene), f"articulated_object_instances[{k}]: unknown motion_type {motion!r}")
-        if motion == "STATIC":
-            unused.append(f"{what}: motion_type STATIC not kept: its doors and drawers move here like any piece's")
+        if motion not in ("DYNAMIC", "KINEMATIC", "UNDEFINED"):
+            unused.append(f"{what}: motion_type {motion} not kept: its doors and drawers move here like any piece's")
         if inst.get("fixed_base") is False:
             unused.append(f"{what}: fixed_base false not kept: imported with its base fixed where the scene puts it")
         extra = sorted(set(inst) - AO_KEYS)

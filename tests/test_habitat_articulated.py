@@ -137,6 +137,29 @@ def test_without_extras_nothing_is_unused(tmp_path: Path) -> None:
     assert asset.unused == [] and len(asset.articulated) == 2
 
 
+def test_urdf_features_not_converted_are_named(tmp_path: Path) -> None:
+    """A URDF element read past (a transmission) is named with its piece; a URDF that does not convert (a floating
+    joint) leaves its piece out, named, and the scene goes on; so do fields the reader does not read."""
+    scene = write_replicacad(tmp_path / "ds")
+    fridge = tmp_path / "ds" / "urdf" / "fridge" / "fridge.urdf"
+    fridge.write_text(fridge.read_text().replace("</robot>", '<transmission name="t"><type>x</type></transmission>'
+                                                             "</robot>"))
+    bad = tmp_path / "ds" / "urdf" / "flying" / "flying.urdf"
+    bad.parent.mkdir()
+    bad.write_text('<robot name="flying"><link name="a"/><link name="b"/><joint name="j" type="floating">'
+                   '<parent link="a"/><child link="b"/></joint></robot>')
+    doc = json.loads(scene.read_text())
+    doc["articulated_object_instances"].append({"template_name": "flying", "translation": [0, 0, 0]})
+    doc["articulated_object_instances"][0]["shiny"] = True
+    scene.write_text(json.dumps(doc))
+    asset = convert_scene(scene, tmp_path / "out", cache_dir="off")
+    assert sorted(fx.label for fx in asset.articulated) == ["fridge", "kitchen counter"]
+    assert len(asset.unused) == 3, asset.unused
+    assert any("fridge.urdf" in u and "1 <transmission> not converted" in u for u in asset.unused)
+    assert any("articulated_object_instances[2] 'flying' not imported" in u and "floating" in u for u in asset.unused)
+    assert any("articulated_object_instances[0] 'fridge': fields not used: shiny" in u for u in asset.unused)
+
+
 # ------------------------------------------------------------------------------------------------
 # one small generate run
 
