@@ -2,10 +2,11 @@
 
 `write_replicacad` writes ``<root>/rc.scene_dataset_config.json`` registering ``stages/`` (a box room: a floor and
 four walls, Y up, as a baked ReplicaCAD stage), ``urdf/*/`` (ReplicaCAD's ``{".urdf": ["urdf/*/"]}``: a fridge
-with a hinged door and a kitchen counter with a drawer, both URDFs in Habitat's Y-up frame as ReplicaCAD's are,
-their root links' centre of mass above their floor point) and ``scenes/``. The scene instance places both with
-``translation_origin: "COM"``, a rotation about +Y and a ``uniform_scale``, as ReplicaCAD's baked scenes do;
-`EXTRA` adds what a conversion must name and skip (a template the dataset lacks, a light setup).
+with a hinged door and a kitchen counter with a drawer, their root links' centre of mass above their floor point;
+the fridge's URDF in Habitat's Y-up frame, the counter's Z up as ReplicaCAD's are) and ``scenes/``. The scene
+instance places both with ``translation_origin: "COM"``, a rotation (about +Y; the counter first -90 degrees about
++X, as ReplicaCAD's scenes turn their Z-up URDFs upright) and a ``uniform_scale``; `EXTRA` adds what a conversion
+must name and skip (a template the dataset lacks, a light setup).
 
 `expected_root` gives where habitat-sim puts a piece's root link (its base is the root link's inertial frame at
 the instance transform), in Habitat's frame, computed here independently of the reader.
@@ -68,8 +69,16 @@ FRIDGE = {
 
 # Kitchen counter: 1.2 wide, 0.9 high, 0.6 deep, front +z; a drawer (slides out along +z, 0..0.4 m) under the top,
 # a fixed divider and lower front close the compartment below it. Its centre of mass is off the vertical through the
-# root link's origin, so the instance rotation moves it.
-COUNTER_COM = (0.1, 0.45, -0.05)
+# root link's origin, so the instance rotation moves it. Written Z up, as ReplicaCAD's own URDFs are (their scene
+# instances turn them upright with a rotation of -90 degrees about +X): a Y-up point (x, y, z) is (x, -z, y) here.
+
+
+def _zup(size: tuple[float, float, float], centre: tuple[float, float, float], rgba: str = "0.8 0.8 0.8 1") -> str:
+    """Return `_box` of a Y-up box written in a Z-up link frame."""
+    return _box((size[0], size[2], size[1]), (centre[0], -centre[2], centre[1]), rgba)
+
+
+COUNTER_COM = (0.1, 0.05, 0.45)  # Z-up: 0.45 m up, 0.05 m behind the root link's origin, 0.1 m to the side
 COUNTER = {
     "name": "kitchen_counter",
     "urdf": f"""<?xml version="1.0"?>
@@ -77,26 +86,26 @@ COUNTER = {
   <link name="carcass">
     <inertial><origin xyz="{COUNTER_COM[0]} {COUNTER_COM[1]} {COUNTER_COM[2]}"/><mass value="80"/>
       <inertia ixx="10" ixy="0" ixz="0" iyy="10" iyz="0" izz="10"/></inertial>
-    {_box((1.2, 0.05, 0.6), (0, 0.025, 0))}
-    {_box((1.24, 0.05, 0.64), (0, 0.875, 0.01), "0.3 0.3 0.3 1")}
-    {_box((0.05, 0.8, 0.6), (-0.575, 0.45, 0))}
-    {_box((0.05, 0.8, 0.6), (0.575, 0.45, 0))}
-    {_box((1.1, 0.8, 0.05), (0, 0.45, -0.275))}
-    {_box((1.1, 0.03, 0.55), (0, 0.415, 0.0))}
-    {_box((1.1, 0.38, 0.03), (0, 0.24, 0.285))}
+    {_zup((1.2, 0.05, 0.6), (0, 0.025, 0))}
+    {_zup((1.24, 0.05, 0.64), (0, 0.875, 0.01), "0.3 0.3 0.3 1")}
+    {_zup((0.05, 0.8, 0.6), (-0.575, 0.45, 0))}
+    {_zup((0.05, 0.8, 0.6), (0.575, 0.45, 0))}
+    {_zup((1.1, 0.8, 0.05), (0, 0.45, -0.275))}
+    {_zup((1.1, 0.03, 0.55), (0, 0.415, 0.0))}
+    {_zup((1.1, 0.38, 0.03), (0, 0.24, 0.285))}
   </link>
   <link name="drawer">
-    <inertial><origin xyz="0 0.6 0"/><mass value="4"/>
+    <inertial><origin xyz="0 0 0.6"/><mass value="4"/>
       <inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial>
-    {_box((1.06, 0.02, 0.5), (0, 0.45, 0.0))}
-    {_box((1.1, 0.38, 0.03), (0, 0.63, 0.285), "0.7 0.5 0.3 1")}
-    {_box((0.02, 0.2, 0.5), (-0.52, 0.55, 0.0))}
-    {_box((0.02, 0.2, 0.5), (0.52, 0.55, 0.0))}
-    {_box((1.06, 0.2, 0.02), (0, 0.55, -0.24))}
+    {_zup((1.06, 0.02, 0.5), (0, 0.45, 0.0))}
+    {_zup((1.1, 0.38, 0.03), (0, 0.63, 0.285), "0.7 0.5 0.3 1")}
+    {_zup((0.02, 0.2, 0.5), (-0.52, 0.55, 0.0))}
+    {_zup((0.02, 0.2, 0.5), (0.52, 0.55, 0.0))}
+    {_zup((1.06, 0.2, 0.02), (0, 0.55, -0.24))}
   </link>
   <joint name="drawer_slide" type="prismatic">
     <parent link="carcass"/><child link="drawer"/>
-    <origin xyz="0 0 0"/><axis xyz="0 0 1"/>
+    <origin xyz="0 0 0"/><axis xyz="0 -1 0"/>
     <limit lower="0" upper="0.4" effort="50" velocity="1"/>
   </joint>
 </robot>
@@ -129,14 +138,29 @@ def _floor_points() -> dict[str, np.ndarray]:
             "kitchen_counter": np.array([x0 - WALL / 2 - 0.32 * COUNTER_SCALE - 0.03, 0.0, 0.6])}
 
 
+def _rotation(name: str) -> tuple[np.ndarray, list[float]]:
+    """Return a piece's instance rotation (matrix, wxyz): about +Y; the Z-up counter first -90 degrees about +X."""
+    if name == "fridge":
+        return _rot_y(FRIDGE_YAW), _quat_y(FRIDGE_YAW)
+    h = math.radians(-90.0) / 2
+    qx = np.array([math.cos(h), math.sin(h), 0.0, 0.0])
+    qy = np.asarray(_quat_y(COUNTER_YAW))
+    w1, x1, y1, z1 = qy  # q = q_y * q_x (Hamilton product)
+    w2, x2, y2, z2 = qx
+    q = [w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+         w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2]
+    c, s = math.cos(math.radians(-90.0)), math.sin(math.radians(-90.0))
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    return _rot_y(COUNTER_YAW) @ Rx, [float(v) for v in q]
+
+
 def _instance(name: str) -> dict:
     """Return the scene instance entry of a piece: its COM as translation (ReplicaCAD style)."""
-    yaw, scale, com = ((FRIDGE_YAW, FRIDGE_SCALE, FRIDGE_COM) if name == "fridge"
-                       else (COUNTER_YAW, COUNTER_SCALE, COUNTER_COM))
-    t = _floor_points()[name] + _rot_y(yaw) @ (np.asarray(com) * scale)
+    scale, com = (FRIDGE_SCALE, FRIDGE_COM) if name == "fridge" else (COUNTER_SCALE, COUNTER_COM)
+    R, q = _rotation(name)
+    t = _floor_points()[name] + R @ (np.asarray(com) * scale)
     return {"template_name": name, "fixed_base": True, "auto_clamp_joint_limits": True, "translation_origin": "COM",
-            "motion_type": "DYNAMIC", "translation": [float(v) for v in t], "rotation": _quat_y(yaw),
-            "uniform_scale": scale}
+            "motion_type": "DYNAMIC", "translation": [float(v) for v in t], "rotation": q, "uniform_scale": scale}
 
 
 def expected_root(name: str) -> np.ndarray:
@@ -145,7 +169,7 @@ def expected_root(name: str) -> np.ndarray:
     inst = _instance(name)
     com = FRIDGE_COM if name == "fridge" else COUNTER_COM
     T = np.eye(4)
-    T[:3, :3] = _rot_y(FRIDGE_YAW if name == "fridge" else COUNTER_YAW)
+    T[:3, :3] = _rotation(name)[0]
     T[:3, 3] = inst["translation"]
     Ti = np.eye(4)
     Ti[:3, 3] = np.asarray(com) * inst["uniform_scale"]
