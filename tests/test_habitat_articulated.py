@@ -231,6 +231,16 @@ def test_variant_holds_both_pieces_objects_on_and_inside_and_a_kitchen(run) -> N
         if pl.part is None:
             on_top |= {iid for iid, h in tops.items() if abs(pl.height - h) < 0.04}
     assert on_top == set(tops), (on_top, tops)  # and on the fridge's and the counter's tops
+    # episodes: a goal inside a piece names the part to open, or none when it shows with the variant's state
+    episodes = json.loads((root / VARIANT).with_name("episodes.json").read_text())
+    assert episodes
+    where = {p.object_id: p.part for p in v.placements}
+    for e in episodes:
+        for g in e["goals"]:
+            assert g.get("open_part") in (None, where[g["object_id"]]), g
+            if g.get("open_part"):
+                j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, g["open_part"])
+                assert v.articulation[g["open_part"]] < model.jnt_range[j][1], g  # hidden: its part is not open
 
 
 @pytest.mark.slow
