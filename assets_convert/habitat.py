@@ -968,7 +968,8 @@ def _scene_unused(doc: dict[str, Any], scene: Path, reg: "_Registry") -> list[st
     out = []
     light = doc.get("default_lighting")
     if light not in (None, "", "no_lights"):
-        sec = reg.ds.doc.get("light_setups") or {}
+        sec = reg.ds.doc.get("light_setups")
+        sec = sec if isinstance(sec, dict) else {}
         handles = [f.name for f in reg.files("light_setups", ".lighting_config.json")] + \
             [str(c.get("template_handle", "")) for c in (sec.get("configs") or []) if isinstance(c, dict)]
         setups = [h for h in handles if str(light) in h]
