@@ -141,10 +141,9 @@ def _empty_scene_warning(run_root: str, name: str, sc: dict) -> str:
     if placed:
         from ..episodes import farthest_starts
 
-        navmaps = view.navmaps(name)
-        farthest = {}
-        for v in variants:
-            for cat, d in farthest_starts(v, navmaps, run_root, cfg.episodes, cfg.agent).items():
-                farthest[cat] = max(farthest.get(cat, 0.0), d)
+        # one variant with resting objects tells (its goals' view points take a visibility render each; the
+        # variants of one scene share its floor, and a floor too small for one is too small for all)
+        one = next((v for v in variants if any(p.status == "resting" for p in v.placements)), None)
+        farthest = farthest_starts(one, view.navmaps(name), run_root, cfg.episodes, cfg.agent) if one else None
     return hints.no_episodes(name, placed, int(sc.get("receptacle_planes", 0)), farthest,
                              cfg.episodes.min_start_distance, [n for v in variants for n in v.notes])
