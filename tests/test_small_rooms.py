@@ -46,6 +46,7 @@ def _run(run: Path, room: Path, sets: list[str]):
     return generate(run, load_config(None, SMALL + sets), scenes=[str(room)], progress=False)
 
 
+@pytest.mark.slow
 def test_a_small_cluttered_room_follows_its_hints_to_episodes(tmp_path: Path) -> None:
     room = write_small_room(tmp_path / "small_room.glb", size=2.0, labels=LABELS)
     run = tmp_path / "run"
