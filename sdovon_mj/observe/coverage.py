@@ -13,7 +13,7 @@ in the paper.
 
 On a small or cluttered floor the goal can be out of reach: the footprint is zero inside r_min,
 so cells that lie within r_min of every spot the draw favours (the uncovered ones) are never
-covered, and the draw keeps landing on them. Two rules stop the weighted sampler there (`stall`):
+covered, and the draw keeps landing on them. Two rules stop the weighted sampler there (`_stalled`):
 it stops when ``coverage_patience`` view points in a row add together less than
 ``coverage_min_gain`` of the goal, and it never accepts more than ``max_viewpoints_per_disc`` view
 points per disc of radius r_max that the navigable area would fill (`viewpoint_bound`). The stats
