@@ -87,7 +87,7 @@ class MeshConverter:
         failures: dict[str, str] = {}
         with tempfile.TemporaryDirectory(prefix="sdovon-objects-") as scratch:
             report = convert_tree([p for p, _c in items], scratch, jobs=cfg.jobs, timeout=cfg.timeout_s,
-                                  progress=False, config=cfg, categories={str(p): c for p, c in items if c})
+                                  progress=None, config=cfg, categories={str(p): c for p, c in items if c})
             rows = {r["file"]: r for r in report["items"]}
             for r in report["items"]:  # a multi-part object (assets.yaml) answers for each of its part files
                 rows.update({part: r for part in r.get("parts", [])})

@@ -11,13 +11,13 @@ from __future__ import annotations
 import functools
 import multiprocessing as mp
 import os
-import sys
 import time
 from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any, Iterable
 
 from sdovon_mj.config import ConvertConfig
+from sdovon_mj.progress import Progress
 from sdovon_mj.records import dumps
 from sdovon_mj.store import atomic_write_text
 
@@ -293,7 +293,7 @@ class _Worker:
 
 
 def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path, kind: str = "object",
-                 jobs: int = 0, timeout: float | None = None, progress: bool = True,
+                 jobs: int = 0, timeout: float | None = None, progress: bool | None = True,
                  config: ConvertConfig | None = None, cache_dir: str | Path | None = None,
                  categories: dict[str, str] | None = None) -> dict[str, Any]:
     """Convert every mesh under `inputs` in a process pool; write and return the batch report.
@@ -310,8 +310,10 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
         Worker processes (0: the config's, else the CPU count).
     timeout : float, optional
         Seconds allowed per item (default: the config's).
-    progress : bool
-        Show a progress bar.
+    progress : bool, optional
+        Show progress (`sdovon_mj.progress.Progress`: a bar on a terminal, else a line per ~10 % with the items done
+        of total and an ETA) and each failure as it happens; None: progress only, unless an enclosing bar is quiet
+        (``generate --quiet``); False: nothing.
     config : ConvertConfig, optional
         Conversion settings (default: ``ConvertConfig()``).
     cache_dir : str or Path, optional
@@ -355,56 +357,49 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
         _tell_apart(tasks)
     rows: dict[int, dict[str, Any]] = {}
     t_start = time.perf_counter()
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(tasks), desc=f"convert {kind}s", unit=kind, file=sys.stderr)
-    ctx = mp.get_context("spawn")
-    workers = [_Worker(ctx) for _ in range(min(jobs, len(tasks)))]
-    pending = list(enumerate(tasks))
-    busy: dict[int, tuple[_Worker, int]] = {}
-    try:
-        while pending or busy:
-            for w in workers:
-                if w.task is None and pending:
-                    idx, task = pending.pop(0)
-                    w.submit(task)
-                    busy[id(w)] = (w, idx)
-            ready = wait([w.conn for w, _ in busy.values()], timeout=0.2)
-            now = time.perf_counter()
-            for wid, (w, idx) in list(busy.items()):
-                row = None
-                if w.conn in ready:
-                    try:
-                        row = w.conn.recv()
-                        if row == STARTED:
-                            w.t0, w.started = now, True
-                            continue
-                    except (EOFError, OSError):
+    with Progress(total=len(tasks), desc=f"convert {kind}s", enabled=progress) as bar:
+        ctx = mp.get_context("spawn")
+        workers = [_Worker(ctx) for _ in range(min(jobs, len(tasks)))]
+        pending = list(enumerate(tasks))
+        busy: dict[int, tuple[_Worker, int]] = {}
+        try:
+            while pending or busy:
+                for w in workers:
+                    if w.task is None and pending:
+                        idx, task = pending.pop(0)
+                        w.submit(task)
+                        busy[id(w)] = (w, idx)
+                ready = wait([w.conn for w, _ in busy.values()], timeout=0.2)
+                now = time.perf_counter()
+                for wid, (w, idx) in list(busy.items()):
+                    row = None
+                    if w.conn in ready:
+                        try:
+                            row = w.conn.recv()
+                            if row == STARTED:
+                                w.t0, w.started = now, True
+                                continue
+                        except (EOFError, OSError):
+                            row = {"file": tasks[idx]["display"], "status": "error",
+                                   "error": f"worker crashed (exit code {w.proc.exitcode})", "seconds": round(now - w.t0, 3)}
+                    elif now - w.t0 > timeout + (0.0 if w.started else STARTUP_GRACE_S):
                         row = {"file": tasks[idx]["display"], "status": "error",
-                               "error": f"worker crashed (exit code {w.proc.exitcode})", "seconds": round(now - w.t0, 3)}
-                elif now - w.t0 > timeout + (0.0 if w.started else STARTUP_GRACE_S):
-                    row = {"file": tasks[idx]["display"], "status": "error",
-                           "error": f"timeout: conversion took longer than {timeout:g} s", "seconds": round(now - w.t0, 3)}
-                if row is None:
-                    continue
-                rows[idx] = row
-                del busy[wid]
-                if row["status"] == "error" and (not w.proc.is_alive() or row["error"].startswith(("timeout", "worker crashed"))):
-                    w.kill()
-                    workers[workers.index(w)] = _Worker(ctx)
-                else:
-                    w.task = None
-                if bar is not None:
-                    bar.update(1)
-                    if row["status"] == "error":
+                               "error": f"timeout: conversion took longer than {timeout:g} s", "seconds": round(now - w.t0, 3)}
+                    if row is None:
+                        continue
+                    rows[idx] = row
+                    del busy[wid]
+                    if row["status"] == "error" and (not w.proc.is_alive() or row["error"].startswith(("timeout", "worker crashed"))):
+                        w.kill()
+                        workers[workers.index(w)] = _Worker(ctx)
+                    else:
+                        w.task = None
+                    bar.update(1, "/".join(Path(row["file"]).parts[-2:]))  # e.g. mug_0/model.obj
+                    if row["status"] == "error" and progress:  # None: the caller reports failures itself
                         bar.write(f"convert: {row['file']}: {row['error']}")
-    finally:
-        for w in workers:
-            w.stop()
-        if bar is not None:
-            bar.close()
+        finally:
+            for w in workers:
+                w.stop()
     items = [rows[i] for i in range(len(tasks))]
     report = {"kind": kind, "out_dir": str(out_dir), "count": len(items),
               "ok": sum(r["status"] == "ok" for r in items), "failed": sum(r["status"] != "ok" for r in items),

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import re
 import shutil
+import sys
 from dataclasses import dataclass, field, is_dataclass
 from functools import cached_property
 from pathlib import Path
@@ -52,6 +53,7 @@ class StageContext:
     scene: str = ""
     variant: int = -1
     fmt: str = ""
+    notes: list[str] = field(default_factory=list)  # lines a stage logs; `run_stage` hands them to the task's result
 
     @property
     def view(self) -> RunView:
@@ -138,7 +140,15 @@ def run_stage(name: str, ctx: StageContext, runner: Any) -> bool:
     stage = STAGES[name]
     if not stage.applies(ctx):
         return False
-    return runner.run(ctx.key(name), stage_fingerprint(stage, ctx), lambda: stage.make(ctx))
+    ran = runner.run(ctx.key(name), stage_fingerprint(stage, ctx), lambda: stage.make(ctx))
+    if ctx.notes:  # the task's notes are printed by `generate` as the task ends
+        result = getattr(runner, "result", None)
+        if result is not None:
+            result.notes.extend(f"{name}: {n}" for n in ctx.notes)
+        else:
+            print("\n".join(f"note: {name}: {n}" for n in ctx.notes), file=sys.stderr)
+        ctx.notes.clear()
+    return ran
 
 
 def closure(names: list[str] | tuple[str, ...]) -> list[str]:
@@ -405,6 +415,7 @@ def _observe(ctx: StageContext) -> list[str]:
 
     summary = observe_scene(ctx.view.scene(ctx.scene), ctx.store.root, ctx.key("observe"), ctx.cfg.observe,
                             seed=ctx.scene_seed, agent=ctx.cfg.agent)
+    ctx.notes.extend(summary["log"])
     return list(summary["outputs"])
 
 

@@ -107,3 +107,29 @@ def test_generate_and_convert_give_an_object_one_category(tmp_path):
     stages.run_task(store, cfg, StageRunner(store, TaskResult(TaskSpec(kind="objects", run_root=str(store.root)),
                                                               ok=True)), "run")
     assert [a.category for a in load_json(store.path("objects/objects.json"), ObjectAsset)] == ["StorageFurniture"]
+
+
+def test_the_library_conversion_shows_objects_done_of_total_with_an_eta(tmp_path, capfd):
+    """The objects task prints a progress line per object here (three objects: every one is a tenth or more), the
+    last one done of total; the lines before it carry an ETA. Inside a quiet bar (``generate --quiet``) it is silent."""
+    from sdovon_mj.progress import Progress
+
+    lib = tmp_path / "lib"
+    for k, ext in enumerate(((0.1, 0.08, 0.05), (0.06, 0.06, 0.12), (0.2, 0.1, 0.02))):
+        p = lib / f"box{k}" / "model.obj"
+        p.parent.mkdir(parents=True)
+        p.write_text(trimesh.creation.box(extents=ext).export(file_type="obj"))
+    cfg = RunConfig(convert=ConvertConfig(jobs=1))
+    for run, quiet in (("run", False), ("quiet", True)):
+        store = prepare_run(tmp_path / run, cfg, None, [str(lib)])
+        capfd.readouterr()
+        with Progress(1, enabled=False if quiet else None):
+            stages.run_task(store, cfg, StageRunner(store, TaskResult(TaskSpec(kind="objects", run_root=str(store.root)),
+                                                                      ok=True)), "run")
+        lines = [ln for ln in capfd.readouterr().err.splitlines() if ln.startswith("[convert objects]")]
+        if quiet:
+            assert lines == []
+            continue
+        assert [ln.split()[2] for ln in lines] == ["1/3", "2/3", "3/3"], lines
+        assert all("ETA" in ln for ln in lines[:-1]) and "ETA" not in lines[-1], lines
+        assert sorted(ln.split(")")[-1].strip() for ln in lines) == [f"box{k}/model.obj" for k in range(3)], lines

@@ -92,12 +92,12 @@ def unused_input_warnings(run_root: str) -> list[str]:
 
 
 def empty_warnings(run_root: str, failed: set[str] | None = None) -> list[str]:
-    """Return one line per scene of a finished run that yielded no episode, saying whether it found no receptacle plane.
-
-    A last line says so when the whole run has no episode.
+    """Return one line per scene of a finished run that yielded no episode, with what to set to get some
+    (`sdovon_mj.hints`: no receptacle plane, no episode); a last line says so when the whole run has no episode.
 
     A scene whose tasks failed is left out (its failure is reported already).
     """
+    from .. import hints
     from ..stats import dataset_statistics
 
     st = dataset_statistics(run_root)
@@ -108,14 +108,42 @@ def empty_warnings(run_root: str, failed: set[str] | None = None) -> list[str]:
             continue
         if sc.get("episodes", 0) > 0:
             continue
-        if sc.get("receptacle_planes", 0) == 0:
-            out.append(f"scene {name}: no receptacle plane found ({sc.get('instances', 0)} instances): nothing can be "
-                       "placed; check the instance labels against receptacles.labels, or set receptacles.labels=[] "
-                       "to let the semantics backend name them")
-        else:
-            out.append(f"scene {name}: 0 episodes ({sc.get('placed_objects', 0)} objects resting on "
-                       f"{sc.get('receptacle_planes', 0)} receptacle planes)")
+        out.append(_empty_scene_warning(run_root, name, sc))
     total = sum(sc.get("episodes", 0) for sc in st.get("scenes", []))
     if st.get("scenes") and total == 0:
-        out.append("the run has 0 episodes")
+        out.append(hints.empty_run(len(st["scenes"]), sum("--set " in line for line in out)))
     return out
+
+
+def _empty_scene_warning(run_root: str, name: str, sc: dict) -> str:
+    """Return the warning of one scene without episodes (`empty_warnings`), from the scene's own figures: the labels
+    of the instances perception fused (or the scene's own), the place stage's notes, the farthest start."""
+    from pathlib import Path
+
+    from .. import hints
+    from ..receptacles.identify import is_receptacle
+    from ..records import Instance, load_npz
+    from ..runview import RunView
+
+    view = RunView(run_root)
+    cfg = view.config()
+    if sc.get("receptacle_planes", 0) == 0:
+        fused = Path(run_root) / "scenes" / name / "perceive" / "instances.npz"
+        if fused.is_file():
+            labels = [r.label for r in load_npz(fused) if isinstance(r, Instance)]
+        else:  # perception did not run: the scene's own instances
+            labels = [i.label for i in view.scene(name).instances]
+        matched = sum(is_receptacle(lb, cfg.receptacles.labels) for lb in labels)
+        return hints.no_receptacle_plane(name, labels, cfg.receptacles.labels, matched)
+    variants = view.variants(name)
+    placed = int(sc.get("placed_objects", 0))
+    farthest = None
+    if placed:
+        from ..episodes import farthest_starts
+
+        # one variant with resting objects tells (its goals' view points take a visibility render each; the
+        # variants of one scene share its floor, and a floor too small for one is too small for all)
+        one = next((v for v in variants if any(p.status == "resting" for p in v.placements)), None)
+        farthest = farthest_starts(one, view.navmaps(name), run_root, cfg.episodes, cfg.agent) if one else None
+    return hints.no_episodes(name, placed, int(sc.get("receptacle_planes", 0)), farthest,
+                             cfg.episodes.min_start_distance, [n for v in variants for n in v.notes])

@@ -183,6 +183,31 @@ def generate_episodes_with_report(variant: SceneVariant, navmaps: list[NavMap], 
     return episodes, report
 
 
+def farthest_starts(variant: SceneVariant, navmaps: list[NavMap], store_root: str | Path, cfg: EpisodeConfig,
+                    agent: AgentConfig = AgentConfig()) -> dict[str, float]:
+    """Return, per goal category of a variant, the farthest start an episode could draw: the largest geodesic
+    distance (m) from a navigable cell of a goal's floor to the category's nearest view point there (an empty dict
+    when no placed object is a goal). Below ``min_start_distance`` for every category, the variant has no episode.
+
+    Parameters
+    ----------
+    variant, navmaps, store_root, cfg, agent : as in `generate_episodes_with_report`
+    """
+    goals, floors, _report = build_goals(variant, navmaps, store_root, cfg, agent)
+    by_floor = {m.floor: m for m in navmaps}
+    groups: dict[tuple[str, int], list[Goal]] = {}
+    for g in goals:
+        groups.setdefault((g.category, floors[g.object_id]), []).append(g)
+    out: dict[str, float] = {}
+    for (cat, fl), gs in sorted(groups.items()):
+        nm = by_floor[fl]
+        dist = GeodesicField(nm.navigable, nm.frame, np.concatenate([_vp_xy(g) for g in gs])).field
+        reach = dist[np.isfinite(dist)]
+        if reach.size:
+            out[cat] = max(out.get(cat, 0.0), float(reach.max()))
+    return out
+
+
 def _vp_xy(goal: Goal) -> np.ndarray:
     """Return the world XY of a goal's view points (N, 2)."""
     return np.array([vp.position[:2] for vp in goal.view_points], dtype=float)

@@ -11,12 +11,23 @@ Sampling stops when the fraction of navigable cells with M_P >= eps_p_obs reache
 ``coverage_threshold`` or after ``max_iterations`` candidate draws. Coverage ignores occlusion, as
 in the paper.
 
+On a small or cluttered floor the goal can be out of reach: the footprint is zero inside r_min,
+so cells that lie within r_min of every spot the draw favours (the uncovered ones) are never
+covered, and the draw keeps landing on them. Two rules stop the weighted sampler there (`_stalled`):
+it stops when ``coverage_patience`` view points in a row add together less than
+``coverage_min_gain`` of the goal, and it never accepts more than ``max_viewpoints_per_disc`` view
+points per disc of radius r_max that the navigable area would fill (`viewpoint_bound`). The stats
+say why sampling stopped (``CoverageStats.stopped``).
+
 ``uniform_viewpoints`` draws candidates uniformly over navigable cells with the same rejection,
-the same M_P bookkeeping and the same stop rule: the baseline the coverage sampler must beat.
+the same M_P bookkeeping and the same goal: the baseline the coverage sampler must beat. The two
+stall rules do not apply to it (its draws land on covered cells by design; ``max_iterations``
+bounds it).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,9 +38,17 @@ from ..records import CoverageView, NavMap
 from .navmap import clearance
 
 
+# Why sampling stopped (`CoverageStats.stopped`).
+STOP_GOAL = "goal"  # coverage reached coverage_threshold
+STOP_NO_GAIN = "no_gain"  # coverage_patience view points in a row added less than coverage_min_gain of the goal
+STOP_BOUND = "viewpoint_bound"  # max_viewpoints_per_disc view points per r_max disc of navigable area
+STOP_DRAWS = "max_iterations"  # max_iterations candidate draws
+STOP_EMPTY = "no_weight"  # every navigable cell fully observed (M_P = 1) without reaching the goal
+
+
 @dataclass
 class CoverageStats:
-    """What a sampling run did: draws, accepted/rejected points, final coverage."""
+    """What a sampling run did: draws, accepted/rejected points, final coverage, why it stopped."""
 
     iterations: int = 0
     accepted: int = 0
@@ -37,12 +56,40 @@ class CoverageStats:
     coverage: float = 0.0
     reached: bool = False
     history: list[float] = field(default_factory=list)  # coverage after each accepted point
+    stopped: str = ""  # STOP_* (why sampling stopped)
+    bound: int = 0  # the most view points the floor's area allows (0: no bound)
 
     def to_dict(self) -> dict:
-        """Return the stats as plain JSON-able data."""
-        return {"iterations": self.iterations, "accepted": self.accepted, "rejected_obstacle": self.rejected_obstacle,
-                "coverage": round(self.coverage, 6), "reached": self.reached,
-                "history": [round(h, 6) for h in self.history]}
+        """Return the stats as plain JSON-able data (why it stopped only when the goal was not reached, so the
+        records of floors that reach it keep their bytes)."""
+        out = {"iterations": self.iterations, "accepted": self.accepted, "rejected_obstacle": self.rejected_obstacle,
+               "coverage": round(self.coverage, 6), "reached": self.reached,
+               "history": [round(h, 6) for h in self.history]}
+        if not self.reached:
+            out.update(stopped=self.stopped, viewpoint_bound=self.bound)
+        return out
+
+    def describe(self, goal: float) -> str:
+        """Return one line: the coverage reached against the goal, the view points, and why sampling stopped."""
+        why = {STOP_GOAL: "goal reached",
+               STOP_NO_GAIN: "stopped: the last view points added almost nothing (observe.coverage_min_gain)",
+               STOP_BOUND: f"stopped at the floor's bound of {self.bound} view points (observe.max_viewpoints_per_disc)",
+               STOP_DRAWS: f"stopped after {self.iterations} candidate draws (observe.max_iterations)",
+               STOP_EMPTY: "stopped: every navigable cell is fully observed"}.get(self.stopped, self.stopped)
+        return f"coverage {self.coverage:.3f} of goal {goal:g} with {self.accepted} view points ({why})"
+
+
+def viewpoint_bound(navmap: NavMap, cfg: ObserveConfig) -> int:
+    """Return the most view points the weighted sampler accepts on a floor (0: no bound).
+
+    ``max_viewpoints_per_disc`` view points per disc of radius r_max (where a view point's Gaussian is >= 0.61)
+    that the navigable area would fill, rounded up to whole discs: the bound grows with the floor's area.
+    """
+    if cfg.max_viewpoints_per_disc <= 0:
+        return 0
+    area = float(np.count_nonzero(navmap.navigable)) * navmap.resolution ** 2
+    discs = max(1, math.ceil(area / (math.pi * cfg.r_max ** 2)))
+    return max(1, math.ceil(cfg.max_viewpoints_per_disc * discs))
 
 
 def gaussian_footprint(navmap: NavMap, xy: np.ndarray, cfg: ObserveConfig) -> tuple[tuple[slice, slice], np.ndarray]:
@@ -93,11 +140,15 @@ def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | li
     stats = CoverageStats()
     points: list[CoverageView] = []
     z = float(navmap.height) + float(agent.camera_height)
+    stats.bound = viewpoint_bound(navmap, cfg) if weighted else 0
+    min_gain = cfg.coverage_min_gain * cfg.coverage_threshold  # as a fraction of the navigable cells
+    stats.stopped = STOP_DRAWS
     while stats.iterations < cfg.max_iterations:
         if weighted:
             wgt = 1.0 - mp[cells[:, 0], cells[:, 1]]
             total = wgt.sum()
             if total <= 0:
+                stats.stopped = STOP_EMPTY
                 break
             k = int(rng.choice(len(cells), p=wgt / total))
         else:
@@ -113,9 +164,23 @@ def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | li
         stats.coverage = coverage_fraction(mp, navmap, cfg)
         stats.history.append(stats.coverage)
         if stats.coverage >= cfg.coverage_threshold:
-            stats.reached = True
+            stats.reached, stats.stopped = True, STOP_GOAL
+            break
+        if weighted and _stalled(stats.history, cfg.coverage_patience, min_gain):
+            stats.stopped = STOP_NO_GAIN
+            break
+        if stats.bound and stats.accepted >= stats.bound:
+            stats.stopped = STOP_BOUND
             break
     return points, mp, stats
+
+
+def _stalled(history: list[float], patience: int, min_gain: float) -> bool:
+    """Return whether the last `patience` accepted view points added together less than `min_gain` coverage."""
+    h = [0.0] + list(history)
+    if patience <= 0 or len(h) <= patience:
+        return False
+    return h[-1] - h[-1 - patience] < min_gain
 
 
 def coverage_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0,

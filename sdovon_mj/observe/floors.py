@@ -35,6 +35,16 @@ MIN_WALL_AREA = 1.0  # m^2 of vertical surface above a higher floor candidate
 BIN = 0.01  # m: histogram bin of the height clustering
 
 
+class NoFloorFound(StageError):
+    """A scene mesh with no storey; `largest_m2` is its largest upward-facing area at one height (None: none) and
+    `above_m` how far that area lies above the mesh's lowest point."""
+
+    def __init__(self, message: str, largest_m2: float | None, above_m: float = 0.0) -> None:
+        super().__init__(message)
+        self.largest_m2 = largest_m2
+        self.above_m = above_m
+
+
 def face_geometry(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return per-face unit normals (M, 3), areas (M,) and centroids (M, 3)."""
     v = np.asarray(vertices, dtype=np.float64)
@@ -88,14 +98,14 @@ def find_floors(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveConfig, age
     normal, area, centre = face_geometry(v, f)
     up = normal[:, 2] >= UP_COS
     if not up.any() or area[up].sum() <= 0:
-        raise StageError("no floor found: the scene mesh has no upward-facing surface")
+        raise NoFloorFound("no floor found: the scene mesh has no upward-facing surface", None)
     tol = float(cfg.floor_cluster_tol)
     peaks = _peaks(centre[up, 2], area[up], tol)
     cands = sorted((h, a) for h, a in peaks if a >= cfg.min_floor_area)
     if not cands:
-        best = max(a for _h, a in peaks)
-        raise StageError(f"no floor found: the largest horizontal upward-facing area at one height is {best:.2f} m^2, "
-                         f"below min_floor_area {cfg.min_floor_area} m^2")
+        top, best = max(peaks, key=lambda p: p[1])
+        raise NoFloorFound(f"no floor found: the largest horizontal upward-facing area at one height is {best:.2f} m^2, "
+                           f"below min_floor_area {cfg.min_floor_area} m^2", best, float(top - v[:, 2].min()))
     vertical = np.abs(normal[:, 2]) < 0.3
     down = normal[:, 2] <= -UP_COS
     floors: list[Floor] = []

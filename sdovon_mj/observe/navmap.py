@@ -27,6 +27,7 @@ from ..config import AgentConfig, ObserveConfig
 from ..grid import GridFrame
 from ..raycast import first_hits
 from ..errors import StageError
+from ..hints import FloorFigures
 from ..records import Floor, NavMap
 from ..store import atomic_write_bytes
 from .floors import UP_COS, face_geometry
@@ -37,6 +38,14 @@ _SHIFT = 4  # cv2 sub-pixel bits
 
 class OffFloorError(StageError, ValueError):
     """A point that lies on no floor's free area."""
+
+
+class NoNavigableArea(StageError):
+    """A floor with no navigable area; `figures` say how close it came (`sdovon_mj.hints.FloorFigures`)."""
+
+    def __init__(self, message: str, figures: FloorFigures) -> None:
+        super().__init__(message)
+        self.figures = figures
 
 
 def obstacle_band(floor: Floor, cfg: ObserveConfig, agent: AgentConfig = AgentConfig()) -> tuple[float, float]:
@@ -232,10 +241,16 @@ def navigable_map(vertices: np.ndarray, faces: np.ndarray, floor: Floor, cfg: Ob
     keep[1:] = stats[1:, cv2.CC_STAT_AREA] >= min_cells
     navigable = keep[labels]
     if not navigable.any():
-        raise StageError(
-            f"floor {floor.index} at z={floor.height:.3f} m: no navigable area (floor {present.sum() * res * res:.2f} m^2, "
-            f"free {free.sum() * res * res:.2f} m^2, after eroding by {agent.radius} m "
-            f"{nav.sum() * res * res:.2f} m^2, no component >= {cfg.min_component_area} m^2)")
+        a = res * res
+        fig = FloorFigures(floor=floor.index, floor_m2=float(present.sum()) * a, free_m2=float(free.sum()) * a,
+                           eroded_m2=float(nav.sum()) * a,
+                           largest_m2=float(stats[1:, cv2.CC_STAT_AREA].max()) * a if n > 1 else 0.0,
+                           widest_m=float(clearance(free, res).max()) if free.any() else 0.0,
+                           below_m=float(floor.height - np.asarray(vertices, dtype=np.float64)[:, 2].min()))
+        raise NoNavigableArea(
+            f"floor {floor.index} at z={floor.height:.3f} m: no navigable area (floor {fig.floor_m2:.2f} m^2, "
+            f"free {fig.free_m2:.2f} m^2, after eroding by {agent.radius} m {fig.eroded_m2:.2f} m^2, largest component "
+            f"{fig.largest_m2:.2f} m^2, none >= {cfg.min_component_area} m^2)", fig)
     return NavMap(floor=floor.index, height=float(floor.height), origin=np.asarray(origin, dtype=np.float64),
                   resolution=res, navigable=navigable, free=free)
 

@@ -15,19 +15,17 @@ from typing import Any
 
 import numpy as np
 
+from .. import hints
 from ..config import AgentConfig, ObserveConfig
 from ..errors import InputError, StageError
 from ..records import CoverageView, NavMap, SceneAsset, dumps, save_json
 from ..sim.model import load_scene_mesh
 from ..store import atomic_write_text
 from .coverage import coverage_viewpoints
-from .floors import find_floors
+from .floors import NoFloorFound, find_floors
 from .io import save_shards
-from .navmap import navigable_map, navmap_image, save_png
+from .navmap import NoNavigableArea, navigable_map, navmap_image, save_png
 from .render_views import load_model, render_observations, view_angles
-
-NO_FLOOR_HINT = ("; a scene modelled without a floor can get one: --set convert.add_floor=true adds a ground slab "
-                 "under its footprint")
 
 
 def load_mesh(scene: SceneAsset, store_root: str | Path) -> tuple[Path, np.ndarray, np.ndarray, np.ndarray]:
@@ -64,17 +62,24 @@ def scene_floors_and_maps(vertices: np.ndarray, faces: np.ndarray, cfg: ObserveC
     """
     try:
         floors = find_floors(vertices, faces, cfg, agent)
+    except NoFloorFound as e:
+        raise InputError(source, f"{e}; {hints.no_floor(e.largest_m2, cfg.min_floor_area, e.above_m)}") from None
     except StageError as e:
-        raise InputError(source, str(e) + NO_FLOOR_HINT) from None
+        raise InputError(source, str(e)) from None
     maps: list[NavMap] = []
     skipped: dict[int, str] = {}
+    figures = []
     for fl in floors:
         try:
             maps.append(navigable_map(vertices, faces, fl, cfg, agent))
+        except NoNavigableArea as e:
+            skipped[fl.index] = str(e)
+            figures.append(e.figures)
         except StageError as e:
             skipped[fl.index] = str(e)
     if not maps:
-        raise InputError(source, "no floor has navigable area: " + "; ".join(skipped.values()) + NO_FLOOR_HINT)
+        hint = hints.no_navigable_area(figures, cfg.min_component_area, agent.radius)
+        raise InputError(source, "no floor has navigable area: " + "; ".join(skipped.values()) + (f"; {hint}" if hint else ""))
     return floors, maps, skipped
 
 
@@ -119,6 +124,7 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
     save_json(floors, root / _p("floors.json"))
     viewpoints: list[CoverageView] = []
     per_floor = []
+    log = []
     for nm in maps:
         vps, mp, stats = coverage_viewpoints(nm, cfg, seed=[int(seed), int(cfg.seed), int(nm.floor)], agent=agent)
         save_json(nm, root / _p(f"navmap_{nm.floor}.json"))
@@ -129,6 +135,8 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
         per_floor.append({"floor": nm.floor, "height": nm.height, "navigable_m2": round(float(nm.navigable.sum()) * res2, 4),
                           "free_m2": round(float(nm.free.sum()) * res2, 4), "viewpoints": len(vps),
                           "first_viewpoint": len(viewpoints), "coverage": stats.to_dict()})
+        log.append(f"floor {nm.floor} ({per_floor[-1]['navigable_m2']:g} m^2 navigable): "
+                   + stats.describe(cfg.coverage_threshold))
         viewpoints.extend(vps)
     save_json(viewpoints, root / _p("viewpoints.json"))
     shards: list[str] = []
@@ -158,4 +166,5 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
     }
     atomic_write_text(out / "summary.json", dumps(summary))
     summary["seconds"] = round(time.perf_counter() - t0, 3)  # not written: outputs stay byte-identical
+    summary["log"] = log  # one line per floor: the coverage reached (the pipeline prints them; not written)
     return summary
