@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from sdovon_mj.errors import InputError
+from sdovon_mj.naming import scene_name, scene_stem
 from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, SupportSurface
 from sdovon_mj.sim.model import instance_geom_name, save_scene_mesh
 from sdovon_mj.store import atomic_write_text
@@ -30,16 +31,15 @@ from sdovon_mj.config import ConvertConfig
 
 from . import articulated_scene, cache, habitat
 from .metadata import AssetMeta, meta_for, receptacle_flag
-from .load import Material, Part, display_path, load_mesh, read_json as _read_json, referenced_files
+from .load import Material, Part, display_path, gpu_texture_key, load_mesh, read_json as _read_json, referenced_files
 from .naming import LABEL_RULES, PRIMITIVES, label_from_node, sanitize  # noqa: F401 (re-exported)
 from .writer import AssetWriter, clean_part, fmt, render_template, xml_attr
 
 
 FLOOR_MARGIN = 0.5  # m around the footprint of an added floor: an agent (radius ~0.2 m) can walk round the scene's edge
 def _sidecar_for(path: Path) -> Path | None:
-    """Return `<stem>.semantics.json` beside a scene file (stem without ScanNet suffixes)."""
-    stem = re.sub(r"_vh_clean(_2)?$", "", path.stem)
-    p = path.parent / f"{stem}.semantics.json"
+    """Return `<stem>.semantics.json` beside a scene file (`naming.scene_stem`: without ScanNet suffixes)."""
+    p = path.parent / f"{scene_stem(path)}.semantics.json"
     return p if p.is_file() else None
 
 
@@ -135,7 +135,7 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
     out_dir : str or Path
         Output root; the scene goes to ``<out_dir>/scenes/<name>/``.
     name : str, optional
-        Scene name (default: the file stem without ScanNet suffixes).
+        Scene name (default: `naming.scene_name` of the file: its stem without format and dataset suffixes).
     units : str or float
         "auto", a unit name or metres per file unit (the sidecar's when "auto").
     up : str
@@ -162,7 +162,7 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         up = meta.up
     if meta.add_floor is not None:
         add_floor = meta.add_floor
-    name = sanitize(name) if name else sanitize(_default_name(path, layout))
+    name = sanitize(name) if name else scene_name(path)
     sidecar_path = Path(semantics) if semantics else (None if layout else _sidecar_for(path))
     placements = path.parent / "placements.json"
     sidecar = _read_json(sidecar_path) if sidecar_path else None
@@ -187,6 +187,7 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         params["layout"] = layout  # only then: the keys of other scenes stay as they were
     if add_floor:
         params["add_floor"] = FLOOR_MARGIN
+    params.update(gpu_texture_key(files))
     if sidecar is None and not scannet:
         params["labels"] = LABEL_RULES  # node-name labels: a new rule must not hit a cached scene labelled by the old
     key = cache.cache_key(files if not use_placements else files + _placement_files(placements), params)
@@ -331,18 +332,6 @@ def check_scene(path: str | Path) -> None:
         if articulated_scene.sidecar_for(path) is not None:
             articulated_scene.input_files(path)
     meta_for(path)  # assets.yaml / <file>.yaml parse
-
-
-def _default_name(path: Path, layout: str | None) -> str:
-    """Return a scene's default name: the file stem without ScanNet, HM3D (.basis) or Habitat config suffixes."""
-    if layout == "habitat":
-        n = path.name
-        for suffix in (habitat.SCENE_INSTANCE, habitat.DATASET_CONFIG, habitat.STAGE_CONFIG):
-            if n.lower().endswith(suffix):
-                return n[: -len(suffix)]
-    if layout in ("hm3d", "mp3d", "habitat"):
-        return re.sub(r"\.basis$", "", path.stem)
-    return re.sub(r"_vh_clean(_2)?$", "", path.stem)
 
 
 def floor_slab(vertices: np.ndarray, margin: float | None = None, thickness: float = 0.05) -> Part:

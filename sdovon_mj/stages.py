@@ -21,7 +21,6 @@ packages know records, config, store and sim, never this module. Seeds come from
 
 from __future__ import annotations
 
-import re
 import shutil
 from dataclasses import dataclass, field, is_dataclass
 from functools import cached_property
@@ -164,12 +163,6 @@ def scope_stages(scope: str, selected: list[str] | tuple[str, ...] | None = None
 # Inputs: scene names and object files
 
 
-def _safe_name(stem: str) -> str:
-    """Return a file-system-safe scene/object name."""
-    s = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem).strip("_.")
-    return s or "scene"
-
-
 def scene_inputs(store: Store, cfg: RunConfig) -> dict[str, str]:
     """Return scene name -> input file ('' for a default-world home)."""
     return scene_table(store.read_json("inputs.json")["scenes"], cfg)
@@ -186,14 +179,14 @@ def scene_table(scenes: list[str] | None, cfg: RunConfig) -> dict[str, str]:
 
 
 def name_scenes(paths: list[str]) -> dict[str, str]:
-    """Return scene name -> input for a list of scene inputs: the file name without its format's suffixes (a converted
-    scene's folder: its name), a second scene of one name ``_2``, ``_3``, ... in input order."""
+    """Return scene name -> input for a list of scene inputs: `naming.scene_name` (the file name without its format's
+    suffixes, made safe; a converted scene's folder: its name), a second scene of one name ``_2``, ``_3``, ... in
+    input order (two ``room.ply`` in two folders: ``room``, ``room_2``)."""
+    from .naming import scene_name
+
     out: dict[str, str] = {}
     for path in paths:
-        p = Path(path)
-        stem = p.name if p.is_dir() else re.sub(r"\.(scene_instance|scene_dataset_config|stage_config|basis)$", "",
-                                                 p.stem.replace("_vh_clean", ""))
-        name = _safe_name(stem)
+        name = scene_name(path)
         base, k = name, 1
         while name in out:
             k += 1
