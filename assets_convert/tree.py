@@ -21,7 +21,7 @@ from sdovon_mj.config import ConvertConfig
 from sdovon_mj.records import dumps
 from sdovon_mj.store import atomic_write_text
 
-from . import habitat
+from . import habitat, scannet
 from .load import SUPPORTED, display_path
 from .metadata import meta_for
 
@@ -99,7 +99,8 @@ def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Pa
                     and not _in_habitat_dataset(f, p)  # a dataset's scene instances: its members, above
                 urdf = kind == "object" and suffix == URDF_SUFFIX
                 if (suffix in SUPPORTED or scene_cfg or urdf) and not f.name.startswith(SKIP_PREFIXES):
-                    if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or _in_habitat_dataset(f, p)):
+                    if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or scannet.is_companion(f)
+                                            or _in_habitat_dataset(f, p)):
                         continue
                     out.append(f)
                     roots.setdefault(f, p)
