@@ -194,9 +194,9 @@ def _work(task: dict[str, Any]) -> dict[str, Any]:
         if task["kind"] == "scene":
             from .scene import convert_scene
 
-            a = convert_scene(task["path"], task["out_dir"], units=task["config"].units, up=task["config"].up,
-                              cache_dir=task["cache_dir"], texture_max_size=task["config"].texture_max_size,
-                              add_floor=task["config"].add_floor)
+            a = convert_scene(task["path"], task["out_dir"], name=task["name"], units=task["config"].units,
+                              up=task["config"].up, cache_dir=task["cache_dir"],
+                              texture_max_size=task["config"].texture_max_size, add_floor=task["config"].add_floor)
             row.update(name=a.name, mjcf=a.mjcf, instances=len(a.instances), cache_hit=False)
         elif task.get("parts"):
             import tempfile
@@ -350,6 +350,11 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
                       "cache_dir": cache, "category": cat})
     if kind == "object":
         _tell_apart(tasks)
+    else:  # scenes: the names a run gives them (`naming.name_scenes`), so two room.ply get two folders
+        from sdovon_mj.naming import name_scenes
+
+        for name, t in zip(name_scenes([t["path"] for t in tasks]), tasks):
+            t["name"] = name
     rows: dict[int, dict[str, Any]] = {}
     t_start = time.perf_counter()
     bar = None

@@ -66,4 +66,19 @@ def scene_name(path: str | Path) -> str:
     return f"scene_{hashlib.sha1(text.encode('utf-8')).hexdigest()[:8]}" if text.strip() else "scene"
 
 
-__all__ = ["CONFIG_SUFFIXES", "STEM_SUFFIXES", "sanitize", "scene_name", "scene_stem"]
+def name_scenes(paths: list[str]) -> dict[str, str]:
+    """Return scene name -> input for a list of scene inputs: `scene_name` of each, a second scene of one name
+    ``_2``, ``_3``, ... in input order (two ``room.ply`` in two folders: ``room``, ``room_2``; a name already taken
+    by an earlier input is skipped)."""
+    out: dict[str, str] = {}
+    for path in paths:
+        name = scene_name(path)
+        base, k = name, 1
+        while name in out:
+            k += 1
+            name = f"{base}_{k}"
+        out[name] = path
+    return out
+
+
+__all__ = ["CONFIG_SUFFIXES", "STEM_SUFFIXES", "name_scenes", "sanitize", "scene_name", "scene_stem"]

@@ -32,6 +32,7 @@ from .config import RunConfig, to_dict
 from .errors import InputError, InputsError, StageError
 from .records import Instance, ReceptaclePlane, Relevance, SceneVariant, load_json, load_npz, save_json, save_npz
 from .runview import RunView
+from .naming import name_scenes  # noqa: F401 (the run's scene names; re-exported)
 from .seeds import scene_seed, variant_seed
 from .store import Store, file_hash, fingerprint
 
@@ -176,23 +177,6 @@ def scene_table(scenes: list[str] | None, cfg: RunConfig) -> dict[str, str]:
 
         return {f"{preset(cfg.world.preset).scene}_{seed:04d}": "" for seed in cfg.world.scene_seeds}
     return name_scenes([str(s) for s in scenes])
-
-
-def name_scenes(paths: list[str]) -> dict[str, str]:
-    """Return scene name -> input for a list of scene inputs: `naming.scene_name` (the file name without its format's
-    suffixes, made safe; a converted scene's folder: its name), a second scene of one name ``_2``, ``_3``, ... in
-    input order (two ``room.ply`` in two folders: ``room``, ``room_2``)."""
-    from .naming import scene_name
-
-    out: dict[str, str] = {}
-    for path in paths:
-        name = scene_name(path)
-        base, k = name, 1
-        while name in out:
-            k += 1
-            name = f"{base}_{k}"
-        out[name] = path
-    return out
 
 
 def select_scenes(names: list[str], patterns: list[str] | None) -> list[str]:

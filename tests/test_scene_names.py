@@ -61,3 +61,16 @@ def test_awkward_names_give_one_folder_per_scene_through_a_run(tmp_path: Path) -
     for n, width in (("room", 2.0), ("room_2", 3.0)):
         v = np.load(tmp_path / "run" / "scenes" / n / "scene_mesh.npz")["vertices"]
         assert abs(float(np.ptp(v[:, 0])) - width) < 1e-6, n
+
+
+def test_sdovon_mj_convert_names_scenes_as_a_run_does(tmp_path: Path) -> None:
+    """`sdovon-mj convert --kind scene` (`convert_tree`) gives two files of one stem two folders, named as a run
+    names them."""
+    from assets_convert import convert_tree
+
+    files = [write_room(tmp_path / "in" / d / "room.mesh.ply", w) for d, w in (("a", 2.0), ("b", 3.0))]
+    convert_tree([str(f) for f in files], tmp_path / "out", kind="scene", jobs=1, progress=False, cache_dir="off")
+    assert sorted(p.name for p in (tmp_path / "out" / "scenes").iterdir()) == ["room_mesh", "room_mesh_2"]
+    for n, width in (("room_mesh", 2.0), ("room_mesh_2", 3.0)):
+        v = np.load(tmp_path / "out" / "scenes" / n / "scene_mesh.npz")["vertices"]
+        assert abs(float(np.ptp(v[:, 0])) - width) < 1e-6, n
