@@ -129,7 +129,9 @@ def labels_of(asset) -> list[str]:
 
 def test_labels_mesh_gives_named_instances_in_the_aligned_frame(tmp_path: Path) -> None:
     mesh = write_scan(tmp_path / SCENE)
-    assert MeshConverter().scene_files(tmp_path / SCENE) == [mesh]  # the labels mesh is a companion, not a scene
+    (tmp_path / SCENE / f"{SCENE}_vh_clean.ply").write_bytes(mesh.read_bytes())  # the full-resolution mesh
+    # the folder as downloaded is one scene: the labels mesh and the full mesh are companions
+    assert MeshConverter().scene_files(tmp_path / SCENE) == [mesh]
     asset = convert_scene(mesh, tmp_path / "out", cache_dir="off")
     assert asset.name == SCENE
     # one instance per connected component of a class; the speck (a 0.0025 m^2 'chair') joins the unannotated box
