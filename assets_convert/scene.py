@@ -455,7 +455,11 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
             gname = instance_geom_name(iid) if len(parts) == 1 else instance_geom_name(iid, j)
             textured = p.material.image is not None and p.uv is not None
             mat = writer.material(p.material, textured)
-            writer.mesh(gname, p.vertices, p.faces, p.uv if textured else None, ' inertia="shell"')
+            vm, uvm = p.vertices, p.uv
+            if len(vm) < 4:  # MuJoCo compiles no mesh of under 4 vertices (a scan instance of one triangle): the
+                vm = np.concatenate([vm, vm[:4 - len(vm)]])  # MJCF mesh repeats its first vertex, no face uses it
+                uvm = None if uvm is None else np.concatenate([uvm, uvm[:4 - len(uvm)]])
+            writer.mesh(gname, vm, p.faces, uvm if textured else None, ' inertia="shell"')
             geoms.append(f'    <geom name="{gname}" class="{cls}" mesh="{gname}" material="{mat}"/>')
             gnames.append(gname)
             all_v.append(p.vertices)

@@ -63,9 +63,9 @@ def box(lo: tuple[float, ...], hi: tuple[float, ...]) -> tuple[np.ndarray, np.nd
 
 
 def speck() -> tuple[np.ndarray, np.ndarray]:
-    """Return a 5 x 5 cm quad lying 1 mm above the floor (0.0025 m^2, under `scannet.SPECK_AREA`)."""
-    v = np.array([[3.7, 0.3, 0.001], [3.75, 0.3, 0.001], [3.75, 0.35, 0.001], [3.7, 0.35, 0.001]])
-    return v, np.array([[0, 1, 2], [0, 2, 3]])
+    """Return one 5 cm triangle lying 1 mm above the floor (0.00125 m^2, under `scannet.SPECK_AREA`; as an instance
+    of its own, in the segments' scene, a mesh of 3 vertices, which MuJoCo compiles only padded)."""
+    return np.array([[3.7, 0.3, 0.001], [3.75, 0.3, 0.001], [3.7, 0.35, 0.001]]), np.array([[0, 1, 2]])
 
 
 def room() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -73,7 +73,7 @@ def room() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     pieces = [(*grid(0, SIZE, 0, SIZE, 16), 2), (*wall_strip(SIZE, 1.2, 8), 1), (*box(*TABLE), 7),
               (*box((0.2, 3.3, 0.0), (0.6, 3.7, 0.5)), 32),  # night stand
               (*box((3.5, 3.5, 0.0), (3.8, 3.8, 0.3)), 0),  # a box nobody annotated
-              (*speck(), 5)]  # a 5 cm 'chair' patch: label noise, not a chair
+              (*speck(), 5)]  # a 5 cm 'chair' triangle: label noise, not a chair
     vs, fs, ls, n = [], [], [], 0
     for v, f, lab in pieces:
         vs.append(v)
@@ -134,7 +134,7 @@ def test_labels_mesh_gives_named_instances_in_the_aligned_frame(tmp_path: Path) 
     assert MeshConverter().scene_files(tmp_path / SCENE) == [mesh]
     asset = convert_scene(mesh, tmp_path / "out", cache_dir="off")
     assert asset.name == SCENE
-    # one instance per connected component of a class; the speck (a 0.0025 m^2 'chair') joins the unannotated box
+    # one instance per connected component of a class; the speck (a 0.00125 m^2 'chair') joins the unannotated box
     assert labels_of(asset) == ["floor", "nightstand", "table", "unlabeled", "wall"]
     assert asset.unused == []
     table = next(i for i in asset.instances if i.label == "table")
