@@ -11,6 +11,7 @@ aligns the scan with the axes) is applied when present. A scan with none of thes
 
 from __future__ import annotations
 
+import glob
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -46,11 +47,6 @@ class ScanFiles:
         """Return (segs.json, aggregation.json) when both are there."""
         return (self.segs, self.aggregation) if self.segs is not None and self.aggregation is not None else None
 
-    @property
-    def instances(self) -> bool:
-        """Return whether the files give instances (segments + aggregation, or a labels mesh)."""
-        return self.segments is not None or self.labels is not None
-
     def inputs(self) -> list[Path]:
         """Return the files a conversion reads (cache keys, stage fingerprints): a labels mesh only without the
         segments that win over it."""
@@ -65,18 +61,13 @@ def scan_files(path: str | Path) -> ScanFiles:
     if path.suffix.lower() != ".ply" or path.name.lower().endswith(LABELS_SUFFIX):
         return ScanFiles()
     stem = scene_stem(path)
-    segs = sorted(path.parent.glob(f"{glob_escape(path.stem)}*.segs.json")) or \
-        sorted(path.parent.glob(f"{glob_escape(stem)}*.segs.json"))
-    aggs = sorted(path.parent.glob(f"{glob_escape(stem)}*aggregation.json"))
+    segs = sorted(path.parent.glob(f"{glob.escape(path.stem)}*.segs.json")) or \
+        sorted(path.parent.glob(f"{glob.escape(stem)}*.segs.json"))
+    aggs = sorted(path.parent.glob(f"{glob.escape(stem)}*aggregation.json"))
     labels = path.parent / f"{path.stem}{LABELS_SUFFIX}"
     meta = path.parent / f"{stem}.txt"
     return ScanFiles(segs[0] if segs else None, aggs[0] if aggs else None, labels if labels.is_file() else None,
                      meta if meta.is_file() and _alignment_line(meta) is not None else None)
-
-
-def glob_escape(text: str) -> str:
-    """Return `text` with glob's special characters escaped (a stem with brackets matches itself)."""
-    return re.sub(r"([\[\]*?])", r"[\1]", text)
 
 
 def looked_for(path: str | Path) -> str:
@@ -96,6 +87,24 @@ def is_companion(path: str | Path) -> bool:
     if name.endswith(LABELS_SUFFIX):
         return True
     return name.endswith("_vh_clean.ply") and (path.parent / f"{path.name[:-4]}_2.ply").is_file()
+
+
+def check(files: ScanFiles) -> None:
+    """Check a scan's files before any work (InputError naming the file): the segments and aggregation parse, the
+    labels mesh is a PLY whose vertices have a ``label`` property, the axisAlignment is a rigid 4x4 matrix."""
+    for f in files.segments or ():
+        read_json(f)
+    if files.labels is not None and files.segments is None:
+        with open(files.labels, "rb") as fh:
+            head = fh.read(4096)
+        end = head.find(b"end_header")
+        text = head[:end].decode("ascii", "replace") if end >= 0 else ""
+        vertex = text.split("element vertex", 1)[-1].split("element", 1)[0] if "element vertex" in text else ""
+        if not text.startswith("ply") or not re.search(r"property\s+\w+\s+label\b", vertex):
+            raise InputError(display_path(files.labels), "not a ScanNet labels mesh: a PLY whose vertices have a "
+                                                         "'label' property (NYU40 class) expected")
+    if files.meta is not None:
+        read_alignment(files.meta)
 
 
 def _alignment_line(meta: Path) -> str | None:
@@ -259,5 +268,5 @@ def read_scan(mesh: LoadedMesh, files: ScanFiles) -> tuple[list[tuple[Part, int]
     return None, {}, unused
 
 
-__all__ = ["LABELS_SUFFIX", "SPECK_AREA", "ScanFiles", "align", "is_companion", "label_pairs", "looked_for",
+__all__ = ["LABELS_SUFFIX", "SPECK_AREA", "ScanFiles", "align", "check", "is_companion", "label_pairs", "looked_for",
            "read_alignment", "read_labels", "read_scan", "scan_files", "segment_pairs", "split_coloured"]

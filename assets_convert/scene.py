@@ -283,7 +283,8 @@ def link_converted(folder: str | Path, out_dir: str | Path, name: str) -> SceneA
 
 def check_scene(path: str | Path) -> None:
     """Check a scene input before any conversion: every file it references exists and parses as its format (JSON,
-    glTF headers and buffers, HM3D ``.semantic.txt``, Matterport ``.house``); raise InputError naming the first
+    glTF headers and buffers, HM3D ``.semantic.txt``, Matterport ``.house``, a ScanNet scan's segments, labels
+    header and axisAlignment); raise InputError naming the first
     file that does not. A converted scene folder must hold its record, MJCF and mesh sidecar. Mesh contents are
     read by the conversion itself (a corrupt triangle list fails that scene's task, not the run)."""
     path = Path(path)
@@ -315,6 +316,7 @@ def check_scene(path: str | Path) -> None:
             _read_json(sidecar)
         if articulated_scene.sidecar_for(path) is not None:
             articulated_scene.input_files(path)
+        scannet.check(scannet.scan_files(path))  # a ScanNet scan's segments, labels header, axisAlignment
     meta_for(path)  # assets.yaml / <file>.yaml parse
 
 

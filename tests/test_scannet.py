@@ -17,8 +17,9 @@ import pytest
 import trimesh
 
 from assets_convert.plugin import MeshConverter
-from assets_convert.scene import convert_scene
+from assets_convert.scene import check_scene, convert_scene
 from sdovon_mj.config import RunConfig, load_config
+from sdovon_mj.errors import InputError
 from sdovon_mj.pipeline import generate
 from sdovon_mj.records import ReceptaclePlane, load_json
 
@@ -157,6 +158,23 @@ def test_a_scan_without_labels_names_the_files_it_looked_for(tmp_path: Path) -> 
     assert len(asset.instances) == 1
     (line,) = asset.unused
     assert f"{SCENE}_vh_clean_2.labels.ply" in line and "segs.json" in line and "aggregation.json" in line
+
+
+def test_bad_scan_files_are_named_before_any_work(tmp_path: Path) -> None:
+    mesh = write_scan(tmp_path / SCENE)
+    check_scene(mesh)  # the good scan passes
+    txt = tmp_path / SCENE / f"{SCENE}.txt"
+    txt.write_text("axisAlignment = 1 0 0 0 0 1 0 0\n", encoding="utf-8")
+    with pytest.raises(InputError, match=rf"{SCENE}\.txt: axisAlignment must be 16 numbers"):
+        check_scene(mesh)
+    txt.write_text("axisAlignment = 2 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"not a rotation and a translation"):
+        check_scene(mesh)
+    txt.unlink()
+    v, f, _lab = room()
+    ply(tmp_path / SCENE / f"{SCENE}_vh_clean_2.labels.ply", v, f)  # a labels mesh without its label property
+    with pytest.raises(InputError, match=r"labels\.ply: not a ScanNet labels mesh"):
+        check_scene(mesh)
 
 
 @pytest.mark.slow
