@@ -29,6 +29,7 @@ import mujoco
 from sdovon_mj.config import ConvertConfig
 from sdovon_mj.errors import InputError
 from sdovon_mj.geometry import points_in_polygon, quat_to_mat
+from sdovon_mj.naming import scene_stem
 from sdovon_mj.records import (ArticulatedFixture, ArticulatedPart, InteriorSurface, SceneAsset, SemanticInstance,
                                SupportSurface)
 from sdovon_mj.sim.model import instance_geom_name, load_scene_mesh, save_scene_mesh
@@ -41,10 +42,10 @@ SUFFIX = ".articulated.json"
 
 
 def sidecar_for(path: str | Path) -> Path | None:
-    """Return ``<stem>.articulated.json`` beside a scene file (ScanNet ``_vh_clean`` suffix dropped), or None."""
+    """Return ``<stem>.articulated.json`` beside a scene file (`naming.scene_stem`: ScanNet and HM3D suffixes
+    dropped), or None."""
     path = Path(path)
-    stem = path.stem.removesuffix("_vh_clean")
-    p = path.parent / f"{stem}{SUFFIX}"
+    p = path.parent / f"{scene_stem(path)}{SUFFIX}"
     return p if p.is_file() else None
 
 

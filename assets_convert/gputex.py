@@ -10,6 +10,13 @@ The Basis Universal transcoder is ``opengl-basisu`` (PyPI; MIT, with Binomial's 
 transcoding to RGBA8. A KTX2 file of plain 8-bit RGB/RGBA pixels (no Basis payload; no, zlib or Zstandard
 supercompression) is read here directly. Anything else (another vkFormat, KTX1, DDS, ASTC textures) stays the
 clear error of `load._check_colour_textures`: `header_problem` says what cannot be decoded.
+
+Orientation: glTF puts the first image row at the top (texture coordinate v = 0), and `decode` hands back rows in
+that order whatever the container says. A ``.basis`` file whose header has the Y-flipped flag (basisu ``-y_flip``;
+ReplicaCAD's baked stage atlases) stores the image upside down; a KTX2 file says in its ``KTXorientation``
+key/value how its rows and columns run (``rd``, x right and y down, is glTF's; ``ru`` is upside down; ``l`` mirrors
+x). Both are turned back here, so perception and both exports see the image its author saw; a ``KTXorientation``
+that is not an orientation is an error naming the file.
 """
 
 from __future__ import annotations
@@ -82,22 +89,73 @@ def header_problem(head: bytes) -> str:
     return ""
 
 
+ORIENTATION_KEY = b"KTXorientation"
+
+
+def ktx2_key_values(data: bytes, where: str) -> dict[bytes, bytes]:
+    """Return the key/value data of a KTX2 file: key -> value (bytes, a string value's NUL kept); raise InputError
+    naming `where` when the block lies past the file's end."""
+    if len(data) < 80:
+        raise InputError(where, "truncated KTX2 header")
+    offset, length = struct.unpack_from("<II", data, 56)
+    if offset + length > len(data):
+        raise InputError(where, "truncated KTX2 file: its key/value data lies past its end")
+    out: dict[bytes, bytes] = {}
+    pos, end = offset, offset + length
+    while pos + 4 <= end:
+        (n,) = struct.unpack_from("<I", data, pos)
+        entry = data[pos + 4:pos + 4 + n]
+        if len(entry) < n:
+            raise InputError(where, "damaged KTX2 key/value data (an entry runs past the block)")
+        key, _nul, value = entry.partition(b"\0")
+        out[key] = value
+        pos += 4 + n + (-n % 4)
+    return out
+
+
+def ktx2_flips(data: bytes, where: str) -> tuple[bool, bool]:
+    """Return (flip rows, flip columns) that turn a KTX2 image into glTF's orientation (``rd``: x right, y down),
+    from its ``KTXorientation`` key (absent: the default, ``rd``); raise InputError naming `where` for a value that
+    is not an orientation (first letter r or l, then d or u; a third letter, o or i, is z's and does not matter to
+    a 2D image)."""
+    raw = ktx2_key_values(data, where).get(ORIENTATION_KEY)
+    if raw is None:
+        return False, False
+    text = raw.split(b"\0", 1)[0].decode("ascii", "replace")
+    if not (1 <= len(text) <= 3 and text[0] in "rl" and (len(text) < 2 or text[1] in "du")
+            and (len(text) < 3 or text[2] in "oi")):
+        raise InputError(where, f"KTXorientation {text!r} is not a KTX2 orientation (r or l, then d or u): the "
+                                "image cannot be turned to glTF's 'rd'")
+    return len(text) > 1 and text[1] == "u", text[0] == "l"
+
+
 def decode(data: bytes, where: str) -> Any:
-    """Return a GPU-encoded image (KTX2 or ``.basis``, level 0) as a PIL RGBA image; raise InputError naming `where`."""
+    """Return a GPU-encoded image (KTX2 or ``.basis``, level 0) as a PIL RGBA image, first row at the top (glTF's
+    orientation: a ``.basis`` Y-flipped flag and a KTX2 ``KTXorientation`` honoured); raise InputError naming
+    `where`."""
     from PIL import Image
 
     why = header_problem(data[:80])
     if why:
         raise InputError(where, why)
     kind = container_of(data)
+    rows, cols = ktx2_flips(data, where) if kind == "ktx2" else (False, False)
     if kind == "ktx2" and struct.unpack_from("<I", data, 12)[0] in PLAIN_FORMATS:
-        return Image.fromarray(_plain_ktx2(data, where))
-    basisu = _transcoder()
-    try:
-        img = basisu.open(bytes(data)).transcode("rgba8", level=0)
-    except Exception as e:  # noqa: BLE001 - the transcoder's refusal of a damaged file
-        raise InputError(where, f"Basis Universal image cannot be transcoded: {type(e).__name__}: {e}") from None
-    return Image.fromarray(np.ascontiguousarray(img.data[:, :, :4], dtype=np.uint8), "RGBA")
+        pixels = _plain_ktx2(data, where)
+    else:
+        basisu = _transcoder()
+        try:
+            tex = basisu.open(bytes(data))
+            img = tex.transcode("rgba8", level=0)
+        except Exception as e:  # noqa: BLE001 - the transcoder's refusal of a damaged file
+            raise InputError(where, f"Basis Universal image cannot be transcoded: {type(e).__name__}: {e}") from None
+        pixels = img.data[:, :, :4]
+        rows = rows or (kind == "basis" and bool(tex.y_flipped))  # the encoder flipped it: flip it back
+    if rows:
+        pixels = pixels[::-1]
+    if cols:
+        pixels = pixels[:, ::-1]
+    return Image.fromarray(np.ascontiguousarray(pixels, dtype=np.uint8))
 
 
 def _plain_ktx2(data: bytes, where: str) -> np.ndarray:
@@ -252,4 +310,5 @@ def decoded_gltf(path: Path) -> tuple[io.BytesIO, str] | None:
     return io.BytesIO(out), "glb"
 
 
-__all__ = ["container_of", "decode", "decoded_gltf", "gpu_colour_images", "header_problem", "image_bytes"]
+__all__ = ["container_of", "decode", "decoded_gltf", "gpu_colour_images", "header_problem", "image_bytes", "ktx2_flips",
+           "ktx2_key_values"]

@@ -226,6 +226,26 @@ def _check_colour_textures(path: Path, doc: dict[str, Any]) -> None:
                              "KTX1 are not)")
 
 
+GPU_ORIENTATION_RULE = 1  # version of gputex's row order (1: .basis Y-flip and KTXorientation honoured)
+
+
+def gpu_texture_key(files: list[Path]) -> dict[str, int]:
+    """Return the cache-key parameters that the decoding of GPU-encoded textures adds for a conversion reading
+    `files`: ``{"gpu_orientation": GPU_ORIENTATION_RULE}`` when a glTF/GLB among them has a KTX2 / Basis base-colour
+    image (a conversion cached before the orientation rule held its textures upside down), else {} (the keys of all
+    other conversions stay as they were)."""
+    from . import gputex
+
+    for f in files:
+        if Path(f).suffix.lower() in (".glb", ".gltf") and Path(f).is_file():
+            try:
+                if gputex.gpu_colour_images(_gltf_json(Path(f))):
+                    return {"gpu_orientation": GPU_ORIENTATION_RULE}
+            except InputError:
+                continue  # a damaged file: its loading names it
+    return {}
+
+
 class _GlbBinary:
     """The BIN chunk of a GLB, read by slices from the file (a header check reads a few bytes of a large scan)."""
 

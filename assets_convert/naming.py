@@ -13,6 +13,8 @@ import unicodedata
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from sdovon_mj.naming import sanitize  # the one safe-name rule, shared with the core (scene names)
+
 if TYPE_CHECKING:
     from .metadata import AssetMeta
 
@@ -36,19 +38,6 @@ def density_for(category: str, default: float = 500.0) -> float:
         return float(DENSITIES[key])
     last = key.split("_")[-1]
     return float(DENSITIES.get(last, default))
-
-
-# Latin letters that Unicode does not decompose into an ASCII letter and a mark
-_LATIN = str.maketrans({"ß": "ss", "æ": "ae", "Æ": "AE", "ø": "o", "Ø": "O", "œ": "oe", "Œ": "OE", "ł": "l", "Ł": "L",
-                        "đ": "d", "Đ": "D", "þ": "th", "Þ": "Th", "ð": "d", "Ð": "D", "ı": "i"})
-
-
-def sanitize(name: str) -> str:
-    """Return a name safe for MJCF and file names ([A-Za-z0-9_-]): accented Latin letters lose their marks
-    (``Café`` -> ``Cafe``, ``groß`` -> ``gross``), other characters become ``_``; ``object`` when none is left."""
-    s = unicodedata.normalize("NFKD", str(name).translate(_LATIN)).encode("ascii", "ignore").decode("ascii")
-    s = re.sub(r"[^A-Za-z0-9_\-]+", "_", s).strip("_")
-    return s or "object"
 
 
 # Folders that hold a model's files rather than name it (YCB <name>/google_16k/textured.obj, Google Scanned Objects

@@ -23,7 +23,7 @@ from .hulls import clean_hulls, decompose, hull_volume, mass_properties, nearly_
 from .naming import (DENSITIES, GENERIC_DIRS, GENERIC_STEMS, category_label, default_category, default_name,  # noqa: F401
                      density_for, library_category, meta_json_category, object_name, sanitize)
 from .objcache import cached_object, load_converted  # noqa: F401 (re-exported)
-from .load import FLAT_TOL, display_path, load_mesh
+from .load import FLAT_TOL, display_path, gpu_texture_key, load_mesh
 from .writer import AssetWriter, clean_part, fmt, merge_parts, render_template
 
 MAX_RATIO_WARN = 1.5
@@ -126,7 +126,8 @@ def convert_object_report(path: str | Path, out_dir: str | Path, category: str |
     params = {"kind": "object", "name": name, "category": category, "units": u, "up": a, "target_size": t,
               **({"source": source} if source else {}),
               "density": dens, "config": {k: getattr(cfg, k) for k in sorted(cfg.__dataclass_fields__)
-                                          if k not in ("jobs", "timeout_s", "add_floor")}}
+                                          if k not in ("jobs", "timeout_s", "add_floor")},
+              **gpu_texture_key(files)}
     key = cache.cache_key(files, params)
     return cached_object(out_dir, name, key, cache_dir, source or display_path(path), t0,
                          lambda tmp: _build(path, tmp, name, category, u, a, t, dens, cfg))

@@ -159,7 +159,8 @@ class MeshConverter:
         """Return the files besides `path` that its conversion reads and a stage fingerprint must cover.
 
         These are ``assets.yaml`` / ``<file>.yaml`` metadata and the companion files of a dataset layout (HM3D
-        semantic mesh and txt; a Habitat scene's dataset config, templates and assets); [] for a plain file.
+        semantic mesh and txt; a Habitat scene's dataset config, templates and assets; a ScanNet scan's labels and
+        alignment); [] for a plain file.
         """
         from . import habitat
         from .metadata import meta_for
@@ -173,6 +174,9 @@ class MeshConverter:
         from .articulated_scene import input_files as articulated_inputs
 
         out += articulated_inputs(path)  # a scene's <stem>.articulated.json and its URDF pieces (world.articulated)
+        from .scannet import scan_files
+
+        out += scan_files(path).inputs()  # a ScanNet scan's segments + aggregation or labels mesh, its <scene>.txt
         if path.suffix.lower() == ".urdf":  # its meshes, their textures, a Habitat ao_config and render asset
             from .urdf import read_urdf
 

@@ -7,8 +7,10 @@ Output ``<out_dir>/scenes/<name>/``: ``scene.xml``, ``asset.json`` (SceneAsset),
 
 Semantics, first found wins: the ``semantics`` argument (a sidecar path), ``<stem>.semantics.json``
 beside the file (our default world), ``placements.json`` beside a glTF room (Drake-style furnished
-room: shell nodes plus placed furniture), ScanNet ``*.segs.json`` + ``*.aggregation.json`` for PLY
-scans, else one instance per mesh node labelled from its node name.
+room: shell nodes plus placed furniture), ScanNet's ``*.segs.json`` + ``*.aggregation.json``, else its
+``.labels.ply`` (NYU40 classes), for PLY scans (`scannet`: ``<scene>.txt``'s axisAlignment applied too), else one
+instance per mesh node labelled from its node name (a PLY scan then says in `SceneAsset.unused` which files it
+looked for).
 """
 
 from __future__ import annotations
@@ -22,35 +24,25 @@ from pathlib import Path
 import numpy as np
 
 from sdovon_mj.errors import InputError
+from sdovon_mj.naming import scene_name, scene_stem
 from sdovon_mj.records import Floor, Room, SceneAsset, SemanticInstance, SupportSurface
 from sdovon_mj.sim.model import instance_geom_name, save_scene_mesh
 from sdovon_mj.store import atomic_write_text
 
 from sdovon_mj.config import ConvertConfig
 
-from . import articulated_scene, cache, habitat
+from . import articulated_scene, cache, habitat, scannet
 from .metadata import AssetMeta, meta_for, receptacle_flag
-from .load import Material, Part, display_path, load_mesh, read_json as _read_json, referenced_files
+from .load import Material, Part, display_path, gpu_texture_key, load_mesh, read_json as _read_json, referenced_files
 from .naming import LABEL_RULES, PRIMITIVES, label_from_node, sanitize  # noqa: F401 (re-exported)
 from .writer import AssetWriter, clean_part, fmt, render_template, xml_attr
 
 
 FLOOR_MARGIN = 0.5  # m around the footprint of an added floor: an agent (radius ~0.2 m) can walk round the scene's edge
 def _sidecar_for(path: Path) -> Path | None:
-    """Return `<stem>.semantics.json` beside a scene file (stem without ScanNet suffixes)."""
-    stem = re.sub(r"_vh_clean(_2)?$", "", path.stem)
-    p = path.parent / f"{stem}.semantics.json"
+    """Return `<stem>.semantics.json` beside a scene file (`naming.scene_stem`: without ScanNet suffixes)."""
+    p = path.parent / f"{scene_stem(path)}.semantics.json"
     return p if p.is_file() else None
-
-
-def _scannet_files(path: Path) -> tuple[Path, Path] | None:
-    """Return ScanNet (segs.json, aggregation.json) beside a PLY scan, if both exist."""
-    stem = re.sub(r"_vh_clean(_2)?$", "", path.stem)
-    segs = sorted(path.parent.glob(f"{path.stem}*.segs.json")) or sorted(path.parent.glob(f"{stem}*.segs.json"))
-    aggs = sorted(path.parent.glob(f"{stem}*aggregation.json"))
-    if segs and aggs:
-        return segs[0], aggs[0]
-    return None
 
 
 def _rpy_matrix(rpy_deg: list[float]) -> np.ndarray:
@@ -112,17 +104,6 @@ def _node_instance_id(node: str) -> int | None:
     return int(m.group(1)) if m else None
 
 
-def _split_by_vertex_instance(part: Part, vinst: np.ndarray) -> list[tuple[Part, int]]:
-    """Split a vertex-coloured scan part by per-vertex instance ids (faces take their first vertex's id)."""
-    out = []
-    for piece, iid in habitat.split_by_face_instance(part, vinst[part.faces[:, 0]]):
-        colors = piece.colors
-        rgba = tuple(float(x) for x in (colors[:, :4].mean(axis=0) / 255.0)) if colors is not None else part.material.rgba
-        piece.material, piece.uv = Material(f"inst_{iid}", rgba, None, f"scan|{iid}"), None  # type: ignore[arg-type]
-        out.append((piece, iid))
-    return out
-
-
 def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None, units: str | float = "auto",
                   up: str = "auto", semantics: str | Path | None = None, texture_max_size: int = 1024,
                   cache_dir: str | Path | None = None, add_floor: bool = False) -> SceneAsset:
@@ -135,7 +116,7 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
     out_dir : str or Path
         Output root; the scene goes to ``<out_dir>/scenes/<name>/``.
     name : str, optional
-        Scene name (default: the file stem without ScanNet suffixes).
+        Scene name (default: `naming.scene_name` of the file: its stem without format and dataset suffixes).
     units : str or float
         "auto", a unit name or metres per file unit (the sidecar's when "auto").
     up : str
@@ -162,7 +143,7 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
         up = meta.up
     if meta.add_floor is not None:
         add_floor = meta.add_floor
-    name = sanitize(name) if name else sanitize(_default_name(path, layout))
+    name = sanitize(name) if name else scene_name(path)
     sidecar_path = Path(semantics) if semantics else (None if layout else _sidecar_for(path))
     placements = path.parent / "placements.json"
     sidecar = _read_json(sidecar_path) if sidecar_path else None
@@ -172,22 +153,26 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
             up = str(sidecar["up"])
         if str(units) == "auto" and sidecar.get("units"):
             units = str(sidecar["units"])
-    scannet = _scannet_files(path) if path.suffix.lower() == ".ply" else None
+    scan = scannet.scan_files(path) if not layout else scannet.ScanFiles()
     art_sidecar = None if layout else articulated_scene.sidecar_for(path)  # world.articulated pieces (URDF)
     if art_sidecar is not None:
         files += articulated_scene.input_files(path)
     use_placements = sidecar is None and not layout and placements.is_file() and _lists_asset(placements, path)
     if use_placements:
         files.append(placements)
-    if scannet:
-        files.extend(scannet)
+    files.extend(scan.inputs())
     params = {"kind": "scene", "name": name, "units": str(units), "up": up, "texture_max_size": texture_max_size,
               "placements": use_placements}
     if layout:
         params["layout"] = layout  # only then: the keys of other scenes stay as they were
     if add_floor:
         params["add_floor"] = FLOOR_MARGIN
-    if sidecar is None and not scannet:
+    params.update(gpu_texture_key(files))
+    if scan.labels is not None and scan.segments is None:
+        params["nyu40"] = scannet.SPECK_AREA  # instances from the labels mesh: its rule's one parameter
+    if scan.meta is not None:
+        params["axis_alignment"] = True
+    if sidecar is None and scan.segments is None:
         params["labels"] = LABEL_RULES  # node-name labels: a new rule must not hit a cached scene labelled by the old
     key = cache.cache_key(files if not use_placements else files + _placement_files(placements), params)
     root = cache.cache_root(cache_dir)
@@ -205,7 +190,7 @@ def convert_scene(path: str | Path, out_dir: str | Path, name: str | None = None
             reading = habitat.read_mp3d(path, units, up)
         elif layout == "habitat":
             reading = habitat.read_habitat(path)
-        asset = _build_scene(path, tmp, name, units, up, sidecar, scannet, placements if use_placements else None,
+        asset = _build_scene(path, tmp, name, units, up, sidecar, scan, placements if use_placements else None,
                              texture_max_size, reading, add_floor, meta, None if root is None else root / "textures")
         if art_sidecar is not None:
             asset = articulated_scene.add_articulated(tmp, path, asset, art_sidecar,
@@ -301,7 +286,8 @@ def link_converted(folder: str | Path, out_dir: str | Path, name: str) -> SceneA
 
 def check_scene(path: str | Path) -> None:
     """Check a scene input before any conversion: every file it references exists and parses as its format (JSON,
-    glTF headers and buffers, HM3D ``.semantic.txt``, Matterport ``.house``); raise InputError naming the first
+    glTF headers and buffers, HM3D ``.semantic.txt``, Matterport ``.house``, a ScanNet scan's segments, labels
+    header and axisAlignment); raise InputError naming the first
     file that does not. A converted scene folder must hold its record, MJCF and mesh sidecar. Mesh contents are
     read by the conversion itself (a corrupt triangle list fails that scene's task, not the run)."""
     path = Path(path)
@@ -333,19 +319,8 @@ def check_scene(path: str | Path) -> None:
             _read_json(sidecar)
         if articulated_scene.sidecar_for(path) is not None:
             articulated_scene.input_files(path)
+        scannet.check(scannet.scan_files(path))  # a ScanNet scan's segments, labels header, axisAlignment
     meta_for(path)  # assets.yaml / <file>.yaml parse
-
-
-def _default_name(path: Path, layout: str | None) -> str:
-    """Return a scene's default name: the file stem without ScanNet, HM3D (.basis) or Habitat config suffixes."""
-    if layout == "habitat":
-        n = path.name
-        for suffix in (habitat.SCENE_INSTANCE, habitat.DATASET_CONFIG, habitat.STAGE_CONFIG):
-            if n.lower().endswith(suffix):
-                return n[: -len(suffix)]
-    if layout in ("hm3d", "mp3d", "habitat"):
-        return re.sub(r"\.basis$", "", path.stem)
-    return re.sub(r"_vh_clean(_2)?$", "", path.stem)
 
 
 def floor_slab(vertices: np.ndarray, margin: float | None = None, thickness: float = 0.05) -> Part:
@@ -401,7 +376,7 @@ def _placements_parts_files_only(placements: Path) -> tuple[None, None, list[Pat
 
 
 def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str, sidecar: dict | None,
-                 scannet: tuple[Path, Path] | None, placements: Path | None, texture_max_size: int,
+                 scan: scannet.ScanFiles, placements: Path | None, texture_max_size: int,
                  reading: habitat.Reading | None = None, add_floor: bool = False,
                  asset_meta: AssetMeta | None = None, texture_cache: Path | None = None) -> SceneAsset:
     """Load, group by instance and material, and write one scene into folder `work` (`reading`: a dataset reader's).
@@ -410,6 +385,7 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
     """
     inst_meta: dict[int, dict] = {}
     pairs: list[tuple[Part, int]] = []
+    unused: list[str] = []
     if reading is not None:
         pairs, inst_meta = reading.pairs, dict(reading.meta)
     elif placements is not None:
@@ -417,9 +393,12 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
         inst_meta = {d["id"]: d for d in insts}
     else:
         mesh = load_mesh(path, units=units, up=up, kind="scene")
-        if scannet is not None:
-            pairs, inst_meta = _scannet_pairs(mesh.parts, scannet)
+        scan_pairs, inst_meta, unused = scannet.read_scan(mesh, scan)
+        if scan_pairs is not None:
+            pairs = scan_pairs
         else:
+            if sidecar is None and path.suffix.lower() == ".ply":  # a scan without labels: say what was looked for
+                unused.append(scannet.looked_for(path))
             node_ids: dict[str, int] = {}
             for p in mesh.parts:
                 iid = _node_instance_id(p.node)
@@ -481,7 +460,11 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
             gname = instance_geom_name(iid) if len(parts) == 1 else instance_geom_name(iid, j)
             textured = p.material.image is not None and p.uv is not None
             mat = writer.material(p.material, textured)
-            writer.mesh(gname, p.vertices, p.faces, p.uv if textured else None, ' inertia="shell"')
+            vm, uvm = p.vertices, p.uv
+            if len(vm) < 4:  # MuJoCo compiles no mesh of under 4 vertices (a scan instance of one triangle): the
+                vm = np.concatenate([vm, vm[:4 - len(vm)]])  # MJCF mesh repeats its first vertex, no face uses it
+                uvm = None if uvm is None else np.concatenate([uvm, uvm[:4 - len(uvm)]])
+            writer.mesh(gname, vm, p.faces, uvm if textured else None, ' inertia="shell"')
             geoms.append(f'    <geom name="{gname}" class="{cls}" mesh="{gname}" material="{mat}"/>')
             gnames.append(gname)
             all_v.append(p.vertices)
@@ -522,43 +505,12 @@ def _build_scene(path: Path, work: Path, name: str, units: str | float, up: str,
         for s in sidecar.get("support_surfaces", []):
             supports.append(SupportSurface(instance_id=int(s["instance_id"]), height=float(s["height"]),
                                            polygon=np.asarray(s["polygon"], dtype=np.float64)))
-    unused: list[str] = []
     if reading is not None:
         rooms = list(reading.rooms)
         unused = list(reading.unused)
     return SceneAsset(name=name, mjcf="scene.xml", source=display_path(path), floors=floors, instances=instances,
                       bounds=np.stack([lo, hi]), rooms=rooms, support_surfaces=supports, mesh="scene_mesh.npz",
                       unused=unused)
-
-
-def _scannet_pairs(parts: list[Part], files: tuple[Path, Path]) -> tuple[list[tuple[Part, int]], dict[int, dict]]:
-    """Split a PLY scan by ScanNet segments + aggregation into (part, instance id) pairs."""
-    segs_path, agg_path = files
-    segs = _read_json(segs_path)
-    agg = _read_json(agg_path)
-    seg_idx = np.asarray(segs.get("segIndices", []), dtype=np.int64)
-    if len(parts) != 1:
-        raise InputError(display_path(segs_path), "ScanNet labels need a single-mesh PLY")
-    part = parts[0]
-    if len(seg_idx) != len(part.vertices):
-        raise InputError(display_path(segs_path), f"has {len(seg_idx)} segment indices for {len(part.vertices)} vertices")
-    seg_to_inst: dict[int, int] = {}
-    meta: dict[int, dict] = {}
-    for g in agg.get("segGroups", []):
-        iid = int(g.get("objectId", g.get("id")))
-        meta[iid] = {"id": iid, "label": str(g.get("label", "object")), "kind": ""}
-        for s in g.get("segments", []):
-            seg_to_inst[int(s)] = iid
-    lut_keys = np.array(sorted(seg_to_inst), dtype=np.int64)
-    lut_vals = np.array([seg_to_inst[k] for k in lut_keys], dtype=np.int64)
-    pos = np.searchsorted(lut_keys, seg_idx) if len(lut_keys) else np.zeros(len(seg_idx), dtype=np.int64)
-    pos = np.clip(pos, 0, max(len(lut_keys) - 1, 0))
-    ok = (lut_keys[pos] == seg_idx) if len(lut_keys) else np.zeros(len(seg_idx), dtype=bool)
-    unl = (max(meta) + 1) if meta else 0
-    vinst = np.where(ok, lut_vals[pos] if len(lut_vals) else 0, unl)
-    if (~ok).any():
-        meta[unl] = {"id": unl, "label": "unlabeled", "kind": ""}
-    return _split_by_vertex_instance(part, vinst), meta
 
 
 def _lights(lo: np.ndarray, hi: np.ndarray) -> str:

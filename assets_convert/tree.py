@@ -21,7 +21,7 @@ from sdovon_mj.progress import Progress
 from sdovon_mj.records import dumps
 from sdovon_mj.store import atomic_write_text
 
-from . import habitat
+from . import habitat, scannet
 from .load import SUPPORTED, display_path
 from .metadata import meta_for
 
@@ -99,7 +99,8 @@ def _scan(inputs: str | Path | Iterable[str | Path], kind: str) -> tuple[list[Pa
                     and not _in_habitat_dataset(f, p)  # a dataset's scene instances: its members, above
                 urdf = kind == "object" and suffix == URDF_SUFFIX
                 if (suffix in SUPPORTED or scene_cfg or urdf) and not f.name.startswith(SKIP_PREFIXES):
-                    if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or _in_habitat_dataset(f, p)):
+                    if kind == "scene" and (_placed_by_sibling(f) or habitat.is_companion(f) or scannet.is_companion(f)
+                                            or _in_habitat_dataset(f, p)):
                         continue
                     out.append(f)
                     roots.setdefault(f, p)
@@ -193,9 +194,9 @@ def _work(task: dict[str, Any]) -> dict[str, Any]:
         if task["kind"] == "scene":
             from .scene import convert_scene
 
-            a = convert_scene(task["path"], task["out_dir"], units=task["config"].units, up=task["config"].up,
-                              cache_dir=task["cache_dir"], texture_max_size=task["config"].texture_max_size,
-                              add_floor=task["config"].add_floor)
+            a = convert_scene(task["path"], task["out_dir"], name=task["name"], units=task["config"].units,
+                              up=task["config"].up, cache_dir=task["cache_dir"],
+                              texture_max_size=task["config"].texture_max_size, add_floor=task["config"].add_floor)
             row.update(name=a.name, mjcf=a.mjcf, instances=len(a.instances), cache_hit=False)
             if a.articulated:  # only then: rows of scenes without articulated pieces keep their bytes
                 row["articulated"] = [f"{fx.instance_id} {fx.label} ({len(fx.parts)} joints)" for fx in a.articulated]
@@ -355,6 +356,11 @@ def convert_tree(inputs: str | Path | Iterable[str | Path], out_dir: str | Path,
                       "cache_dir": cache, "category": cat})
     if kind == "object":
         _tell_apart(tasks)
+    else:  # scenes: the names a run gives them (`naming.name_scenes`), so two room.ply get two folders
+        from sdovon_mj.naming import name_scenes
+
+        for name, t in zip(name_scenes([t["path"] for t in tasks]), tasks):
+            t["name"] = name
     rows: dict[int, dict[str, Any]] = {}
     t_start = time.perf_counter()
     with Progress(total=len(tasks), desc=f"convert {kind}s", enabled=progress) as bar:

@@ -46,7 +46,7 @@ from sdovon_mj.errors import InputError
 from sdovon_mj.records import ArticulatedPart, ObjectAsset
 from sdovon_mj.store import atomic_write_text
 
-from .load import Material, Part, display_path, load_mesh, referenced_files
+from .load import Material, Part, display_path, gpu_texture_key, load_mesh, referenced_files
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
 ARMATURE = 0.01  # kg m^2 (hinge) / kg (slide): rotor inertia added on every joint, steadies stiff position control
@@ -890,7 +890,8 @@ def convert_urdf_report(path: str | Path, out_dir: str | Path, category: str | N
     params = {"kind": "urdf", "name": name, "category": category, "density": dens,
               **({"source": source} if source else {}), **({"scale": float(scale)} if scale != 1.0 else {}),
               "config": {k: getattr(cfg, k) for k in sorted(cfg.__dataclass_fields__)
-                         if k not in ("jobs", "timeout_s", "add_floor", "units", "up", "target_size")}}
+                         if k not in ("jobs", "timeout_s", "add_floor", "units", "up", "target_size")},
+              **gpu_texture_key(robot.files())}
     key = cache.cache_key(robot.files() + meta.sources, params)
 
     def build(tmp: Path) -> tuple[ObjectAsset, dict[str, Any]]:

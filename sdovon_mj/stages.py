@@ -21,7 +21,6 @@ packages know records, config, store and sim, never this module. Seeds come from
 
 from __future__ import annotations
 
-import re
 import shutil
 import sys
 from dataclasses import dataclass, field, is_dataclass
@@ -34,6 +33,7 @@ from .config import RunConfig, to_dict
 from .errors import InputError, InputsError, StageError
 from .records import Instance, ReceptaclePlane, Relevance, SceneVariant, load_json, load_npz, save_json, save_npz
 from .runview import RunView
+from .naming import name_scenes  # noqa: F401 (the run's scene names; re-exported)
 from .seeds import scene_seed, variant_seed
 from .store import Store, file_hash, fingerprint
 
@@ -174,12 +174,6 @@ def scope_stages(scope: str, selected: list[str] | tuple[str, ...] | None = None
 # Inputs: scene names and object files
 
 
-def _safe_name(stem: str) -> str:
-    """Return a file-system-safe scene/object name."""
-    s = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem).strip("_.")
-    return s or "scene"
-
-
 def scene_inputs(store: Store, cfg: RunConfig) -> dict[str, str]:
     """Return scene name -> input file ('' for a default-world home)."""
     return scene_table(store.read_json("inputs.json")["scenes"], cfg)
@@ -193,23 +187,6 @@ def scene_table(scenes: list[str] | None, cfg: RunConfig) -> dict[str, str]:
 
         return {f"{preset(cfg.world.preset).scene}_{seed:04d}": "" for seed in cfg.world.scene_seeds}
     return name_scenes([str(s) for s in scenes])
-
-
-def name_scenes(paths: list[str]) -> dict[str, str]:
-    """Return scene name -> input for a list of scene inputs: the file name without its format's suffixes (a converted
-    scene's folder: its name), a second scene of one name ``_2``, ``_3``, ... in input order."""
-    out: dict[str, str] = {}
-    for path in paths:
-        p = Path(path)
-        stem = p.name if p.is_dir() else re.sub(r"\.(scene_instance|scene_dataset_config|stage_config|basis)$", "",
-                                                 p.stem.replace("_vh_clean", ""))
-        name = _safe_name(stem)
-        base, k = name, 1
-        while name in out:
-            k += 1
-            name = f"{base}_{k}"
-        out[name] = path
-    return out
 
 
 def select_scenes(names: list[str], patterns: list[str] | None) -> list[str]:

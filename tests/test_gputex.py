@@ -195,3 +195,137 @@ def test_plain_ktx2_pixels_and_what_cannot_be_decoded() -> None:
         decode(bytes(bc7), "t.ktx2")
     with pytest.raises(InputError, match="not a KTX2 or Basis Universal image"):
         decode(b"\x89PNG\r\n\x1a\n" + b"\0" * 80, "t.png")
+
+
+# ----------------------------------------------------------------------------------------------
+# Orientation: a .basis Y-flipped flag and KTX2's KTXorientation, through a converted scene's texture
+
+# The test image: an 8 x 8 grid of 8-pixel cells, each one colour of a small palette, drawn at random (seeded), so
+# no row or column order maps it onto itself. Every ETC1S 4x4 block then holds one colour, and the palette's few
+# colours fit ETC1S's endpoint codebook whole, so each block is coded on its own: its base colour is 5 bits a
+# channel (levels 255/31 = 8.23 apart, the nearest within 4.12) and every pixel adds one of the block table's
+# intensity modifiers, the smallest of which is +-2 (table 0: -8, -2, 2, 8). A decoded channel so lies within
+# 4.12 + 2 of the original; the bound on the mean absolute error is that worst case, 6.2 levels.
+ETC1S_MAE = 255 / 31 / 2 + 2 + 0.05  # the 0.05 rounds 6.115 up
+PALETTE = np.array([[230, 40, 40], [40, 200, 60], [40, 60, 220], [240, 230, 60], [30, 30, 30], [250, 250, 250]],
+                   dtype=np.uint8)
+
+
+def orientation_image() -> np.ndarray:
+    """Return the 64 x 64 RGB test image (palette cells; asymmetric under flips)."""
+    cells = np.random.default_rng(7).integers(0, len(PALETTE), size=(8, 8))
+    img = np.repeat(np.repeat(PALETTE[cells], 8, axis=0), 8, axis=1)
+    assert np.abs(img.astype(int) - img[::-1]).mean() > 4 * ETC1S_MAE  # the flip is far from the original
+    assert np.abs(img.astype(int) - img[:, ::-1]).mean() > 4 * ETC1S_MAE
+    return img
+
+
+def ktx2_with_orientation(ktx: bytes, value: str) -> bytes:
+    """Return a KTX2 file with its ``KTXorientation`` key/value set to `value`, laid out again per the KTX2 spec
+    (header, level index, DFD, key/value data sorted by key with each entry padded to 4 bytes, supercompression
+    global data at an 8-byte boundary, the levels after it, 16-byte aligned, their index rewritten)."""
+    n_levels = max(struct.unpack_from("<I", ktx, 40)[0], 1)
+    index = [struct.unpack_from("<QQQ", ktx, 80 + 24 * k) for k in range(n_levels)]
+    dfd_off, dfd_len, kvd_off, kvd_len = struct.unpack_from("<IIII", ktx, 48)
+    sgd_off, sgd_len = struct.unpack_from("<QQ", ktx, 64)
+    entries, pos = {}, kvd_off
+    while pos < kvd_off + kvd_len:
+        (n,) = struct.unpack_from("<I", ktx, pos)
+        key, _nul, val = ktx[pos + 4:pos + 4 + n].partition(b"\0")
+        entries[key] = val
+        pos += 4 + n + (-n % 4)
+    entries[b"KTXorientation"] = value.encode("ascii") + b"\0"
+    kvd = b""
+    for key in sorted(entries):
+        e = key + b"\0" + entries[key]
+        kvd += struct.pack("<I", len(e)) + e + b"\0" * (-len(e) % 4)
+    out = bytearray(ktx[:80] + b"\0" * (24 * n_levels))
+    out += ktx[dfd_off:dfd_off + dfd_len]
+    new_kvd_off = len(out)
+    out += kvd
+    new_sgd_off = 0
+    if sgd_len:
+        out += b"\0" * (-len(out) % 8)
+        new_sgd_off = len(out)
+        out += ktx[sgd_off:sgd_off + sgd_len]
+    struct.pack_into("<IIII", out, 48, 80 + 24 * n_levels, dfd_len, new_kvd_off, len(kvd))
+    struct.pack_into("<QQ", out, 64, new_sgd_off, sgd_len)
+    for k in sorted(range(n_levels), key=lambda k: index[k][0]):  # the levels in their file order
+        off, length, raw = index[k]
+        out += b"\0" * (-len(out) % 16)
+        struct.pack_into("<QQQ", out, 80 + 24 * k, len(out), length, raw)
+        out += ktx[off:off + length]
+    return bytes(out)
+
+
+def quad_glb(image: bytes, ext: str, path: Path) -> Path:
+    """Write a 2 x 2 m textured quad as a GLB whose only image is `image`, named through the Basis extension `ext`."""
+    pos = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], dtype=np.float32)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32)
+    idx = np.array([0, 2, 1, 0, 3, 2], dtype=np.uint16)
+    binary = pos.tobytes() + uv.tobytes() + idx.tobytes()
+    binary += b"\0" * (-len(binary) % 4)
+    img_off = len(binary)
+    binary += image
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": "floor"}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]}],
+           "materials": [{"name": "atlas", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+           "textures": [{"extensions": {ext: {"source": 0}}}],
+           "images": [{"bufferView": 3, "mimeType": "image/ktx2" if ext == "KHR_texture_basisu" else "image/basis"}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                          "min": [-1, 0, -1], "max": [1, 0, 1]},
+                         {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+                         {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+           "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                           {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+                           {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+                           {"buffer": 0, "byteOffset": img_off, "byteLength": len(image)}],
+           "extensionsUsed": [ext], "extensionsRequired": [ext]}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(glb_bytes(doc, binary))
+    return path
+
+
+# (container, encoder flips rows, input mirrored left-right, KTXorientation written: None = no key)
+ORIENTATIONS = [("basis", False, False, None), ("basis", True, False, None), ("ktx2", False, False, None),
+                ("ktx2", False, False, "rd"), ("ktx2", True, False, "ru"), ("ktx2", True, True, "lu"),
+                ("ktx2", False, True, "ldo")]
+
+
+@pytest.mark.parametrize("container,y_flip,mirror,key", ORIENTATIONS)
+def test_converted_texture_is_the_authors_image_whatever_the_container_says(
+        basisu: Path, tmp_path: Path, container: str, y_flip: bool, mirror: bool, key: str | None) -> None:
+    """Each container's orientation, through `convert_scene`: the PNG the converter writes (what observation,
+    perception and both exports read) is the original image within ETC1S's error, and farther from its flips."""
+    img = orientation_image()
+    src = img[:, ::-1] if mirror else img  # what the file stores, its orientation saying how to turn it back
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(src)).save(buf, format="PNG")
+    (tmp_path / "in.png").write_bytes(buf.getvalue())
+    out = tmp_path / ("t.ktx2" if container == "ktx2" else "t.basis")
+    subprocess.run([str(basisu), *(["-ktx2"] if container == "ktx2" else []), *(["-y_flip"] if y_flip else []),
+                    str(tmp_path / "in.png"), "-output_file", str(out)], check=True, capture_output=True,
+                   cwd=tmp_path, timeout=120)
+    data = out.read_bytes()
+    if key is not None:
+        data = ktx2_with_orientation(data, key)
+    ext = "KHR_texture_basisu" if container == "ktx2" else "GOOGLE_texture_basis"
+    glb = quad_glb(data, ext, tmp_path / "stage" / "room.basis.glb")
+    asset = convert_scene(glb, tmp_path / "out", cache_dir="off")
+    pngs = sorted((tmp_path / "out" / Path(asset.mjcf).parent / "assets").glob("*.png"))
+    assert len(pngs) == 1
+    got = np.asarray(Image.open(pngs[0]).convert("RGB")).astype(int)
+    assert got.shape == img.shape
+    mae = np.abs(got - img).mean()
+    print(f"{container} y_flip={y_flip} mirror={mirror} key={key}: MAE {mae:.2f} (bound {ETC1S_MAE:.2f})")
+    assert mae <= ETC1S_MAE
+    assert mae < np.abs(got - img[::-1]).mean() and mae < np.abs(got - img[:, ::-1]).mean()
+
+
+def test_a_ktx2_orientation_that_is_none_is_an_error_naming_the_file(basisu: Path, tmp_path: Path) -> None:
+    buf = io.BytesIO()
+    Image.fromarray(orientation_image()).save(buf, format="PNG")
+    ktx = ktx2_with_orientation(encode(basisu, buf.getvalue(), tmp_path / "enc", "etc1s"), "up")
+    glb = quad_glb(ktx, "KHR_texture_basisu", tmp_path / "stage" / "odd.glb")
+    with pytest.raises(InputError, match=r"odd\.glb: KTXorientation 'up' is not a KTX2 orientation"):
+        convert_scene(glb, tmp_path / "out", cache_dir="off")
