@@ -13,6 +13,7 @@ import sys
 import time
 import types
 import zlib
+from collections import deque
 
 import numpy as np
 
@@ -173,7 +174,11 @@ def _label_table(o: object, labels: set[str]) -> bool:
 
 class Walker(_Base):
     """Walks everything reachable from what it is handed (attributes, closures, containers, gc referents, its module's
-    globals) and then the whole heap of its process, looking for the generator's objects and id -> label tables."""
+    globals) and then the whole heap of its process, looking for the generator's objects and id -> label tables.
+
+    Breadth-first: what it is handed first, then every object of the heap (`gc.get_objects`) before anything they
+    refer to, so the walk meets the objects next to it (and every tracked object of the heap) before its cap is
+    spent in whatever modules the process imported before (torch, transformers: millions of objects deep)."""
 
     name = "walker"
     knowledge = Knowledge(detector="gt", prior="none")
@@ -187,9 +192,10 @@ class Walker(_Base):
     def _walk(self, roots: list) -> None:
         labels = set(self.sensors.vocabulary.labels)
         seen: set[int] = set()
-        todo = list(roots)
-        while todo and len(seen) < 2_000_000:
-            o = todo.pop()
+        todo = deque(roots)
+        cap = len(roots) + 2_000_000  # every root is looked at, then at most 2 million objects below them
+        while todo and len(seen) < cap:
+            o = todo.popleft()
             if id(o) in seen:
                 continue
             seen.add(id(o))

@@ -86,7 +86,12 @@ def test_an_agent_without_prior_gets_no_environment_before_its_episodes(dataset,
 
 def test_a_walker_finds_no_generator_object_sealed_and_finds_them_in_process(dataset):
     """Sealed: nothing of the evaluator's process is in the agent's (no Bundle, task, physics, navmap, geodesic field,
-    episode, goal, relevance, region map; no id -> label table). In-process the same walk finds them."""
+    episode, goal, relevance, region map; no id -> label table). In-process the same walk finds them, whatever the
+    process imported before (torch and transformers here, as earlier tests of a worker do: a depth-first walk spent
+    its cap in their modules and missed them)."""
+    pytest.importorskip("torch")
+    transformers = pytest.importorskip("transformers")
+    transformers.AutoModel  # noqa: B018 - loads the lazily imported model modules as a model's use does
     sealed = _run(dataset, spec("Walker"), episodes=1)[0]
     assert sealed["mode"] == "sealed" and sealed["info"]["walked"] > 1000
     assert sealed["info"]["found"] == [] and sealed["info"]["label_tables"] == 0, sealed["info"]
