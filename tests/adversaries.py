@@ -291,3 +291,124 @@ class HalfOracle(_Base):
         super().reset(view, ts)
         assert view.oracle.navmap(0) is not None
         view.oracle.relevance  # noqa: B018 - undeclared: KnowledgeError
+
+
+class Silent(_Base):
+    """Answers its set-up, then never answers an action (a hung agent): the evaluator must not wait forever."""
+
+    name = "silent"
+
+    def act(self, ts) -> int:
+        time.sleep(10_000)
+        return STOP
+
+
+class HalfReply(_Base):
+    """Writes half a reply on the protocol's socket (a length header and a few of the bytes it announces), then hangs:
+    a poll says a reply is there, a blocking read of it would never return."""
+
+    name = "half-reply"
+
+    def act(self, ts) -> int:
+        import struct
+
+        os.write(int(sys.argv[1]), struct.pack("!i", 100) + b'{"action": ')
+        time.sleep(10_000)
+        return STOP
+
+
+class Crasher(_Base):
+    """Declares a first visit, then crashes in its episode `crash_at` (its index in this process's episodes): a crash
+    must be recorded as the episode's failure, not buy a replay of it nor a second first visit."""
+
+    name = "crasher"
+    knowledge = Knowledge(detector="none", prior="scene", explore_steps=6)
+
+    def __init__(self, seed: int = 0, steps: int = 3, crash_at: int = 1) -> None:
+        super().__init__(seed, steps)
+        self.crash_at, self.episodes, self.visits = int(crash_at), 0, 0
+
+    def explore(self, view, ts) -> None:
+        self.visits += 1
+        self.n, self.rng = 0, np.random.default_rng(self.seed)
+
+    def reset(self, view, ts) -> None:
+        super().reset(view, ts)
+        self.episodes += 1
+
+    def act(self, ts) -> int:
+        if self.episodes - 1 == self.crash_at and self.n >= 1:
+            raise RuntimeError("deliberate crash")
+        return super().act(ts)
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        self.info.update(visits=self.visits, episodes=self.episodes)
+
+
+class PthProbe(_Base):
+    """Reports, in its name (the first thing an agent declares), what a ``.pth`` hook of its interpreter's
+    site-packages found when it ran at interpreter start-up (``builtins.sdovon_pth_probe``, set by the hook a test
+    installs: it tried to read the dataset): ``pth-read``, ``pth-denied``, or ``pth-none`` when no hook ran."""
+
+    def __init__(self, seed: int = 0, steps: int = 1) -> None:
+        import builtins
+
+        super().__init__(seed, steps)
+        self.name = f"pth-{getattr(builtins, 'sdovon_pth_probe', 'none')}"
+
+
+class AnswerTable(_Base):
+    """A cheater holding an answer table made from the public-seed run of the same config (as an agent that reruns
+    the generator in its set-up would have): (start position, goal category) -> the goal's view points, and the
+    scene's navigable maps (scene records, public too). Localized, no oracle declared. On a hit it walks the shortest
+    path to the nearest view point and stops (the oracle's walk); on a miss it walks exactly as `Blind` does."""
+
+    name = "answer-table"
+    knowledge = Knowledge(detector="none", pose="absolute")
+
+    def __init__(self, seed: int = 0, steps: int = 60, table: dict | None = None, navmaps: dict | None = None) -> None:
+        super().__init__(seed, steps)
+        self.table, self.navmaps = dict(table or {}), dict(navmaps or {})
+        self.inner = None
+        self.hits = 0
+
+    def reset(self, view, ts) -> None:
+        super().reset(view, ts)
+        x, y = np.asarray(ts.observation["position"], float)[:2]
+        answer = self.table.get(f"{x:.2f},{y:.2f},{ts.observation['objectgoal_text']}")
+        self.inner = None
+        if answer is not None:
+            from sdovon_mj.nav.agents import OracleAgent
+
+            self.hits += 1
+            self.inner = OracleAgent(nav=self.sensors.nav, agent=self.sensors.agent)
+            self.inner.reset(_Answer(np.asarray(answer["view_points"], float), self.navmaps[answer["floor"]],
+                                     answer["floor"]), ts)
+
+    def act(self, ts) -> int:
+        if self.inner is None:
+            return super().act(ts)
+        self._look(ts)
+        return self.inner.act(ts)
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        self.info.update(hits=self.hits)
+
+
+class _Answer:
+    """What the oracle's walk reads (`view.oracle`), taken from the answer table instead of the evaluator."""
+
+    def __init__(self, view_points: np.ndarray, navmap, floor: int) -> None:
+        self.oracle = self
+        self._vps, self._nm, self._floor = view_points, navmap, floor
+
+    def view_points(self) -> np.ndarray:
+        return self._vps
+
+    def navmap(self, floor: int = 0):
+        return self._nm
+
+    def episode_floor(self) -> int:
+        return self._floor

@@ -243,3 +243,71 @@ def test_a_rerun_resumes_from_the_episodes_written_and_only_the_same_run(dataset
     assert started == [1] and [[r[k] for k in keys] for r in third] == [[r[k] for k in keys] for r in first]
     other = _run(dataset, spec("Blind", steps=5), episodes=3, out=tmp_path)
     assert len(started) == 2 and other[0]["run_key"] != first[0]["run_key"]
+
+
+def test_a_pth_hook_of_the_agents_interpreter_runs_sealed(dataset, tmp_path):
+    """The agent's own interpreter (a virtual environment made here, reaching the shared packages through a .pth
+    file) holds a .pth hook that reads the dataset at interpreter start-up, before any agent code: sealed, the read
+    is refused (the seal applies before the interpreter starts); unsealed (the control) it reads the file."""
+    import site
+    import subprocess
+
+    from sdovon_mj.suite.protocol import SealedSession
+
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    lib = next((venv / "lib").glob("python*/site-packages"))
+    shared = [p for p in site.getsitepackages() if Path(p).is_dir()]
+    (lib / "aaa_shared.pth").write_text("import site; " + "; ".join(f"site.addsitedir({p!r})" for p in shared) + "\n")
+    target = str(dataset / "fixture_apartment_v000" / "episodes.json")
+    probe = (f"try:\n    open({target!r}, 'rb').read(64); builtins.sdovon_pth_probe = 'read'\n"
+             "except PermissionError:\n    builtins.sdovon_pth_probe = 'denied'\n")
+    (lib / "zzz_probe.pth").write_text(f"import builtins; exec({probe!r})\n")
+    python = str(venv / "bin" / "python")
+    for seal in (True, False):
+        session = SealedSession(spec("PthProbe"), 32, 24, seal=seal, protect=(dataset,), python=python, timeout=60)
+        try:
+            name, sealed = session.name, session.seal.sealed
+        finally:
+            session.close()
+        if seal and landlock.abi_version() > 0:
+            assert sealed and name == "pth-denied"
+        elif not seal:
+            assert not sealed and name == "pth-read"
+
+
+def _session_to_first_action(dataset, name: str, timeout: float):
+    """Start adversary `name` sealed, set it up and begin an episode: return (the error it ended in, seconds waited
+    for its first action)."""
+    import time
+
+    from sdovon_mj.knowledge import Knowledge
+    from sdovon_mj.suite.observation import dataset_vocabulary, make_sensors
+    from sdovon_mj.suite.protocol import AgentError, Phase, SceneStart, SealedSession
+
+    vocab = dataset_vocabulary(dataset, [])
+    session = SealedSession(spec(name), SMALL.sensor_width, SMALL.sensor_height, protect=(dataset,), timeout=timeout)
+    try:
+        session.setup(make_sensors(SMALL, NAV, vocab, Knowledge(detector="none")))
+        session.scene(SceneStart("a-scene"))
+        h, w = SMALL.sensor_height, SMALL.sensor_width
+        obs = {"rgb": np.zeros((h, w, 3), np.uint8), "depth": np.zeros((h, w, 1), np.float32),
+               "gps": np.zeros(2), "compass": np.zeros(1), "pitch": np.zeros(1), "position": np.zeros(3),
+               "heading": np.zeros(1), "objectgoal": np.zeros(1, np.int64), "objectgoal_text": "bed"}
+        t0 = time.monotonic()
+        with pytest.raises(AgentError) as err:
+            session.begin(Phase("episode", "a-scene", "an-episode", 0, 10), obs)
+        return err.value, time.monotonic() - t0, session.proc
+    finally:
+        session.close()
+
+
+@pytest.mark.parametrize("name", ["Silent", "HalfReply"])
+def test_a_silent_agent_and_half_a_reply_end_in_a_timeout(dataset, name):
+    """An agent that never answers, and one that sends a length header and part of the bytes it announces (a poll
+    sees data; a blocking read would wait forever), end in AgentError cause "timeout" after their reply limit; the
+    agent's process is gone."""
+    limit = 2.0
+    err, waited, proc = _session_to_first_action(dataset, name, limit)
+    assert err.cause == "timeout", err
+    assert waited >= limit and proc.poll() is not None
