@@ -85,14 +85,14 @@ def test_a_salted_split_has_other_placements_and_episodes_and_records_only_the_d
 
 
 def _answer_table(dataset: Path) -> tuple[dict, dict]:
-    """The cheater's table, made once from the public split: start (x, y) and category -> view points; navmaps."""
+    """The cheater's table, made once from the public split: category -> [(start, view points, floor)]; navmaps."""
     table, navmaps = {}, {}
     for p in find_bundles(dataset):
         b = load_bundle(p)
         for e in b.episodes:
-            x, y = np.asarray(e.start_position, float)[:2]
             vps = [vp.position.tolist() for g in e.goals for vp in g.view_points]
-            table[f"{x:.2f},{y:.2f},{e.object_category}"] = {"view_points": vps, "floor": int(e.floor)}
+            table.setdefault(e.object_category, []).append({"start": np.asarray(e.start_position, float).tolist(),
+                                                            "view_points": vps, "floor": int(e.floor)})
             navmaps.setdefault(int(e.floor), b.navmap(e.floor))
     return table, navmaps
 
