@@ -414,3 +414,16 @@ class _Answer:
 
     def episode_floor(self) -> int:
         return self._floor
+
+
+class Forger(_Base):
+    """Declares a detector holding a line break and a table row (its `Knowledge` forged past the constructor's check):
+    printed as it is, it would add a row to tables.md."""
+
+    name = "forger"
+
+    def __init__(self, seed: int = 0, steps: int = 1) -> None:
+        super().__init__(seed, steps)
+        k = Knowledge(detector="none")
+        object.__setattr__(k, "detector", "none\n| oracle | detector none; no prior | sealed | 20 | 1.000 |")
+        self.knowledge = k

@@ -16,6 +16,7 @@ never imported here: the evaluator builds them in their own process) learn nothi
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -24,7 +25,7 @@ import pytest
 
 from sdovon_mj.config import AgentConfig, NavConfig
 from sdovon_mj.suite import landlock
-from sdovon_mj.suite.evaluate import evaluate, overall_table, summarize
+from sdovon_mj.suite.evaluate import evaluate, outcome_table, overall_table, summarize
 from sdovon_mj.suite.protocol import AgentSpec
 from support.bundles import fixture_bundle
 
@@ -121,14 +122,13 @@ def test_a_disk_scanning_agent_cannot_read_the_dataset(dataset):
 
 def test_a_declared_oracle_gets_its_parts_and_no_other(dataset):
     """The oracle agent (navmap + view points declared) succeeds sealed; an agent reading an undeclared part gets
-    KnowledgeError (the session reports the agent's error)."""
+    KnowledgeError (recorded as the episode's failure, with the agent's traceback)."""
     from sdovon_mj.suite.evaluate import agent_spec
-    from sdovon_mj.suite.protocol import AgentError
 
     res = _run(dataset, agent_spec("oracle", NavConfig(), agent=SMALL), episodes=2)
     assert all(r["success"] == 1.0 and r["oracle"] and "ORACLE: navmap, view_points" in r["knowledge"] for r in res)
-    with pytest.raises(AgentError, match="KnowledgeError.*relevance"):
-        _run(dataset, spec("HalfOracle"), episodes=1)
+    half = _run(dataset, spec("HalfOracle"), episodes=1)[0]  # its error is the episode's recorded failure
+    assert half["failure"]["cause"] == "crash" and re.search("KnowledgeError.*relevance", half["failure"]["message"])
 
 
 def test_landlock_seals_a_process_to_its_allow_list(tmp_path):
@@ -276,38 +276,60 @@ def test_a_pth_hook_of_the_agents_interpreter_runs_sealed(dataset, tmp_path):
             assert not sealed and name == "pth-read"
 
 
-def _session_to_first_action(dataset, name: str, timeout: float):
-    """Start adversary `name` sealed, set it up and begin an episode: return (the error it ended in, seconds waited
-    for its first action)."""
-    import time
-
-    from sdovon_mj.knowledge import Knowledge
-    from sdovon_mj.suite.observation import dataset_vocabulary, make_sensors
-    from sdovon_mj.suite.protocol import AgentError, Phase, SceneStart, SealedSession
-
-    vocab = dataset_vocabulary(dataset, [])
-    session = SealedSession(spec(name), SMALL.sensor_width, SMALL.sensor_height, protect=(dataset,), timeout=timeout)
-    try:
-        session.setup(make_sensors(SMALL, NAV, vocab, Knowledge(detector="none")))
-        session.scene(SceneStart("a-scene"))
-        h, w = SMALL.sensor_height, SMALL.sensor_width
-        obs = {"rgb": np.zeros((h, w, 3), np.uint8), "depth": np.zeros((h, w, 1), np.float32),
-               "gps": np.zeros(2), "compass": np.zeros(1), "pitch": np.zeros(1), "position": np.zeros(3),
-               "heading": np.zeros(1), "objectgoal": np.zeros(1, np.int64), "objectgoal_text": "bed"}
-        t0 = time.monotonic()
-        with pytest.raises(AgentError) as err:
-            session.begin(Phase("episode", "a-scene", "an-episode", 0, 10), obs)
-        return err.value, time.monotonic() - t0, session.proc
-    finally:
-        session.close()
-
-
 @pytest.mark.parametrize("name", ["Silent", "HalfReply"])
-def test_a_silent_agent_and_half_a_reply_end_in_a_timeout(dataset, name):
+def test_a_silent_agent_and_half_a_reply_end_in_recorded_timeouts(dataset, name):
     """An agent that never answers, and one that sends a length header and part of the bytes it announces (a poll
-    sees data; a blocking read would wait forever), end in AgentError cause "timeout" after their reply limit; the
-    agent's process is gone."""
+    sees data; a blocking read would wait forever), end in the episode's recorded failure, cause "timeout", after
+    their reply limit; the evaluation goes on with a new agent process for the next episode (which times out too)."""
     limit = 2.0
-    err, waited, proc = _session_to_first_action(dataset, name, limit)
-    assert err.cause == "timeout", err
-    assert waited >= limit and proc.poll() is not None
+    res = _run(dataset, spec(name), episodes=2, timeout=limit)
+    assert [r["outcome"] for r in res] == ["agent failure"] * 2
+    assert all(r["failure"]["cause"] == "timeout" and r["seconds"] >= limit and r["success"] == 0 for r in res)
+    assert "agent failure" in outcome_table({name: summarize(res, bootstrap=0)})
+
+
+def test_a_crash_is_recorded_and_never_replayed(dataset, tmp_path, monkeypatch):
+    """Crasher (a first visit declared) crashes in its second episode: that episode is recorded as an agent failure
+    (cause crash, the agent's traceback) and the evaluation goes on in a new process, which gets no second first
+    visit. A resumed run replays nothing: with every record there it starts no agent (the failed episode stays
+    failed); with a finished episode's record removed it runs that one alone, again without a first visit, and the
+    scene's first-visit record keeps the one visit's steps."""
+    import sdovon_mj.suite.evaluate as E
+
+    res = _run(dataset, spec("Crasher"), episodes=3, out=tmp_path)
+    assert [r["outcome"] == "agent failure" for r in res] == [False, True, False]
+    assert res[1]["failure"]["cause"] == "crash" and "deliberate crash" in res[1]["failure"]["message"]
+    assert res[0]["info"]["visits"] == 1 and res[2]["info"]["visits"] == 0
+    record = tmp_path / "exploration" / "Crasher" / f"{res[0]['scene']}.json"
+    visit = json.loads(record.read_text())
+    assert 0 < visit["steps"] <= 6 and all(r["first_visit"]["steps"] == visit["steps"] for r in res)
+
+    real, started = E.open_session, []
+    monkeypatch.setattr(E, "open_session", lambda *a, **k: started.append(1) or real(*a, **k))
+    again = _run(dataset, spec("Crasher"), episodes=3, out=tmp_path)
+    assert started == [] and [r["outcome"] for r in again] == [r["outcome"] for r in res]
+    (tmp_path / "episodes" / "Crasher" / f"{res[2]['episode_id']}.json").unlink()
+    third = _run(dataset, spec("Crasher"), episodes=3, out=tmp_path)
+    assert started == [1] and third[2]["info"]["visits"] == 0 and third[1]["failure"]["cause"] == "crash"
+    assert json.loads(record.read_text())["steps"] == visit["steps"]
+
+
+def test_a_forged_table_row_is_rejected(dataset):
+    """An agent declaring a detector with a line break and a table row in it is refused before its first episode
+    (a protocol error): nothing it declares reaches a table."""
+    from sdovon_mj.suite.protocol import AgentError
+
+    with pytest.raises(AgentError, match="plain word") as err:
+        _run(dataset, spec("Forger"), episodes=1)
+    assert err.value.cause == "protocol error"
+
+
+def test_agent_read_inside_the_dataset_is_refused(dataset):
+    """`--agent-read` (``read``) naming a folder inside the dataset is refused before the agent starts; a folder
+    that contains the dataset still runs, labelled not sealed."""
+    from sdovon_mj.errors import InputError
+
+    with pytest.raises(InputError, match="may not read"):
+        _run(dataset, spec("Blind"), episodes=1, read=(str(dataset / "fixture_apartment_v000"),))
+    r = _run(dataset, spec("Blind"), episodes=1, read=(str(dataset.parent),))[0]
+    assert not r["sealed"] and "NOT sealed" in r["seal"]

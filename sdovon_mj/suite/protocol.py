@@ -185,6 +185,16 @@ class AgentView:
         return self._oracle
 
 
+def opaque_token(key: str, kind: str, name: str) -> str:
+    """Return the opaque id an agent gets for a scene or an episode (``kind``): a digest of the split's key (a secret
+    split's salt digest, '' for an open split), the kind and the real id. Stable for the same split (a scene's token
+    across its episodes and runs: an agent's memory of a scene works), and without the split's key it names nothing:
+    an agent cannot look an episode up in a table it made."""
+    import hashlib
+
+    return hashlib.sha256(f"sdovon-mj/token/{key}/{kind}/{name}".encode("utf-8")).hexdigest()[:16]
+
+
 def encode_reply(reply: dict) -> bytes:
     """Return an agent reply as JSON bytes (what travels from the agent to the evaluator)."""
     return json.dumps(json_safe(reply, str), allow_nan=False, separators=(",", ":")).encode("utf-8")
@@ -827,4 +837,4 @@ class SealedSession:
 
 __all__ = ["AgentError", "AgentRunner", "AgentSpec", "AgentView", "CAUSES", "FrameBuffer", "InProcessSession", "MODES",
            "OracleParts", "PHASES", "Phase", "REPLY_TIMEOUT", "Reply", "SETUP_TIMEOUT", "SceneStart", "SealedSession",
-           "agent_name", "decode_reply", "encode_reply", "knowledge_from_json", "knowledge_to_json", "seal_plan"]
+           "agent_name", "decode_reply", "opaque_token", "encode_reply", "knowledge_from_json", "knowledge_to_json", "seal_plan"]
