@@ -186,7 +186,7 @@ class Walker(_Base):
     def __init__(self, seed: int = 0, steps: int = 1) -> None:
         super().__init__(seed, steps)
         self.found: set[str] = set()
-        self.tables = 0
+        self.tables: set[int] = set()
         self.walked = 0
 
     def _walk(self, roots: list) -> None:
@@ -208,18 +208,21 @@ class Walker(_Base):
                 pass
         self.walked += len(seen)
 
-    def _inspect(self, o: object, labels: set[str], todo: list) -> None:
-        """Count `o` if it is an id -> label table and queue what it refers to."""
-        if _label_table(o, labels):
-            self.tables += 1
+    def _inspect(self, o: object, labels: set[str], todo: deque) -> None:
+        """Queue what `o` refers to, counting the id -> label tables among them at once (such a dict holds no
+        container, so the garbage collector does not track it: it is found only through what holds it)."""
         if isinstance(o, (str, bytes, int, float, np.ndarray, type(None))):
             return
-        todo.extend(gc.get_referents(o))
+        refs = list(gc.get_referents(o))
         if isinstance(o, types.FunctionType):
-            todo.extend(c.cell_contents for c in (o.__closure__ or ()) if c is not None and _filled(c))
+            refs += [c.cell_contents for c in (o.__closure__ or ()) if c is not None and _filled(c)]
         d = getattr(o, "__dict__", None) if not isinstance(o, type) else None
         if isinstance(d, dict):
-            todo.extend(d.values())
+            refs += list(d.values())
+        for r in [o] + refs:
+            if isinstance(r, dict) and id(r) not in self.tables and _label_table(r, labels):
+                self.tables.add(id(r))
+        todo.extend(refs)
 
     def reset(self, view, ts) -> None:
         super().reset(view, ts)
@@ -228,7 +231,7 @@ class Walker(_Base):
 
     def end(self, view, ts) -> None:
         super().end(view, ts)
-        self.info.update(found=sorted(self.found), label_tables=self.tables, walked=self.walked)
+        self.info.update(found=sorted(self.found), label_tables=len(self.tables), walked=self.walked)
 
 
 def _filled(cell) -> bool:

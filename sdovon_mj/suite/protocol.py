@@ -362,7 +362,13 @@ class InProcessSession:
         self.knowledge = knowledge_from_json(hello.get("knowledge"))
 
     def _call(self, expect: str, fn: Any, *args: Any) -> Any:
-        return decode_reply(encode_reply(fn(*args)), expect)
+        import traceback
+
+        try:
+            reply = fn(*args)
+        except Exception as e:  # the agent's error, as a sealed session reports it (chained: the debugger sees it)
+            raise AgentError(f"the agent raised: {traceback.format_exc(limit=20)[-4000:]}", "crash") from e
+        return decode_reply(encode_reply(reply), expect)
 
     def setup(self, sensors: Any) -> None:
         """Send the sensors (no limit holds in this process; `setup_seconds` is measured)."""
