@@ -23,7 +23,7 @@ import pytest
 from sdovon_mj.config import AgentConfig, NavConfig
 from sdovon_mj.seeds import salt_digest
 from sdovon_mj.suite.bundle import find_bundles, load_bundle
-from sdovon_mj.suite.evaluate import evaluate
+from sdovon_mj.suite.evaluation.loop import evaluate
 from sdovon_mj.suite.protocol import AgentSpec
 
 HERE = Path(__file__).resolve().parent
