@@ -24,6 +24,8 @@ from sdovon_mj.config import AgentConfig, NavConfig
 from sdovon_mj.seeds import salt_digest
 from sdovon_mj.suite.bundle import find_bundles, load_bundle
 from sdovon_mj.suite.evaluation.loop import evaluate
+from sdovon_mj.suite.evaluation.statistics import summarize
+from sdovon_mj.suite.evaluation.tables import ran_as
 from sdovon_mj.suite.protocol import AgentSpec
 
 HERE = Path(__file__).resolve().parent
@@ -112,3 +114,6 @@ def test_an_answer_table_of_the_public_run_scores_like_a_blind_agent_on_the_secr
     secret, walk = run(splits["secret"], cheat), run(splits["secret"], blind)
     assert secret[-1]["info"]["hits"] == 0
     assert [(r["trajectory"], r["success"]) for r in secret] == [(r["trajectory"], r["success"]) for r in walk]
+    # every row says which split it ran on
+    assert ran_as(summarize(public, bootstrap=0)) == "sealed, open split"
+    assert ran_as(summarize(secret, bootstrap=0)) == "sealed, secret split"
