@@ -225,9 +225,13 @@ class Walker(_Base):
         todo.extend(refs)
 
     def reset(self, view, ts) -> None:
+        import warnings
+
         super().reset(view, ts)
-        self._walk([view, ts, self.sensors, vars(sys.modules[__name__]), self.act, self.reset])
-        self._walk(gc.get_objects())
+        with warnings.catch_warnings():  # attributes of deprecated module members warn when read
+            warnings.simplefilter("ignore")
+            self._walk([view, ts, self.sensors, vars(sys.modules[__name__]), self.act, self.reset])
+            self._walk(gc.get_objects())
 
     def end(self, view, ts) -> None:
         super().end(view, ts)
