@@ -106,8 +106,8 @@ def test_a_walker_finds_no_generator_object_sealed_and_finds_them_in_process(dat
 
 def test_a_disk_scanning_agent_cannot_read_the_dataset(dataset):
     """Sealed by Landlock: opening the dataset's files (the agent was told where they are) and the evaluator's
-    /proc/<pid>/cmdline, environ and mem raises PermissionError, and a walk of the file system finds no readable
-    episode file. Unsealed (the control) it reads them, and the table says the file system was not sealed."""
+    /proc/<pid>/cmdline, environ and mem raises PermissionError, a walk of the file system finds no readable
+    episode file, and it can leave no note in /dev/shm or the embedding cache (nothing it writes outlives it). Unsealed (the control) it reads them, and the table says the file system was not sealed."""
     variant = dataset / "fixture_apartment_v000"
     files = tuple(str(variant / f) for f in ("episodes.json", "oracle/navmap.json", "oracle/object_labels.json"))
     r = _run(dataset, spec("DiskScanner", paths=files), episodes=1)[0]
@@ -115,10 +115,13 @@ def test_a_disk_scanning_agent_cannot_read_the_dataset(dataset):
         assert r["sealed"] and "sealed (Landlock ABI" in r["seal"]
         assert all(v == "denied" for v in r["info"]["tried"].values()), r["info"]["tried"]
         assert r["info"]["episode_files_readable"] == []
+        # nothing it writes outlives it: no note in /dev/shm nor in the shared embedding cache
+        assert r["info"]["notes"]["shm"] == "denied" and r["info"]["notes"]["embedding_cache"] != "written"
     else:
         assert not r["sealed"] and "NOT sealed" in overall_table({"scanner": summarize([r], bootstrap=0)})
     open_ = _run(dataset, spec("DiskScanner", paths=files, walk_dirs=0), episodes=1, seal=False)[0]
     assert not open_["sealed"] and all(open_["info"]["tried"][f] == "read" for f in files)
+    assert open_["info"]["notes"]["shm"] == "written"
     assert "file system not sealed" in overall_table({"scanner": summarize([open_], bootstrap=0)})
 
 
