@@ -28,6 +28,8 @@ from sdovon_mj.suite.evaluation.statistics import summarize
 from sdovon_mj.suite.evaluation.tables import ran_as
 from sdovon_mj.suite.protocol import AgentSpec
 
+pytestmark = pytest.mark.slow  # the salted copy redoes place and episodes and exports twice (about a minute)
+
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 SALT = b"a test's secret salt: 32 bytes.."
