@@ -56,7 +56,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
     from sdovon_mj.suite.boundary import oracle_scene_parts
     from sdovon_mj.suite.evaluation.exploration import run_first_visits
     from sdovon_mj.suite.evaluation.loop import dataset_root, run_episode
-    from sdovon_mj.suite.evaluation.phases import open_session
+    from sdovon_mj.suite.evaluation.phases import LiveAgent, open_session
     from sdovon_mj.suite.evaluation.runner import agent_spec
     from sdovon_mj.suite.objectnav import make_environment
     from sdovon_mj.suite.observation import ObservationBuilder, dataset_vocabulary, make_sensors
@@ -76,6 +76,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
             sessions[m] = s = open_session(spec, m, width, height)
             s.setup(make_sensors(body, nav, vocab, s.knowledge))
             out[m]["start"] = time.perf_counter() - t0
+        lives = {m: LiveAgent(None, None, sessions[m]) for m in out}
         know = sessions["sealed"].knowledge
         scene = None
         for k, (b, i) in enumerate(plan):
@@ -83,12 +84,13 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
             if b.episodes[i].scene != scene:
                 scene = b.episodes[i].scene
                 visits = {}
+                start = SceneStart(str(scene), oracle_scene_parts(b, know))
                 for m in order:
-                    sessions[m].scene(SceneStart(str(scene), oracle_scene_parts(b, know)))
+                    lives[m].get(start)
                     if know.prior == "scene":
                         t0 = time.perf_counter()
                         floors = {int(bb.episodes[j].floor) for bb, j in plan if bb.episodes[j].scene == scene}
-                        visits[m] = run_first_visits(sessions[m], b, floors, know, nav, body, vocab, 0)
+                        visits[m] = run_first_visits(lives[m], b, floors, know, nav, body, vocab, 0, start)
                         out[m]["visit"] += time.perf_counter() - t0
             if b.name not in envs:
                 for e, _bd in envs.values():
@@ -99,7 +101,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
             env, builder = envs[b.name]
             for m in order:
                 t0 = time.perf_counter()
-                r = run_episode(sessions[m], env, builder, b, i, know, name, "bench", visits.get(m))
+                r = run_episode(lives[m], start, env, builder, b, i, name, "bench", visits.get(m))
                 out[m]["seconds"] += time.perf_counter() - t0
                 out[m]["episodes"] += 1
                 out[m]["success"] += r["success"]

@@ -54,6 +54,7 @@ class ExportOptions:
     split: str = "val"
     merge: bool = False
     extra: dict[str, Any] = field(default_factory=dict)
+    secret: dict[str, Any] | None = None  # the run's secret-split record (`RunView.secret_split`); None: open split
 
 
 @dataclass
@@ -246,10 +247,12 @@ def exportable_variants(run: RunView, report: ExportReport) -> Iterator[tuple[Sc
 
 def finish_export(report: ExportReport, root: Path, options: ExportOptions, index: list[dict], written: list[Path],
                   index_key: str = "variants", extra: dict[str, Any] | None = None) -> ExportReport:
-    """Write the dataset's ``index.json`` ({dataset, split, <index_key>: index, **extra}) and fill report.files; return
-    report."""
+    """Write the dataset's ``index.json`` ({dataset, split, <index_key>: index, **extra}, and ``secret_split`` (the
+    salt's digest) for a split made with a secret salt: absent for an open one) and fill report.files; return report."""
+    secret = {"secret_split": dict(options.secret)} if options.secret else {}
     atomic_write_text(root / "index.json", json.dumps({"dataset": options.name, "split": options.split,
-                                                       index_key: index, **(extra or {})}, indent=1, sort_keys=True) + "\n")
+                                                       index_key: index, **(extra or {}), **secret},
+                                                      indent=1, sort_keys=True) + "\n")
     written.append(root / "index.json")
     report.files = sorted({p.relative_to(Path(report.out_dir)).as_posix() for p in written})
     return report
@@ -285,8 +288,10 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path, name: str = "sdov
     extra : dict, optional
         Exporter-specific options (`ExportOptions.extra`, e.g. ``{"standalone": True}`` for MJCF).
     """
-    return run_export(make_exporter(fmt), RunView(run_dir), Path(out),
-                      ExportOptions(name=name, split=split, merge=merge, extra=dict(extra or {})))
+    run = RunView(run_dir)
+    return run_export(make_exporter(fmt), run, Path(out), ExportOptions(name=name, split=split, merge=merge,
+                                                                         extra=dict(extra or {}),
+                                                                         secret=run.secret_split()))
 
 
 __all__ = ["MANIFEST", "ExportError", "ExportOptions", "ExportReport", "ExportUnit", "Exporter", "RunView", "UnitResult",

@@ -7,6 +7,7 @@ table prints it.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,6 +22,19 @@ class KnowledgeError(SdovonError, PermissionError):
     """An agent read something its declared knowledge does not grant."""
 
 
+# What a declared word (a detector, an FN variant, an agent's name) may hold: it is printed in result tables, so no
+# line break, no cell separator, no markup; 64 characters.
+WORD = re.compile(r"[A-Za-z0-9_.+()/-][A-Za-z0-9 _.+()/-]{0,63}")
+
+
+def check_word(value: Any, what: str) -> str:
+    """Return `value` when it is a plain word (`WORD`); raise ValueError naming `what` otherwise."""
+    if not isinstance(value, str) or not WORD.fullmatch(value):
+        raise ValueError(f"{what} {str(value)[:80]!r} is not a plain word (letters, digits, space, _ . + ( ) / -, at "
+                         "most 64 characters)")
+    return value
+
+
 @dataclass(frozen=True)
 class Knowledge:
     """What an agent uses: its detector, its pose sensor, prior exploration, oracle parts, FN variant."""
@@ -33,6 +47,8 @@ class Knowledge:
     explore_steps: int = 0  # the first visit's step budget (prior="scene"), declared and reported
 
     def __post_init__(self) -> None:
+        check_word(self.detector, "detector")
+        check_word(self.fn, "FN variant")
         if self.pose not in POSES:
             raise ValueError(f"unknown pose sensor {self.pose!r} ({', '.join(POSES)})")
         if self.prior not in PRIORS:
@@ -40,7 +56,7 @@ class Knowledge:
         if (self.prior == "scene") != (int(self.explore_steps) > 0):
             raise ValueError(f"prior {self.prior!r} with explore_steps={self.explore_steps}: a first visit "
                              "(prior='scene') needs a step budget > 0, and only it")
-        bad = sorted(set(self.oracle) - set(ORACLE_PARTS))
+        bad = sorted(map(str, set(self.oracle) - set(ORACLE_PARTS)))
         if bad:
             raise ValueError(f"unknown oracle parts {bad} ({', '.join(ORACLE_PARTS)})")
 
@@ -64,4 +80,4 @@ def knowledge_of(agent: Any) -> Knowledge:
     return k if isinstance(k, Knowledge) else Knowledge()
 
 
-__all__ = ["Knowledge", "KnowledgeError", "ORACLE_PARTS", "knowledge_of"]
+__all__ = ["Knowledge", "KnowledgeError", "ORACLE_PARTS", "WORD", "check_word", "knowledge_of"]

@@ -40,7 +40,7 @@ from . import __version__, numerics
 from .config import RunConfig, dump_yaml, load_config, to_dict
 from .errors import InputError, InputsError, SdovonError, StageError
 from .records import dumps
-from .seeds import scene_seed
+from .seeds import SALT_ENV, scene_seed, secret_salt, split_record
 from .store import RunLock, Store, Timer, clean_temp_files
 
 
@@ -441,8 +441,10 @@ class RayExecutor:
         self.retries = max(0, int(retries))
         if not ray.is_initialized():
             kwargs: dict[str, Any] = {"address": address} if address else {"num_cpus": num_cpus}
+            # the secret salt's file name travels (workers derive the variant seeds); the file must be readable there
+            env = {k: os.environ[k] for k in (SALT_ENV,) if k in os.environ}
             ray.init(ignore_reinit_error=True, log_to_driver=False, include_dashboard=False,
-                     runtime_env={"env_vars": {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}}, **kwargs)
+                     runtime_env={"env_vars": {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), **env}}, **kwargs)
         self.remote = ray.remote(num_cpus=1)(run_task)
 
     def map(self, specs: list[TaskSpec], progress: Callable[[TaskResult], None] | None = None,
@@ -577,7 +579,21 @@ def prepare_run(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None =
     inputs = {"scenes": [str(Path(s).resolve()) for s in (scenes or [])],
               "objects": [str(Path(o).resolve()) for o in (objects or [])]}
     store.write_json("inputs.json", inputs)
+    _record_split(store)
     return store
+
+
+def _record_split(store: Store) -> None:
+    """Record a secret split in the run folder (``split.json``: the salt's digest, never the salt); refuse to resume
+    a secret run without its salt (its place and episodes stages would be redone from the public seeds)."""
+    record = split_record(secret_salt())
+    old = store.path("split.json")
+    if record is None and old.is_file():
+        digest = json.loads(old.read_text(encoding="utf-8")).get("salt_digest", "?")
+        raise InputError(old, f"this run's split is secret (salt digest {digest}): give its salt file with "
+                              f"--secret-salt-file or {SALT_ENV} (delete split.json to redo it as an open split)")
+    if record is not None:
+        store.write_json("split.json", record)
 
 
 # What a readable file of each known format starts with (after leading white space for text formats).
@@ -835,7 +851,8 @@ class ExportSchedule:
         self.units: dict[str, list[Any] | None] = {}
         for fmt in fmts:
             try:
-                units = exporter_units(make_exporter(fmt), RunView(root), ExportOptions(name=cfg.name, split=cfg.split))
+                units = exporter_units(make_exporter(fmt), RunView(root), ExportOptions(name=cfg.name, split=cfg.split,
+                                                                                       secret=RunView(root).secret_split()))
             except Exception:  # the export task itself reports the cause
                 units = None
             self.units[fmt] = units

@@ -19,6 +19,7 @@ Exporters, statistics and evaluation read runs through `RunView` only.
 from __future__ import annotations
 
 import hashlib
+import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -120,6 +121,11 @@ class RunView:
     def objects(self) -> dict[str, ObjectAsset]:
         """Return every ObjectAsset by name."""
         return {p.parent.name: _load(p, ObjectAsset) for p in sorted((self.root / "objects").glob("*/object.json"))}
+
+    def secret_split(self) -> dict | None:
+        """Return the run's secret-split record (``split.json``: ``{"secret": true, "salt_digest"}``), None if open."""
+        p = self.root / "split.json"
+        return json.loads(p.read_text(encoding="utf-8")) if p.is_file() else None
 
     def run_id(self) -> str:
         """Return a digest of the run's record files (identifies the run across exports)."""

@@ -34,7 +34,7 @@ from .errors import InputError, InputsError, StageError
 from .records import Instance, ReceptaclePlane, Relevance, SceneVariant, load_json, load_npz, save_json, save_npz
 from .runview import RunView
 from .naming import name_scenes  # noqa: F401 (the run's scene names; re-exported)
-from .seeds import scene_seed, variant_seed
+from .seeds import scene_seed, secret_salt, variant_seed
 from .store import Store, file_hash, fingerprint
 
 SCOPES = ("run", "scene", "variant", "export")
@@ -67,8 +67,8 @@ class StageContext:
 
     @property
     def variant_seed(self) -> int:
-        """Return this variant's seed (`sdovon_mj.seeds`)."""
-        return variant_seed(self.scene_seed, self.variant)
+        """Return this variant's seed (`sdovon_mj.seeds`: the secret salt of a secret split mixed in)."""
+        return variant_seed(self.scene_seed, self.variant, secret_salt())
 
     @property
     def variant_name(self) -> str:
@@ -507,7 +507,7 @@ def _export_setup(ctx: StageContext) -> tuple[Any, Any, list[Any] | None]:
     from .export import ExportOptions, exporter_units, make_exporter
 
     exporter = make_exporter(ctx.fmt)
-    options = ExportOptions(name=ctx.cfg.name, split=ctx.cfg.split)
+    options = ExportOptions(name=ctx.cfg.name, split=ctx.cfg.split, secret=ctx.view.secret_split())
     return exporter, options, exporter_units(exporter, ctx.view, options)
 
 

@@ -13,6 +13,7 @@ import sys
 import time
 import types
 import zlib
+from collections import deque
 
 import numpy as np
 
@@ -173,7 +174,11 @@ def _label_table(o: object, labels: set[str]) -> bool:
 
 class Walker(_Base):
     """Walks everything reachable from what it is handed (attributes, closures, containers, gc referents, its module's
-    globals) and then the whole heap of its process, looking for the generator's objects and id -> label tables."""
+    globals) and then the whole heap of its process, looking for the generator's objects and id -> label tables.
+
+    Breadth-first: what it is handed first, then every object of the heap (`gc.get_objects`) before anything they
+    refer to, so the walk meets the objects next to it (and every tracked object of the heap) before its cap is
+    spent in whatever modules the process imported before (torch, transformers: millions of objects deep)."""
 
     name = "walker"
     knowledge = Knowledge(detector="gt", prior="none")
@@ -181,15 +186,16 @@ class Walker(_Base):
     def __init__(self, seed: int = 0, steps: int = 1) -> None:
         super().__init__(seed, steps)
         self.found: set[str] = set()
-        self.tables = 0
+        self.tables: set[int] = set()
         self.walked = 0
 
     def _walk(self, roots: list) -> None:
         labels = set(self.sensors.vocabulary.labels)
         seen: set[int] = set()
-        todo = list(roots)
-        while todo and len(seen) < 2_000_000:
-            o = todo.pop()
+        todo = deque(roots)
+        cap = len(roots) + 2_000_000  # every root is looked at, then at most 2 million objects below them
+        while todo and len(seen) < cap:
+            o = todo.popleft()
             if id(o) in seen:
                 continue
             seen.add(id(o))
@@ -202,27 +208,34 @@ class Walker(_Base):
                 pass
         self.walked += len(seen)
 
-    def _inspect(self, o: object, labels: set[str], todo: list) -> None:
-        """Count `o` if it is an id -> label table and queue what it refers to."""
-        if _label_table(o, labels):
-            self.tables += 1
+    def _inspect(self, o: object, labels: set[str], todo: deque) -> None:
+        """Queue what `o` refers to, counting the id -> label tables among them at once (such a dict holds no
+        container, so the garbage collector does not track it: it is found only through what holds it)."""
         if isinstance(o, (str, bytes, int, float, np.ndarray, type(None))):
             return
-        todo.extend(gc.get_referents(o))
+        refs = list(gc.get_referents(o))
         if isinstance(o, types.FunctionType):
-            todo.extend(c.cell_contents for c in (o.__closure__ or ()) if c is not None and _filled(c))
+            refs += [c.cell_contents for c in (o.__closure__ or ()) if c is not None and _filled(c)]
         d = getattr(o, "__dict__", None) if not isinstance(o, type) else None
         if isinstance(d, dict):
-            todo.extend(d.values())
+            refs += list(d.values())
+        for r in [o] + refs:
+            if isinstance(r, dict) and id(r) not in self.tables and _label_table(r, labels):
+                self.tables.add(id(r))
+        todo.extend(refs)
 
     def reset(self, view, ts) -> None:
+        import warnings
+
         super().reset(view, ts)
-        self._walk([view, ts, self.sensors, vars(sys.modules[__name__]), self.act, self.reset])
-        self._walk(gc.get_objects())
+        with warnings.catch_warnings():  # attributes of deprecated module members warn when read
+            warnings.simplefilter("ignore")
+            self._walk([view, ts, self.sensors, vars(sys.modules[__name__]), self.act, self.reset])
+            self._walk(gc.get_objects())
 
     def end(self, view, ts) -> None:
         super().end(view, ts)
-        self.info.update(found=sorted(self.found), label_tables=self.tables, walked=self.walked)
+        self.info.update(found=sorted(self.found), label_tables=len(self.tables), walked=self.walked)
 
 
 def _filled(cell) -> bool:
@@ -268,7 +281,27 @@ class DiskScanner(_Base):
             if dirs >= self.walk_dirs or time.perf_counter() - t0 > 20:
                 break
         readable = [p for p in found if self._try(p) == "read"]
-        self.info_scan = {"tried": tried, "walked_dirs": dirs, "episode_files_readable": readable[:20]}
+        self.info_scan = {"tried": tried, "walked_dirs": dirs, "episode_files_readable": readable[:20],
+                          "notes": self._leave_notes()}
+
+    def _leave_notes(self) -> dict[str, str]:
+        """Try to leave a note for a later process where one would outlive this one: /dev/shm and the embedding
+        cache (removed again at once when written: the test's control must not leave it either)."""
+        from sdovon_mj.embeddings import embedding_cache_dir
+
+        out = {}
+        for name, folder in (("shm", "/dev/shm"), ("embedding_cache", str(embedding_cache_dir() or "/nonexistent"))):
+            path = os.path.join(folder, f"sdovon-note-{os.getpid()}")
+            try:
+                with open(path, "w") as f:
+                    f.write("episode answers")
+                os.remove(path)
+                out[name] = "written"
+            except PermissionError:
+                out[name] = "denied"
+            except OSError as e:
+                out[name] = type(e).__name__
+        return out
 
     def end(self, view, ts) -> None:
         super().end(view, ts)
@@ -285,3 +318,139 @@ class HalfOracle(_Base):
         super().reset(view, ts)
         assert view.oracle.navmap(0) is not None
         view.oracle.relevance  # noqa: B018 - undeclared: KnowledgeError
+
+
+class Silent(_Base):
+    """Answers its set-up, then never answers an action (a hung agent): the evaluator must not wait forever."""
+
+    name = "silent"
+
+    def act(self, ts) -> int:
+        time.sleep(10_000)
+        return STOP
+
+
+class HalfReply(_Base):
+    """Writes half a reply on the protocol's socket (a length header and a few of the bytes it announces), then hangs:
+    a poll says a reply is there, a blocking read of it would never return."""
+
+    name = "half-reply"
+
+    def act(self, ts) -> int:
+        import struct
+
+        os.write(int(sys.argv[1]), struct.pack("!i", 100) + b'{"action": ')
+        time.sleep(10_000)
+        return STOP
+
+
+class Crasher(_Base):
+    """Declares a first visit, then crashes in its episode `crash_at` (its index in this process's episodes): a crash
+    must be recorded as the episode's failure, not buy a replay of it nor a second first visit."""
+
+    name = "crasher"
+    knowledge = Knowledge(detector="none", prior="scene", explore_steps=6)
+
+    def __init__(self, seed: int = 0, steps: int = 3, crash_at: int = 1) -> None:
+        super().__init__(seed, steps)
+        self.crash_at, self.episodes, self.visits = int(crash_at), 0, 0
+
+    def explore(self, view, ts) -> None:
+        self.visits += 1
+        self.n, self.rng = 0, np.random.default_rng(self.seed)
+
+    def reset(self, view, ts) -> None:
+        super().reset(view, ts)
+        self.episodes += 1
+
+    def act(self, ts) -> int:
+        if self.episodes - 1 == self.crash_at and self.n >= 1:
+            raise RuntimeError("deliberate crash")
+        return super().act(ts)
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        self.info.update(visits=self.visits, episodes=self.episodes)
+
+
+class PthProbe(_Base):
+    """Reports, in its name (the first thing an agent declares), what a ``.pth`` hook of its interpreter's
+    site-packages found when it ran at interpreter start-up (``builtins.sdovon_pth_probe``, set by the hook a test
+    installs: it tried to read the dataset): ``pth-read``, ``pth-denied``, or ``pth-none`` when no hook ran."""
+
+    def __init__(self, seed: int = 0, steps: int = 1) -> None:
+        import builtins
+
+        super().__init__(seed, steps)
+        self.name = f"pth-{getattr(builtins, 'sdovon_pth_probe', 'none')}"
+
+
+class AnswerTable(_Base):
+    """A cheater holding an answer table made from the public-seed run of the same config (as an agent that reruns
+    the generator in its set-up would have): goal category -> (start position, the goal's view points), and the
+    scene's navigable maps (scene records, public too). Localized, no oracle declared. On a hit it walks the shortest
+    path to the nearest view point and stops (the oracle's walk); on a miss it walks exactly as `Blind` does."""
+
+    name = "answer-table"
+    knowledge = Knowledge(detector="none", pose="absolute")
+
+    def __init__(self, seed: int = 0, steps: int = 60, table: dict | None = None, navmaps: dict | None = None) -> None:
+        super().__init__(seed, steps)
+        self.table, self.navmaps = dict(table or {}), dict(navmaps or {})
+        self.inner = None
+        self.hits = 0
+
+    def reset(self, view, ts) -> None:
+        super().reset(view, ts)
+        pos = np.asarray(ts.observation["position"], float)[:2]
+        near = [a for a in self.table.get(str(ts.observation["objectgoal_text"]), [])
+                if np.abs(np.asarray(a["start"], float)[:2] - pos).max() < 0.01]  # the observation is float32
+        answer = near[0] if near else None
+        self.inner = None
+        if answer is not None:
+            from sdovon_mj.nav.agents import OracleAgent
+
+            self.hits += 1
+            self.inner = OracleAgent(nav=self.sensors.nav, agent=self.sensors.agent)
+            self.inner.reset(_Answer(np.asarray(answer["view_points"], float), self.navmaps[answer["floor"]],
+                                     answer["floor"]), ts)
+
+    def act(self, ts) -> int:
+        if self.inner is None:
+            return super().act(ts)
+        self._look(ts)
+        return self.inner.act(ts)
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        self.info.update(hits=self.hits)
+
+
+class _Answer:
+    """What the oracle's walk reads (`view.oracle`), taken from the answer table instead of the evaluator."""
+
+    def __init__(self, view_points: np.ndarray, navmap, floor: int) -> None:
+        self.oracle = self
+        self._vps, self._nm, self._floor = view_points, navmap, floor
+
+    def view_points(self) -> np.ndarray:
+        return self._vps
+
+    def navmap(self, floor: int = 0):
+        return self._nm
+
+    def episode_floor(self) -> int:
+        return self._floor
+
+
+class Forger(_Base):
+    """Declares a detector holding a line break and a table row (its `Knowledge` forged past the constructor's check):
+    printed as it is, it would add a row to tables.md."""
+
+    name = "forger"
+
+    def __init__(self, seed: int = 0, steps: int = 1) -> None:
+        super().__init__(seed, steps)
+        k = Knowledge(detector="none")
+        object.__setattr__(k, "detector", "none\n| oracle | detector none; no prior | sealed | 20 | 1.000 |")
+        self.knowledge = k

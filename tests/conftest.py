@@ -66,7 +66,8 @@ def pytest_make_collect_report(collector: pytest.Collector) -> Generator[None, A
 # Session fixtures that generate a run, and the test modules that read each: under pytest-xdist a shared run's
 # modules run on one worker, so the run is generated once (checked at collection: a module reading one of them
 # must be listed here).
-SHARED_RUNS = {"tiny_export_run": ("test_export_usd.py", "test_export_urdf.py", "test_export_genesis.py"),
+SHARED_RUNS = {"tiny_export_run": ("test_export_usd.py", "test_export_urdf.py", "test_export_genesis.py",
+                                   "test_eval_secret_split.py"),
                "articulated_closed_run": ("test_articulated_pipeline.py", "test_articulated_suite.py", "test_viewer.py")}
 SLOW_COST = 30  # a slow-marked test counts as this many fast ones when groups are ordered (slow: more than ~20 s)
 

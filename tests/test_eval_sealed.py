@@ -16,6 +16,7 @@ never imported here: the evaluator builds them in their own process) learn nothi
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -26,7 +27,7 @@ from sdovon_mj.config import AgentConfig, NavConfig
 from sdovon_mj.suite import landlock
 from sdovon_mj.suite.evaluation.loop import evaluate
 from sdovon_mj.suite.evaluation.statistics import summarize
-from sdovon_mj.suite.evaluation.tables import overall_table
+from sdovon_mj.suite.evaluation.tables import outcome_table, overall_table
 from sdovon_mj.suite.protocol import AgentSpec
 from support.bundles import fixture_bundle
 
@@ -88,7 +89,12 @@ def test_an_agent_without_prior_gets_no_environment_before_its_episodes(dataset,
 
 def test_a_walker_finds_no_generator_object_sealed_and_finds_them_in_process(dataset):
     """Sealed: nothing of the evaluator's process is in the agent's (no Bundle, task, physics, navmap, geodesic field,
-    episode, goal, relevance, region map; no id -> label table). In-process the same walk finds them."""
+    episode, goal, relevance, region map; no id -> label table). In-process the same walk finds them, whatever the
+    process imported before (torch and transformers here, as earlier tests of a worker do: a depth-first walk spent
+    its cap in their modules and missed them)."""
+    pytest.importorskip("torch")
+    transformers = pytest.importorskip("transformers")
+    transformers.AutoModel  # noqa: B018 - loads the lazily imported model modules as a model's use does
     sealed = _run(dataset, spec("Walker"), episodes=1)[0]
     assert sealed["mode"] == "sealed" and sealed["info"]["walked"] > 1000
     assert sealed["info"]["found"] == [] and sealed["info"]["label_tables"] == 0, sealed["info"]
@@ -100,8 +106,8 @@ def test_a_walker_finds_no_generator_object_sealed_and_finds_them_in_process(dat
 
 def test_a_disk_scanning_agent_cannot_read_the_dataset(dataset):
     """Sealed by Landlock: opening the dataset's files (the agent was told where they are) and the evaluator's
-    /proc/<pid>/cmdline, environ and mem raises PermissionError, and a walk of the file system finds no readable
-    episode file. Unsealed (the control) it reads them, and the table says the file system was not sealed."""
+    /proc/<pid>/cmdline, environ and mem raises PermissionError, a walk of the file system finds no readable
+    episode file, and it can leave no note in /dev/shm or the embedding cache (nothing it writes outlives it). Unsealed (the control) it reads them, and the table says the file system was not sealed."""
     variant = dataset / "fixture_apartment_v000"
     files = tuple(str(variant / f) for f in ("episodes.json", "oracle/navmap.json", "oracle/object_labels.json"))
     r = _run(dataset, spec("DiskScanner", paths=files), episodes=1)[0]
@@ -109,23 +115,25 @@ def test_a_disk_scanning_agent_cannot_read_the_dataset(dataset):
         assert r["sealed"] and "sealed (Landlock ABI" in r["seal"]
         assert all(v == "denied" for v in r["info"]["tried"].values()), r["info"]["tried"]
         assert r["info"]["episode_files_readable"] == []
+        # nothing it writes outlives it: no note in /dev/shm nor in the shared embedding cache
+        assert r["info"]["notes"]["shm"] == "denied" and r["info"]["notes"]["embedding_cache"] != "written"
     else:
         assert not r["sealed"] and "NOT sealed" in overall_table({"scanner": summarize([r], bootstrap=0)})
     open_ = _run(dataset, spec("DiskScanner", paths=files, walk_dirs=0), episodes=1, seal=False)[0]
     assert not open_["sealed"] and all(open_["info"]["tried"][f] == "read" for f in files)
+    assert open_["info"]["notes"]["shm"] == "written"
     assert "file system not sealed" in overall_table({"scanner": summarize([open_], bootstrap=0)})
 
 
 def test_a_declared_oracle_gets_its_parts_and_no_other(dataset):
     """The oracle agent (navmap + view points declared) succeeds sealed; an agent reading an undeclared part gets
-    KnowledgeError (the session reports the agent's error)."""
+    KnowledgeError (recorded as the episode's failure, with the agent's traceback)."""
     from sdovon_mj.suite.evaluation.runner import agent_spec
-    from sdovon_mj.suite.protocol import AgentError
 
     res = _run(dataset, agent_spec("oracle", NavConfig(), agent=SMALL), episodes=2)
     assert all(r["success"] == 1.0 and r["oracle"] and "ORACLE: navmap, view_points" in r["knowledge"] for r in res)
-    with pytest.raises(AgentError, match="KnowledgeError.*relevance"):
-        _run(dataset, spec("HalfOracle"), episodes=1)
+    half = _run(dataset, spec("HalfOracle"), episodes=1)[0]  # its error is the episode's recorded failure
+    assert half["failure"]["cause"] == "crash" and re.search("KnowledgeError.*relevance", half["failure"]["message"])
 
 
 def test_landlock_seals_a_process_to_its_allow_list(tmp_path):
@@ -240,3 +248,93 @@ def test_a_rerun_resumes_from_the_episodes_written_and_only_the_same_run(dataset
     assert started == [1] and [[r[k] for k in keys] for r in third] == [[r[k] for k in keys] for r in first]
     other = _run(dataset, spec("Blind", steps=5), episodes=3, out=tmp_path)
     assert len(started) == 2 and other[0]["run_key"] != first[0]["run_key"]
+
+
+def test_a_pth_hook_of_the_agents_interpreter_runs_sealed(dataset, tmp_path):
+    """The agent's own interpreter (a virtual environment made here, reaching the shared packages through a .pth
+    file) holds a .pth hook that reads the dataset at interpreter start-up, before any agent code: sealed, the read
+    is refused (the seal applies before the interpreter starts); unsealed (the control) it reads the file."""
+    import site
+    import subprocess
+
+    from sdovon_mj.suite.protocol import SealedSession
+
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    lib = next((venv / "lib").glob("python*/site-packages"))
+    shared = [p for p in site.getsitepackages() if Path(p).is_dir()]
+    (lib / "aaa_shared.pth").write_text("import site; " + "; ".join(f"site.addsitedir({p!r})" for p in shared) + "\n")
+    target = str(dataset / "fixture_apartment_v000" / "episodes.json")
+    probe = (f"try:\n    open({target!r}, 'rb').read(64); builtins.sdovon_pth_probe = 'read'\n"
+             "except PermissionError:\n    builtins.sdovon_pth_probe = 'denied'\n")
+    (lib / "zzz_probe.pth").write_text(f"import builtins; exec({probe!r})\n")
+    python = str(venv / "bin" / "python")
+    for seal in (True, False):
+        session = SealedSession(spec("PthProbe"), 32, 24, seal=seal, protect=(dataset,), python=python, timeout=60)
+        try:
+            name, sealed = session.name, session.seal.sealed
+        finally:
+            session.close()
+        if seal and landlock.abi_version() > 0:
+            assert sealed and name == "pth-denied"
+        elif not seal:
+            assert not sealed and name == "pth-read"
+
+
+@pytest.mark.parametrize("name", ["Silent", "HalfReply"])
+def test_a_silent_agent_and_half_a_reply_end_in_recorded_timeouts(dataset, name):
+    """An agent that never answers, and one that sends a length header and part of the bytes it announces (a poll
+    sees data; a blocking read would wait forever), end in the episode's recorded failure, cause "timeout", after
+    their reply limit; the evaluation goes on with a new agent process for the next episode (which times out too)."""
+    limit = 2.0
+    res = _run(dataset, spec(name), episodes=2, timeout=limit)
+    assert [r["outcome"] for r in res] == ["agent failure"] * 2
+    assert all(r["failure"]["cause"] == "timeout" and r["seconds"] >= limit and r["success"] == 0 for r in res)
+    assert "agent failure" in outcome_table({name: summarize(res, bootstrap=0)})
+
+
+def test_a_crash_is_recorded_and_never_replayed(dataset, tmp_path, monkeypatch):
+    """Crasher (a first visit declared) crashes in its second episode: that episode is recorded as an agent failure
+    (cause crash, the agent's traceback) and the evaluation goes on in a new process, which gets no second first
+    visit. A resumed run replays nothing: with every record there it starts no agent (the failed episode stays
+    failed); with a finished episode's record removed it runs that one alone, again without a first visit, and the
+    scene's first-visit record keeps the one visit's steps."""
+    import sdovon_mj.suite.evaluation.loop as E
+
+    res = _run(dataset, spec("Crasher"), episodes=3, out=tmp_path)
+    assert [r["outcome"] == "agent failure" for r in res] == [False, True, False]
+    assert res[1]["failure"]["cause"] == "crash" and "deliberate crash" in res[1]["failure"]["message"]
+    assert res[0]["info"]["visits"] == 1 and res[2]["info"]["visits"] == 0
+    record = tmp_path / "exploration" / "Crasher" / f"{res[0]['scene']}.json"
+    visit = json.loads(record.read_text())
+    assert 0 < visit["steps"] <= 6 and all(r["first_visit"]["steps"] == visit["steps"] for r in res)
+
+    real, started = E.open_session, []
+    monkeypatch.setattr(E, "open_session", lambda *a, **k: started.append(1) or real(*a, **k))
+    again = _run(dataset, spec("Crasher"), episodes=3, out=tmp_path)
+    assert started == [] and [r["outcome"] for r in again] == [r["outcome"] for r in res]
+    (tmp_path / "episodes" / "Crasher" / f"{res[2]['episode_id']}.json").unlink()
+    third = _run(dataset, spec("Crasher"), episodes=3, out=tmp_path)
+    assert started == [1] and third[2]["info"]["visits"] == 0 and third[1]["failure"]["cause"] == "crash"
+    assert json.loads(record.read_text())["steps"] == visit["steps"]
+
+
+def test_a_forged_table_row_is_rejected(dataset):
+    """An agent declaring a detector with a line break and a table row in it is refused before its first episode
+    (a protocol error): nothing it declares reaches a table."""
+    from sdovon_mj.suite.protocol import AgentError
+
+    with pytest.raises(AgentError, match="plain word") as err:
+        _run(dataset, spec("Forger"), episodes=1)
+    assert err.value.cause == "protocol error"
+
+
+def test_agent_read_inside_the_dataset_is_refused(dataset):
+    """`--agent-read` (``read``) naming a folder inside the dataset is refused before the agent starts; a folder
+    that contains the dataset still runs, labelled not sealed."""
+    from sdovon_mj.errors import InputError
+
+    with pytest.raises(InputError, match="may not read"):
+        _run(dataset, spec("Blind"), episodes=1, read=(str(dataset / "fixture_apartment_v000"),))
+    r = _run(dataset, spec("Blind"), episodes=1, read=(str(dataset.parent),))[0]
+    assert not r["sealed"] and "NOT sealed" in r["seal"]

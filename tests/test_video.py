@@ -99,8 +99,9 @@ def test_recorder_streams_and_leaves_no_partial_file(stepped, tmp_path):
 
 def test_eval_writes_a_video_per_episode_asked_for(tmp_path):
     """`sdovon-mj eval --video 2` (the oracle, sealed, small images) writes 2 MP4s, named by agent and episode and
-    listed in the results; each has the episode's steps + 1 frames, the first showing the start view. A rerun
-    records a deleted video again (its episode runs again) and keeps the others."""
+    listed in the results; each has the episode's steps + 1 frames, the first showing the start view. A rerun plays
+    no episode again (issue 46: a begun episode is never replayed), so a deleted video is not recorded again and the
+    others are kept as they are."""
     from sdovon_mj.cli import main
 
     root = fixture_bundle(tmp_path / "fx", variants=1, seed=3)
@@ -129,4 +130,4 @@ def test_eval_writes_a_video_per_episode_asked_for(tmp_path):
     before = kept.stat().st_mtime_ns
     gone.unlink()
     assert main(args) == 0
-    assert gone.is_file() and kept.stat().st_mtime_ns == before
+    assert not gone.is_file() and kept.stat().st_mtime_ns == before

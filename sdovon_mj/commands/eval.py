@@ -1,8 +1,8 @@
 """`sdovon-mj eval DATASET --agent ...`: run agents over MJCF bundles (`suite.evaluation.runner.run_rows`), write
 per-episode JSON, trajectory pictures, ``tables.md`` and ``summary.json``, print the tables.
 
-The tables print how each agent ran (sealed or in-process, file system sealed or not), the episodes' difficulty and,
-for agents with a scene prior, the first visit's budget.
+The tables print how each agent ran (sealed or in-process, file system sealed or not, on an open or a secret split),
+its set-up time and failures, the episodes' difficulty and, for agents with a scene prior, the first visit's budget.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from ..suite.evaluation.pictures import trajectory_picture
 from ..suite.evaluation.results import picture_path
 from ..suite.evaluation.runner import Row, agent_spec, run_rows
 from ..suite.evaluation.tables import ran_as, tables_markdown
+from ..suite.protocol import REPLY_TIMEOUT, SETUP_TIMEOUT
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,7 +44,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--in-process", action="store_true",
                         help="run the agents in this process (debugging; every table says so) instead of sealed")
     parser.add_argument("--agent-read", action="append", default=[], metavar="PATH",
-                        help="a file or folder a sealed agent may read (its weights; repeatable)")
+                        help="a file or folder a sealed agent may read (its weights; repeatable; not inside the dataset)")
+    parser.add_argument("--agent-timeout", type=float, default=REPLY_TIMEOUT, metavar="S",
+                        help=f"seconds a sealed agent has for each reply (default {REPLY_TIMEOUT:g}); then the episode "
+                             "is recorded as its timeout")
+    parser.add_argument("--agent-setup-timeout", type=float, default=SETUP_TIMEOUT, metavar="S",
+                        help=f"seconds a sealed agent has to start and answer setup (default {SETUP_TIMEOUT:g})")
     parser.add_argument("--jobs", type=int, default=1, help="processes evaluating (one row on one scene at a time)")
     parser.add_argument("--out", required=True, help="output folder (a rerun resumes: finished episodes are kept)")
 
@@ -66,9 +72,14 @@ def run(args: argparse.Namespace) -> int:
         rows += [Row(label, agent_spec(n, nav, args.seed, final_nav=fn, agent=body), mode) for label, fn in variants]
     if int(getattr(args, "video", 0) or 0) < 0:
         raise InputError("--video", "the number of videos must be >= 0")
+    for flag in ("agent_timeout", "agent_setup_timeout"):
+        if not float(getattr(args, flag, 1.0)) > 0:
+            raise InputError("--" + flag.replace("_", "-"), "a limit must be > 0 seconds")
     per_agent = run_rows(args.dataset, rows, out, jobs=int(getattr(args, "jobs", 1) or 1), episodes=args.episodes,
                          seed=args.seed, nav=nav, body=body, read=tuple(getattr(args, "agent_read", []) or ()),
-                         video=int(getattr(args, "video", 0) or 0))
+                         video=int(getattr(args, "video", 0) or 0),
+                         timeout=float(getattr(args, "agent_timeout", REPLY_TIMEOUT)),
+                         setup_timeout=float(getattr(args, "agent_setup_timeout", SETUP_TIMEOUT)))
     for label, res in per_agent.items():
         for r in res[: max(0, args.pictures)]:
             trajectory_picture(args.dataset, r, picture_path(out, label, r["episode_id"]))

@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from ..config import load_config
+from ..seeds import SALT_HELP, use_secret_salt
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -29,6 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a local worker holding more than this after a stage hands on its work to a fresh process "
                         "(default: sdovon_mj.pipeline.WORKER_MEMORY_MB; 0: never); outputs are the same bytes")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--secret-salt-file", default=None, metavar="FILE", help=SALT_HELP)
     p.add_argument("--allow-empty", action="store_true",
                    help="exit 0 even when a scene yields no receptacle or no episode (default: a warning and exit 1)")
 
@@ -40,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from ..stages import expand_scene_inputs
 
     cfg = load_config(args.config, args.overrides)
+    use_secret_salt(getattr(args, "secret_salt_file", None))
     summary = generate(args.out, cfg, scenes=expand_scene_inputs(args.scenes, cfg), objects=args.objects,
                        only_scenes=args.scene, executor=args.executor,
                        jobs=args.jobs, address=args.address, retries=args.retries,

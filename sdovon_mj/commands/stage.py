@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from ..config import load_config
+from ..seeds import SALT_HELP, use_secret_salt
 from ..errors import InputError
 
 
@@ -48,6 +49,7 @@ class StageCommand:
                        help="override a config key (repeatable)")
         p.add_argument("--jobs", type=int, default=1, help="parallel tasks")
         p.add_argument("--quiet", action="store_true", help="no progress output")
+        p.add_argument("--secret-salt-file", default=None, metavar="FILE", help=SALT_HELP)
 
     def run(self, args: argparse.Namespace) -> int:
         """Run the stage on the run folder; print what ran and what was skipped."""
@@ -59,6 +61,7 @@ class StageCommand:
             raise InputError(root, "not a folder")
         base = args.config or (existing if existing.exists() else None)
         cfg = load_config(base, args.overrides)
+        use_secret_salt(getattr(args, "secret_salt_file", None))
         scenes, objects = args.scenes, args.objects
         if scenes is None and objects is None and not (root / "inputs.json").exists() \
                 and (root / "convert_report.json").is_file():

@@ -1,13 +1,14 @@
 """The agent's own process: ``python -I -m sdovon_mj.suite.agent_process SOCKET_FD FRAMES_FD``.
 
-Started by `protocol.SealedSession` with two inherited descriptors and nothing else of the evaluator's (no path, no
-argument, a curated environment, its scratch folder as HOME, TMPDIR and working directory). In order:
+Started by `protocol.SealedSession` through the sealing launcher (`landlock.launch`: the file system is sealed
+before this interpreter starts, so its ``site`` start-up, ``.pth`` files and ``sitecustomize`` already run sealed),
+with two inherited descriptors and nothing else of the evaluator's (no path, no argument, a curated environment, its
+scratch folder as HOME, TMPDIR and working directory; its stdout and stderr go to its own log). In order:
 
-1. receive the seal plan and seal the file system (`landlock.restrict`), answering whether it could: before any
-   agent code is imported, so a module-level trick runs sealed too;
-2. load the agent's top-level module from the location the evaluator found (its folder is on the allow-list), then
-   receive the agent (an `AgentSpec` or a pickled object) and build it; answer its name and declared knowledge;
-3. serve the protocol (`protocol.AgentRunner`) until the evaluator closes the socket: messages in (pickled, from
+1. receive the agent (an `AgentSpec` or a pickled object) with the locations of its top-level modules, load those
+   from the locations the evaluator found (their folders are on the allow-list), build it; answer its name and
+   declared knowledge;
+2. serve the protocol (`protocol.AgentRunner`) until the evaluator closes the socket: messages in (pickled, from
    the trusted evaluator), replies out as JSON, frames read from the shared buffer.
 """
 
@@ -40,7 +41,6 @@ def serve(sock_fd: int, frames_fd: int) -> int:
     import pickle
     from multiprocessing.connection import Connection
 
-    from .landlock import Seal, restrict
     from .protocol import AgentRunner, AgentSpec, FrameBuffer, build_agent, encode_reply
 
     conn = Connection(sock_fd)
@@ -48,17 +48,6 @@ def serve(sock_fd: int, frames_fd: int) -> int:
     def reply(d: dict) -> None:
         conn.send_bytes(encode_reply(d))
 
-    kind, plan = conn.recv()
-    if kind != "seal":
-        return 2
-    if plan.seal:
-        try:
-            seal = restrict(list(plan.read), list(plan.write))
-        except OSError as e:
-            seal = Seal(False, 0, f"Landlock refused the ruleset: {e}")
-    else:
-        seal = Seal(False, 0, "sealing was switched off")
-    reply({"sealed": seal.sealed, "abi": seal.abi, "reason": seal.reason})
     runner = None
     frames = None
     while True:
@@ -71,7 +60,7 @@ def serve(sock_fd: int, frames_fd: int) -> int:
             return 0
         try:
             if kind == "agent":
-                for name, origin, locations in plan.modules:
+                for name, origin, locations in msg[2]:
                     _load_top_level(name, origin, tuple(locations))
                 obj = pickle.loads(msg[1])
                 runner = AgentRunner(build_agent(obj) if isinstance(obj, AgentSpec) else obj)

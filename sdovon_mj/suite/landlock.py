@@ -1,10 +1,14 @@
 """Landlock (Linux >= 5.13): seal an agent process's file system to an allow-list before any agent code runs.
 
-The sealed evaluation (`suite.agent_process`) calls `restrict` in the agent's process, after the interpreter and
-the ``sdovon_mj`` package are loaded and before the agent's own module is imported: from then on the process (and
-every process it starts) can read only the trees it was given (the Python installation, site-packages, the
-package directories the agent imports, the shared embedding cache) and write only its scratch folder; opening
-anything else (the dataset's ``episodes.json``, ``/proc/<evaluator>/cmdline``) raises ``PermissionError``.
+This file is also the sealing launcher of the sealed evaluation (`launch`): `protocol.SealedSession` starts
+``python -I -S <this file> SOCKET_FD FRAMES_FD``, which imports nothing but the standard library (``-S``: no
+site-packages, no ``.pth`` file runs), receives the allow-list, calls `restrict`, answers, and only then execs the
+agent's interpreter (``python -I -m sdovon_mj.suite.agent_process``). So the agent's interpreter starts sealed:
+its ``site`` start-up, every ``.pth`` file and ``sitecustomize`` of its site-packages run under the seal. From then
+on the process (and every process it starts) can read only the trees it was given (the Python installation,
+site-packages, the package directories the agent imports, the embedding cache) and write only its scratch folder
+(not ``/dev/shm``, not the caches: nothing it writes outlives it); opening anything else (the dataset's
+``episodes.json``, ``/proc/<evaluator>/cmdline``) raises ``PermissionError``.
 Landlock also confines ptrace (no reading ``/proc/<evaluator>/mem``) and, from ABI 6, signals and abstract
 unix sockets to the process's own domain. Plain ctypes over the three system calls; no dependency.
 """
@@ -143,4 +147,35 @@ def _add(libc: ctypes.CDLL, ruleset: int, path: Path, rights: int) -> None:
         os.close(pfd)
 
 
-__all__ = ["Seal", "abi_version", "restrict", "READ"]
+def launch(argv: list[str]) -> int:
+    """The sealing launcher (``python -I -S landlock.py SOCKET_FD FRAMES_FD``): seal, answer, exec the agent process.
+
+    Receives ``{"read", "write", "seal"}`` as one JSON message on the socket (the framing of
+    ``multiprocessing.connection``), restricts this process when ``seal`` is true, answers ``{"sealed", "abi",
+    "reason"}`` and execs ``python -I -m sdovon_mj.suite.agent_process`` with the same two descriptors.
+    """
+    import json
+    from multiprocessing.connection import Connection
+
+    sock, frames = int(argv[0]), int(argv[1])
+    conn = Connection(sock)
+    plan = json.loads(conn.recv_bytes(1 << 24).decode("utf-8"))
+    if plan.get("seal"):
+        try:
+            seal = restrict(list(plan["read"]), list(plan["write"]))
+        except OSError as e:
+            seal = Seal(False, 0, f"Landlock refused the ruleset: {e}")
+    else:
+        seal = Seal(False, 0, "sealing was switched off")
+    conn.send_bytes(json.dumps({"sealed": seal.sealed, "abi": seal.abi, "reason": seal.reason}).encode("utf-8"))
+    os.set_inheritable(sock, True)
+    os.set_inheritable(frames, True)
+    os.execv(sys.executable, [sys.executable, "-I", "-m", "sdovon_mj.suite.agent_process", str(sock), str(frames)])
+    return 1  # not reached: execv replaces this process
+
+
+__all__ = ["Seal", "abi_version", "launch", "restrict", "READ"]
+
+
+if __name__ == "__main__":
+    sys.exit(launch(sys.argv[1:]))

@@ -24,6 +24,7 @@ transports carry the same messages to the same runner: `InProcessSession` (debug
 from __future__ import annotations
 
 import json
+import math
 import os
 import pickle
 import socket
@@ -37,8 +38,8 @@ from typing import Any
 import numpy as np
 
 from ..actions import ACTION_NAMES
-from ..errors import SdovonError
-from ..knowledge import ORACLE_PARTS, Knowledge, KnowledgeError
+from ..errors import InputError, SdovonError
+from ..knowledge import ORACLE_PARTS, Knowledge, KnowledgeError, check_word
 from ..store import json_safe
 
 PHASES = ("explore", "episode")
@@ -46,8 +47,23 @@ MODES = ("sealed", "in-process")
 MAX_REPLY_BYTES = 4 << 20  # an agent's reply (JSON) larger than this is a protocol error
 
 
+# Why an agent's session failed (`AgentError.cause`): recorded with the episode it failed in.
+CAUSES = ("crash", "timeout", "protocol error")
+# Default limits of a sealed agent (seconds; `--agent-timeout`, `--agent-setup-timeout`): its set-up (interpreter
+# start, imports, building it, `setup(sensors)`: model weights load here) and any one reply. The built-in agents'
+# slowest reply, the end of a first visit (ExtractPlanes over its frames), takes about a minute at 640x480 on a loaded
+# 2-core machine; five times that leaves room for slower machines while a hung agent costs minutes, not an hour.
+SETUP_TIMEOUT = 600.0
+REPLY_TIMEOUT = 300.0
+
+
 class AgentError(SdovonError):
-    """The agent failed or broke the protocol (its process died, raised, answered out of protocol)."""
+    """The agent failed or broke the protocol: ``cause`` is one of `CAUSES` (its process died or it raised: crash;
+    no complete reply within its limit: timeout; a reply out of protocol: protocol error)."""
+
+    def __init__(self, message: str, cause: str = "crash") -> None:
+        super().__init__(message)
+        self.cause = cause if cause in CAUSES else "crash"
 
 
 @dataclass(frozen=True)
@@ -169,6 +185,16 @@ class AgentView:
         return self._oracle
 
 
+def opaque_token(key: str, kind: str, name: str) -> str:
+    """Return the opaque id an agent gets for a scene or an episode (``kind``): a digest of the split's key (a secret
+    split's salt digest, '' for an open split), the kind and the real id. Stable for the same split (a scene's token
+    across its episodes and runs: an agent's memory of a scene works), and without the split's key it names nothing:
+    an agent cannot look an episode up in a table it made."""
+    import hashlib
+
+    return hashlib.sha256(f"sdovon-mj/token/{key}/{kind}/{name}".encode("utf-8")).hexdigest()[:16]
+
+
 def encode_reply(reply: dict) -> bytes:
     """Return an agent reply as JSON bytes (what travels from the agent to the evaluator)."""
     return json.dumps(json_safe(reply, str), allow_nan=False, separators=(",", ":")).encode("utf-8")
@@ -187,41 +213,56 @@ def decode_reply(data: bytes, expect: str) -> Any:
 
     Anything else (not JSON, too large, an action outside the action space, an ``error``) raises `AgentError`.
     """
+    bad = "protocol error"
     if len(data) > MAX_REPLY_BYTES:
-        raise AgentError(f"agent reply of {len(data)} bytes exceeds {MAX_REPLY_BYTES}")
+        raise AgentError(f"agent reply of {len(data)} bytes exceeds {MAX_REPLY_BYTES}", bad)
     try:
         d = json.loads(data.decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise AgentError(f"agent reply is not JSON ({e})") from None
+        raise AgentError(f"agent reply is not JSON ({e})", bad) from None
     if not isinstance(d, dict):
-        raise AgentError(f"agent reply must be a JSON object, got {type(d).__name__}")
+        raise AgentError(f"agent reply must be a JSON object, got {type(d).__name__}", bad)
     if "error" in d:
-        raise AgentError(f"the agent raised: {str(d['error'])[-4000:]}")
+        raise AgentError(f"the agent raised: {str(d['error'])[-4000:]}", "crash")
     if expect == "action":
         a, f = d.get("action"), d.get("frame", True)
         if not isinstance(a, int) or isinstance(a, bool) or not 0 <= a < len(ACTION_NAMES):
-            raise AgentError(f"agent action {a!r} is not one of 0..{len(ACTION_NAMES) - 1} ({', '.join(ACTION_NAMES)})")
+            raise AgentError(f"agent action {a!r} is not one of 0..{len(ACTION_NAMES) - 1} ({', '.join(ACTION_NAMES)})", bad)
         if not isinstance(f, bool):
-            raise AgentError(f"agent reply 'frame' must be true or false, got {f!r}")
+            raise AgentError(f"agent reply 'frame' must be true or false, got {f!r}", bad)
         return Reply(a, f)
     if expect == "info":
         info = d.get("info", {})
         if not isinstance(info, dict):
-            raise AgentError(f"agent info must be a JSON object, got {type(info).__name__}")
+            raise AgentError(f"agent info must be a JSON object, got {type(info).__name__}", bad)
         return info
     return d
 
 
 def knowledge_from_json(d: Any) -> Knowledge:
-    """Return the `Knowledge` an agent declared in its JSON reply (AgentError when malformed)."""
+    """Return the `Knowledge` an agent declared in its JSON reply (AgentError, a protocol error, when malformed:
+    every string is checked by `Knowledge` itself, so nothing an agent declares can add a line or a cell to a table)."""
     if not isinstance(d, dict):
-        raise AgentError(f"agent knowledge must be a JSON object, got {d!r}")
+        raise AgentError(f"agent knowledge must be a JSON object, got {d!r}"[:300], "protocol error")
     try:
-        return Knowledge(detector=str(d.get("detector", "gt")), pose=str(d.get("pose", "gps+compass")),
-                         prior=str(d.get("prior", "none")), oracle=tuple(str(x) for x in d.get("oracle", ())),
-                         fn=str(d.get("fn", "-")), explore_steps=int(d.get("explore_steps", 0)))
+        steps = d.get("explore_steps", 0)
+        if not isinstance(steps, int) or isinstance(steps, bool):
+            raise ValueError(f"explore_steps must be an integer, got {steps!r}")
+        oracle = d.get("oracle", ())
+        if not isinstance(oracle, (list, tuple)):
+            raise ValueError(f"oracle must be a list, got {oracle!r}")
+        return Knowledge(detector=d.get("detector", "gt"), pose=d.get("pose", "gps+compass"),
+                         prior=d.get("prior", "none"), oracle=tuple(oracle), fn=d.get("fn", "-"), explore_steps=steps)
     except (TypeError, ValueError) as e:
-        raise AgentError(f"agent knowledge {d!r}: {e}") from None
+        raise AgentError(f"agent knowledge {d!r}: {e}"[:500], "protocol error") from None
+
+
+def agent_name(hello: dict) -> str:
+    """Return the name an agent declared (`knowledge.check_word`: a protocol error when it is no plain word)."""
+    try:
+        return check_word(hello.get("name", "agent"), "agent name")
+    except ValueError as e:
+        raise AgentError(str(e), "protocol error") from None
 
 
 def knowledge_to_json(k: Knowledge) -> dict:
@@ -306,22 +347,35 @@ class InProcessSession:
     mode = "in-process"
 
     def __init__(self, agent: Any) -> None:
+        import time
+
         from .landlock import Seal
 
+        self._t0 = time.monotonic()
+        self.setup_seconds = math.nan
         if isinstance(agent, AgentSpec):
             agent = build_agent(agent)
         self.runner = AgentRunner(agent)
         self.seal = Seal(False, 0, "the agent runs in the evaluator's process")
         hello = self._call("ok", self.runner.hello)
-        self.name = str(hello.get("name", "agent"))
+        self.name = agent_name(hello)
         self.knowledge = knowledge_from_json(hello.get("knowledge"))
 
     def _call(self, expect: str, fn: Any, *args: Any) -> Any:
-        return decode_reply(encode_reply(fn(*args)), expect)
+        import traceback
+
+        try:
+            reply = fn(*args)
+        except Exception as e:  # the agent's error, as a sealed session reports it (chained: the debugger sees it)
+            raise AgentError(f"the agent raised: {traceback.format_exc(limit=20)[-4000:]}", "crash") from e
+        return decode_reply(encode_reply(reply), expect)
 
     def setup(self, sensors: Any) -> None:
-        """Send the sensors."""
+        """Send the sensors (no limit holds in this process; `setup_seconds` is measured)."""
+        import time
+
         self._call("ok", self.runner.handle, "setup", sensors)
+        self.setup_seconds = round(time.monotonic() - self._t0, 3)
 
     def scene(self, start: SceneStart) -> None:
         """Announce a scene."""
@@ -449,6 +503,17 @@ def _protected_under(paths: list[str], protect: list[Path]) -> str:
     return ""
 
 
+def _refuse_inside(paths: tuple[str, ...], protect: list[Path]) -> None:
+    """Raise `InputError` for a path the agent was to read (``--agent-read``, its module folders) that lies inside a
+    protected folder (the dataset, the results): granting it would hand the agent the answers."""
+    for p in paths:
+        base = Path(p).resolve()
+        for q in protect:
+            if base == q or q in base.parents:
+                raise InputError(p, f"lies inside {q} (the dataset or the results folder): a sealed agent may not "
+                                    "read it")
+
+
 def _module_location(name: str, paths: tuple[str, ...]) -> tuple[str, str, tuple[str, ...]] | None:
     """Return where a top-level module lives (without importing it): (name, origin, search locations)."""
     from importlib.machinery import PathFinder
@@ -459,15 +524,34 @@ def _module_location(name: str, paths: tuple[str, ...]) -> tuple[str, str, tuple
     return (name, str(spec.origin), tuple(spec.submodule_search_locations or ()))
 
 
-def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protect: tuple[Path, ...] = ()) -> tuple[SealPlan, str]:
+def _interpreter_paths(python: str) -> set[str]:
+    """Return what another interpreter (an agent's own virtual environment) needs to read: its environment's folder
+    (``pyvenv.cfg`` beside ``bin/``) and the base installation it names (``home``), without running it."""
+    exe = Path(python).absolute()
+    out = {str(exe.parent)}
+    cfg = exe.parent.parent / "pyvenv.cfg"
+    if cfg.is_file():
+        out.add(str(cfg.parent))
+        for line in cfg.read_text(encoding="utf-8", errors="replace").splitlines():
+            key, _, value = line.partition("=")
+            if key.strip() == "home" and value.strip():
+                out.add(str(Path(value.strip()).parent))
+    else:
+        out.add(str(exe.parent.parent))
+    return out
+
+
+def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protect: tuple[Path, ...] = (),
+              python: str | None = None) -> tuple[SealPlan, str]:
     """Return the agent process's allow-list (and why it cannot seal, '' when it can).
 
-    Read: the Python installation and site-packages, system libraries and configuration (/usr, /lib, /etc),
-    ``sdovon_mj``'s own folder, the folder (or file) of the agent's top-level module and the spec's ``paths``, the
-    shared embedding cache,
-    its own /proc entries, /sys, and `extra_read`. Write: its scratch folder, /dev/shm, /dev/null, the embedding
-    cache. When an allowed path holds a protected one (the dataset, the results folder), the file system cannot be
-    sealed and the reason says so.
+    Read: the Python installation and site-packages (and those of `python`, the agent's own interpreter), system
+    libraries and configuration (/usr, /lib, /etc), ``sdovon_mj``'s own folder, the folder (or file) of the agent's
+    top-level module and the spec's ``paths``, the embedding cache (read only), its own /proc entries, /sys, and
+    `extra_read`. Write: its scratch folder, /dev/null and GPU device files; not /dev/shm and no cache, so nothing
+    it writes outlives it. When an allowed path holds a protected one (the dataset, the results folder), the file
+    system cannot be sealed and the reason says so; a path it was asked to read (`extra_read`, the spec's
+    ``paths``) that lies inside a protected one is refused (`InputError`).
     """
     import site
     import sysconfig
@@ -476,11 +560,15 @@ def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protec
 
     from ..embeddings import embedding_cache_dir
 
+    protected = [Path(p).resolve() for p in protect]
+    _refuse_inside(tuple(extra_read) + (tuple(spec.paths) if isinstance(spec, AgentSpec) else ()), protected)
     read = {sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix, "/usr", "/lib", "/lib64", "/etc",
             "/bin", "/proc/self", "/proc/cpuinfo", "/proc/meminfo", "/proc/stat", "/proc/sys", "/sys",
             "/dev/urandom", "/dev/random", "/dev/zero"}
     read |= {p for p in site.getsitepackages() + [sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]]}
     read |= set(sdovon_mj.__path__) | set(extra_read)
+    if python:
+        read |= _interpreter_paths(python)
     modules = []
     if isinstance(spec, AgentSpec):
         top = spec.target.split(":")[0].split(".")[0] if ":" in spec.target else ""
@@ -501,18 +589,14 @@ def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protec
             loc = (top, str(mod.__file__), tuple(getattr(mod, "__path__", ()) or ()))
             modules.append(loc)
             read |= set(loc[2]) if loc[2] else {loc[1]}
-    write = {str(scratch), "/dev/shm", "/dev/null"}
+    write = {str(scratch), "/dev/null"}
     emb = embedding_cache_dir()
     if emb is not None:
-        try:
-            emb.mkdir(parents=True, exist_ok=True)
-            write.add(str(emb))
-        except OSError:
-            pass
+        read.add(str(emb))  # read only: an agent's writes there would outlive it (and reach the next evaluation)
     for dev in ("/dev/dri", "/dev/nvidiactl", "/dev/nvidia0", "/dev/nvidia-uvm", "/dev/nvidia-uvm-tools"):
         if os.path.exists(dev):  # an agent on a GPU reaches its accelerator
             write.add(dev)
-    why = _protected_under(sorted(read | write), [Path(p).resolve() for p in protect])
+    why = _protected_under(sorted(read | write), protected)
     return SealPlan(tuple(sorted(read)), tuple(sorted(write)), tuple(modules)), why
 
 
@@ -523,7 +607,7 @@ def _child_env(scratch: Path) -> dict[str, str]:
             "SDOVON_CACHE", "CUDA_VISIBLE_DEVICES", "NVIDIA_VISIBLE_DEVICES")
     env = {k: os.environ[k] for k in keep if k in os.environ}
     env.update(HOME=str(scratch), TMPDIR=str(scratch), PYTHONDONTWRITEBYTECODE="1")
-    # the shared caches where the evaluator finds them (HOME moved): the sealed agent may use only its embeddings
+    # the shared caches where the evaluator finds them (HOME moved): the sealed agent may read only its embeddings
     env.setdefault("SDOVON_CACHE", str(Path.home() / ".cache" / "sdovon-mj"))
     # glibc: keep freed frame copies (2.7 MB a step at 640x480) in the heap instead of unmapping them, so the next
     # copy reuses the pages rather than faulting fresh ones in
@@ -532,13 +616,22 @@ def _child_env(scratch: Path) -> dict[str, str]:
     return env
 
 
+def _frame(data: bytes) -> bytes:
+    """Return a message framed as ``multiprocessing.connection`` frames it (the agent's side reads it with one)."""
+    import struct
+
+    return (struct.pack("!i", len(data)) if len(data) <= 0x7FFFFFFF else struct.pack("!iQ", -1, len(data))) + data
+
+
 class SealedSession:
-    """The agent in its own process (a fresh interpreter, ``python -I -m sdovon_mj.suite.agent_process``).
+    """The agent in its own process: the sealing launcher (`landlock.launch`), then a fresh interpreter
+    (``python -I -m sdovon_mj.suite.agent_process``) that starts sealed.
 
     Handed only a socket and the frame buffer as inherited descriptors: no argument, path or object of the
-    evaluator's. The evaluator pickles its messages (it trusts itself); it reads the agent's replies as JSON only.
-    Before any agent code is imported, the process seals its file system with Landlock (`landlock.restrict`,
-    `seal_plan`); where that is unavailable the session's `seal` says why and the evaluation goes on.
+    evaluator's. The evaluator pickles its messages (it trusts itself); it reads the agent's replies as JSON only,
+    each within a deadline (the set-up's, then one per reply): a silent agent, or one that sends half a reply, ends
+    in `AgentError` with cause "timeout" and its process group is killed. Where Landlock is unavailable the
+    session's `seal` says why and the evaluation goes on.
 
     Parameters
     ----------
@@ -549,69 +642,153 @@ class SealedSession:
     seal : bool
         Seal the file system (default); False runs the agent's process unsealed (debugging).
     read : tuple of str
-        More files and folders the agent may read (model weights, its own data).
+        More files and folders the agent may read (model weights, its own data); none may lie inside `protect`.
     protect : tuple of Path
         Folders no allowed path may contain (the dataset, the results): else the file system is not sealed.
     timeout : float
-        Seconds the evaluator waits for one reply before it gives up on the agent.
+        Seconds the evaluator waits for one reply (`REPLY_TIMEOUT`).
+    setup_timeout : float
+        Seconds from the start of the agent's process to its answer to `setup` (`SETUP_TIMEOUT`).
+    log : Path, optional
+        File for the agent process's stdout and stderr (appended); None: an unnamed temporary file, its end quoted
+        in errors.
+    python : str, optional
+        The agent's interpreter (its own virtual environment; default this one's).
     """
 
     mode = "sealed"
 
     def __init__(self, agent: Any, width: int, height: int, seal: bool = True, read: tuple[str, ...] = (),
-                 protect: tuple[Path, ...] = (), timeout: float = 3600.0) -> None:
-        from multiprocessing.connection import Connection
+                 protect: tuple[Path, ...] = (), timeout: float = REPLY_TIMEOUT, setup_timeout: float = SETUP_TIMEOUT,
+                 log: Path | None = None, python: str | None = None) -> None:
+        import time
 
+        from . import landlock
         from .landlock import Seal
 
         self.timeout = float(timeout)
+        self.setup_timeout = float(setup_timeout)
+        self._t0 = time.monotonic()
+        self.setup_seconds = math.nan
+        self.proc: subprocess.Popen | None = None
+        self.frames: FrameBuffer | None = None
+        self.sock: socket.socket | None = None
+        self.broken = False
         self.scratch = Path(tempfile.mkdtemp(prefix="sdovon-agent-"))
-        self.frames = FrameBuffer(width, height)
-        ours, theirs = socket.socketpair()
-        cmd = [sys.executable, "-I", "-m", "sdovon_mj.suite.agent_process", str(theirs.fileno()), str(self.frames.fd)]
+        if log is not None:
+            Path(log).parent.mkdir(parents=True, exist_ok=True)
+        self.log = open(log, "ab") if log is not None else tempfile.TemporaryFile()  # noqa: SIM115 - kept open
         try:
-            self.proc = subprocess.Popen(cmd, pass_fds=(theirs.fileno(), self.frames.fd), cwd=str(self.scratch),
-                                         env=_child_env(self.scratch), stdin=subprocess.DEVNULL, close_fds=True)
-        finally:
-            theirs.close()
-        self.conn = Connection(ours.detach())
-        try:
-            plan, why = seal_plan(agent, self.scratch, tuple(read), tuple(protect))
-            plan = SealPlan(plan.read, plan.write, plan.modules, seal=bool(seal) and not why)
-            self.conn.send(("seal", plan))
-            got = self._recv("ok")
+            self.frames = FrameBuffer(width, height)
+            plan, why = seal_plan(agent, self.scratch, tuple(read), tuple(protect), python)
+            ours, theirs = socket.socketpair()
+            exe = python or sys.executable
+            cmd = [exe, "-I", "-S", str(Path(landlock.__file__).resolve()), str(theirs.fileno()), str(self.frames.fd)]
+            try:
+                self.proc = subprocess.Popen(cmd, pass_fds=(theirs.fileno(), self.frames.fd), cwd=str(self.scratch),
+                                             env=_child_env(self.scratch), stdin=subprocess.DEVNULL, stdout=self.log,
+                                             stderr=subprocess.STDOUT, close_fds=True, start_new_session=True)
+            finally:
+                theirs.close()
+            self.sock = ours
+            deadline = self._t0 + self.setup_timeout
+            want = bool(seal) and not why
+            self._send_raw(json.dumps({"read": plan.read, "write": plan.write, "seal": want}).encode("utf-8"), deadline)
+            got = self._recv("ok", deadline)
             sealed = bool(got.get("sealed"))
             reason = why or ("sealing was switched off" if not seal else str(got.get("reason", "")))
             self.seal = Seal(sealed, int(got.get("abi", 0) or 0), "" if sealed else reason)
-            self.conn.send(("agent", pickle.dumps(agent)))
-            hello = self._recv("ok")
-            self.name = str(hello.get("name", "agent"))
+            self._send_raw(pickle.dumps(("agent", pickle.dumps(agent), plan.modules)), deadline)
+            hello = self._recv("ok", deadline)
+            self.name = agent_name(hello)
             self.knowledge = knowledge_from_json(hello.get("knowledge"))
         except BaseException:
+            self.broken = True
             self.close()
             raise
 
-    def _recv(self, expect: str) -> Any:
-        if not self.conn.poll(self.timeout):
-            self.close()
-            raise AgentError(f"the agent did not answer within {self.timeout:.0f} s")
+    def _fail(self, message: str, cause: str) -> AgentError:
+        """Mark the session broken and return the error (with the end of the agent's log, where it has one)."""
+        self.broken = True
+        tail = ""
         try:
-            data = self.conn.recv_bytes(MAX_REPLY_BYTES)
-        except (EOFError, OSError) as e:
-            code = self.proc.poll()
-            raise AgentError(f"the agent's process ended (exit code {code}): {type(e).__name__}") from None
-        return decode_reply(data, expect)
+            self.log.flush()
+            self.log.seek(max(0, self.log.seek(0, os.SEEK_END) - 2000))
+            tail = self.log.read().decode("utf-8", "replace").strip()
+        except (OSError, ValueError):
+            pass
+        return AgentError(message + (f"\n--- the agent's output ends:\n{tail}" if tail else ""), cause)
+
+    def _deadline(self, deadline: float | None) -> float:
+        import time
+
+        return time.monotonic() + self.timeout if deadline is None else deadline
+
+    def _send_raw(self, data: bytes, deadline: float | None = None) -> None:
+        import time
+
+        left = self._deadline(deadline) - time.monotonic()
+        try:
+            if left <= 0:
+                raise TimeoutError
+            self.sock.settimeout(left)
+            self.sock.sendall(_frame(data))
+        except (TimeoutError, socket.timeout):
+            raise self._fail(f"the agent took no message within {self.timeout:.0f} s", "timeout") from None
+        except OSError as e:
+            code = self.proc.poll() if self.proc else None
+            raise self._fail(f"the agent's process is gone (exit code {code}): {e}", "crash") from None
+
+    def _read_exact(self, n: int, deadline: float) -> bytes:
+        import time
+
+        buf = bytearray()
+        while len(buf) < n:
+            left = deadline - time.monotonic()
+            try:
+                if left <= 0:
+                    raise TimeoutError
+                self.sock.settimeout(left)
+                chunk = self.sock.recv(min(n - len(buf), 1 << 20))
+            except (TimeoutError, socket.timeout):
+                what = "a complete reply" if buf or n > 4 else "a reply"
+                raise self._fail(f"the agent sent no {what} within its limit", "timeout") from None
+            except OSError as e:
+                chunk, err = b"", e
+            else:
+                err = None
+            if not chunk:
+                code = self.proc.wait(timeout=5) if self.proc else None
+                raise self._fail(f"the agent's process ended (exit code {code}){': ' + str(err) if err else ''}",
+                                 "crash")
+            buf += chunk
+        return bytes(buf)
+
+    def _recv(self, expect: str, deadline: float | None = None) -> Any:
+        """Read one reply (``multiprocessing.connection`` framing) before the deadline; decode and check it."""
+        import struct
+
+        deadline = self._deadline(deadline)
+        (n,) = struct.unpack("!i", self._read_exact(4, deadline))
+        if n == -1:
+            (n,) = struct.unpack("!Q", self._read_exact(8, deadline))
+        if n > MAX_REPLY_BYTES:
+            raise self._fail(f"agent reply of {n} bytes exceeds {MAX_REPLY_BYTES}", "protocol error")
+        try:
+            return decode_reply(self._read_exact(n, deadline), expect)
+        except AgentError as e:
+            raise self._fail(str(e), e.cause) from None
 
     def _send(self, *msg: Any) -> None:
-        try:
-            self.conn.send(msg)
-        except (BrokenPipeError, ConnectionResetError, OSError) as e:
-            raise AgentError(f"the agent's process is gone (exit code {self.proc.poll()}): {e}") from None
+        self._send_raw(pickle.dumps(msg))
 
     def setup(self, sensors: Any) -> None:
-        """Send the sensors."""
-        self._send("setup", sensors)
-        self._recv("ok")
+        """Send the sensors; the answer ends the agent's set-up (`setup_seconds`), within its set-up limit."""
+        import time
+
+        self._send_raw(pickle.dumps(("setup", sensors)), self._t0 + self.setup_timeout)
+        self._recv("ok", self._t0 + self.setup_timeout)
+        self.setup_seconds = round(time.monotonic() - self._t0, 3)
 
     def scene(self, start: SceneStart) -> None:
         """Announce a scene."""
@@ -634,31 +811,36 @@ class SealedSession:
         return self._recv("info")
 
     def close(self) -> None:
-        """Stop the agent's process and free the frame buffer and scratch folder."""
+        """Stop the agent's process (its whole process group: whatever it started) and free the frame buffer, the
+        scratch folder and the log."""
         import shutil
+        import signal
 
         try:
-            if self.proc.poll() is None:
+            if self.proc is not None and self.proc.poll() is None:
+                if not self.broken:
+                    try:
+                        self.sock.settimeout(1.0)
+                        self.sock.sendall(_frame(pickle.dumps(("close",))))
+                        self.proc.wait(timeout=5)
+                    except (OSError, subprocess.TimeoutExpired):
+                        pass
+            if self.proc is not None:
                 try:
-                    self.conn.send(("close",))
-                except OSError:
+                    os.killpg(self.proc.pid, signal.SIGKILL)  # its own session: the agent and its children
+                except (ProcessLookupError, PermissionError):
                     pass
-                try:
-                    self.proc.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    self.proc.kill()
-                    self.proc.wait(timeout=5)
+                self.proc.wait(timeout=10)
         finally:
-            try:
-                self.conn.close()
-            except OSError:
-                pass
+            if self.sock is not None:
+                self.sock.close()
             if self.frames is not None:
                 self.frames.close()
                 self.frames = None
+            self.log.close()
             shutil.rmtree(self.scratch, ignore_errors=True)
 
 
-__all__ = ["AgentError", "AgentRunner", "AgentSpec", "AgentView", "FrameBuffer", "InProcessSession", "MODES",
-           "OracleParts", "PHASES", "Phase", "Reply", "SceneStart", "SealedSession", "decode_reply",
-           "encode_reply", "knowledge_from_json", "knowledge_to_json", "seal_plan"]
+__all__ = ["AgentError", "AgentRunner", "AgentSpec", "AgentView", "CAUSES", "FrameBuffer", "InProcessSession", "MODES",
+           "OracleParts", "PHASES", "Phase", "REPLY_TIMEOUT", "Reply", "SETUP_TIMEOUT", "SceneStart", "SealedSession",
+           "agent_name", "decode_reply", "opaque_token", "encode_reply", "knowledge_from_json", "knowledge_to_json", "seal_plan"]

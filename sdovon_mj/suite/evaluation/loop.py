@@ -4,8 +4,9 @@ prior, then the episodes of each variant), one result dict per episode, written 
 Agents are plugins (`plugins.load("agent", name)`: built-ins random-astar, semantic-astar, semantic-frontier, oracle,
 random; others from the ``sdovon_mj.agents`` entry points), built as ``factory(nav=NavConfig, agent=AgentConfig,
 seed=int)``, by default in their own sealed process (`protocol.SealedSession`): the evaluator never imports an agent
-named by an `AgentSpec`. Each episode's result records the mode it ran in and whether the agent's file system was
-sealed.
+named by an `AgentSpec`. Each episode's result records the mode it ran in, whether the agent's file system was
+sealed, the split (open or secret, `dataset_split`) and the agent's set-up time; an episode the agent failed in
+is recorded with the failure's cause, and no begun episode or first visit is ever played again.
 """
 
 from __future__ import annotations
@@ -24,12 +25,14 @@ from ..boundary import oracle_episode_parts, oracle_scene_parts
 from ..bundle import Bundle, find_bundles, load_bundle
 from ..objectnav import make_environment
 from ..observation import ObservationBuilder, dataset_vocabulary, make_sensors
-from ..protocol import AgentSpec, Phase, SceneStart
+from ..protocol import REPLY_TIMEOUT, SETUP_TIMEOUT, AgentError, AgentSpec, Phase, SceneStart, opaque_token
 from ..video import EpisodeVideo
 from .exploration import run_first_visits
 from .outcomes import episode_outcome
-from .phases import open_session, run_phase
-from .results import exploration_path, load_done, result_path, run_key, video_path
+from .phases import LiveAgent, open_session, run_phase
+from .results import agent_log_path, exploration_path, load_done, result_path, run_key, video_path
+
+SPLITS = ("open split", "secret split")  # how a row's episodes were made: public seeds, or a secret salt (`seeds`)
 
 
 def dataset_root(bundles: list[Bundle]) -> Path | None:
@@ -38,13 +41,36 @@ def dataset_root(bundles: list[Bundle]) -> Path | None:
     return parents.pop() if len(parents) == 1 else None
 
 
+def dataset_split(root: Path | None) -> dict[str, str]:
+    """Return how a dataset's episodes were made: ``{"split": "secret split" | "open split", "salt_digest"}`` from its
+    ``index.json`` (`export.finish_export` records a secret salt's digest there). Bundles outside a dataset folder
+    count as open: a secret split labelled open overstates nothing."""
+    try:
+        meta = json.loads((root / "index.json").read_text(encoding="utf-8")) if root is not None else {}
+    except (OSError, json.JSONDecodeError):
+        meta = {}
+    secret = meta.get("secret_split") if isinstance(meta, dict) else None
+    if isinstance(secret, dict) and secret.get("secret"):
+        return {"split": SPLITS[1], "salt_digest": str(secret.get("salt_digest", ""))}
+    return {"split": SPLITS[0], "salt_digest": ""}
+
+
 def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConfig | None = None, episodes: int | None = None,
              out: Path | None = None, label: str | None = None, progress: bool = True, mode: str = "sealed",
              seed: int = 0, body: AgentConfig | None = None, seal: bool = True, read: tuple[str, ...] = (),
-             videos: tuple[str, ...] = ()) -> list[dict]:
+             videos: tuple[str, ...] = (), timeout: float = REPLY_TIMEOUT,
+             setup_timeout: float = SETUP_TIMEOUT) -> list[dict]:
     """Run an agent over a dataset's episodes through the agent protocol; return (and optionally write) one result
     dict per episode. A run with ``out`` resumes: episodes whose result of the same run is there are not run again
-    (unless their video is asked for and missing: then they run again).
+    (a video asked for later is not recorded for them: an episode is never played twice).
+
+    An episode that began is recorded with its outcome: when the agent fails in it (crash, timeout, protocol error:
+    `protocol.AgentError`) its result holds ``failure`` (cause and message), its outcome is "agent failure", and the
+    evaluation goes on with a new agent process (`phases.LiveAgent`). Each episode's record is written before it
+    begins, so a resumed run never plays a begun episode again (one the evaluation stopped in is a failure), and a
+    scene's first visit of a floor is granted once (`exploration.run_first_visits`). Episode and scene ids reach the
+    agent as opaque tokens (`protocol.opaque_token`, keyed by the split's salt digest: stable within a scene, so the
+    agent's memory of a scene works). The agent process's output goes to ``out/agents/<label>.log``.
 
     Parameters
     ----------
@@ -78,6 +104,8 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     videos
         Episode ids to record as MP4 (`suite.video`: the agent's view beside the top-down map) in
         ``out/videos/<label>/<episode id>.mp4``; each result names its file (``video``, relative to `out`).
+    timeout, setup_timeout
+        Seconds for one reply of a sealed agent and for its set-up (`protocol.REPLY_TIMEOUT`, `SETUP_TIMEOUT`).
     """
     kw = agent.kwargs if isinstance(agent, AgentSpec) else {}
     nav = nav or getattr(agent, "nav", None) or kw.get("nav") or NavConfig()
@@ -99,33 +127,29 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     if videos and out is None:
         raise ValueError("videos are written into the results folder: give out")
     protect = tuple(sorted({b.root.resolve() for b in bundles} | ({root} if root else set()) | ({out.resolve()} if out else set())))
+    split = dataset_split(root)
+    log = agent_log_path(out, label) if out is not None else None
+    live = LiveAgent(lambda: open_session(agent, mode, body.sensor_width, body.sensor_height, seal, tuple(read), protect,
+                                          timeout, setup_timeout, log),
+                     lambda know: make_sensors(body, nav, vocab, know))
     results: list[dict] = []
-    session = None
     try:
         with Progress(limit, f"eval {label}", enabled=progress) as bar:
             for scene, items in scenes.items():
                 done = {(b.name, i): load_done(out, label, key, b.episodes[i].episode_id) for b, i in items}
-                for b, i in items:  # a video asked for and missing: the episode runs again to record it
-                    eid = b.episodes[i].episode_id
-                    if eid in videos and not (out / video_path(label, eid)).is_file():
-                        done[(b.name, i)] = None
                 if all(done.values()):
                     results += [done[(b.name, i)] for b, i in items]
                     bar.update(len(items), scene)
                     continue
-                if session is None:
-                    session = open_session(agent, mode, body.sensor_width, body.sensor_height, seal, tuple(read), protect)
-                    know = session.knowledge
-                    session.setup(make_sensors(body, nav, vocab, know))
                 first = items[0][0]
-                session.scene(SceneStart(scene, oracle_scene_parts(first, know)))
+                live.get()
+                know = live.knowledge
+                start = SceneStart(opaque_token(split["salt_digest"], "scene", scene), oracle_scene_parts(first, know))
                 visit = None
                 if know.prior == "scene":
-                    floors = {int(b.episodes[i].floor) for b, i in items}
-                    visit = run_first_visits(session, first, floors, know, nav, body, vocab, seed)
-                    if out is not None:
-                        atomic_write_text(exploration_path(out, label, scene),
-                                          json.dumps(json_safe(visit), sort_keys=True) + "\n")
+                    floors = {int(b.episodes[i].floor) for b, i in items if not done[(b.name, i)]}
+                    visit = run_first_visits(live, first, floors, know, nav, body, vocab, seed, start,
+                                             exploration_path(out, label, scene) if out is not None else None, key)
                 by_bundle: dict[str, list[tuple[Bundle, int]]] = {}
                 for b, i in items:
                     by_bundle.setdefault(b.name, []).append((b, i))
@@ -140,8 +164,8 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                                 bar.update(1, b.episodes[i].episode_id)
                                 continue
                             eid = b.episodes[i].episode_id
-                            r = run_episode(session, env, builder, b, i, know, label, key, visit,
-                                         (out, video_path(label, eid)) if eid in videos else None)
+                            r = run_episode(live, start, env, builder, b, i, label, key, visit,
+                                            (out, video_path(label, eid)) if eid in videos else None, split, out)
                             results.append(r)
                             if out is not None:
                                 atomic_write_text(result_path(out, label, r["episode_id"]),
@@ -150,19 +174,26 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                     finally:
                         env.task.close()
     finally:
-        if session is not None:
-            session.close()
+        live.close()
     return results
 
 
-def run_episode(session: Any, env: Any, builder: ObservationBuilder, b: Bundle, i: int, know: Any, label: str, key: str,
-                visit: dict | None, video: tuple[Path, str] | None = None) -> dict:
-    """Run episode `i` of bundle `b`; return its result dict.
+def run_episode(live: LiveAgent, start: SceneStart, env: Any, builder: ObservationBuilder, b: Bundle, i: int,
+                label: str, key: str, visit: dict | None, video: tuple[Path, str] | None = None,
+                split: dict | None = None, out: Path | None = None) -> dict:
+    """Run episode `i` of bundle `b` with the evaluation's agent; return its result dict.
+
+    With ``out`` the episode's record is written before it begins (as a failure: the evaluation stopped in it), so a
+    resumed run never plays it again. An agent failure (`protocol.AgentError`) is the episode's outcome ("agent
+    failure", ``failure``: cause and message; success and SPL 0) and ends the agent's process. The difficulty (the
+    goal in view at the start) is measured after the episode, on the physics state of its start.
 
     Parameters
     ----------
-    session
-        The agent's session (`phases.open_session`), its scene started.
+    live : LiveAgent
+        The evaluation's agent (a session is opened when none is live).
+    start : SceneStart
+        The episode's scene as announced to the agent (its token and oracle parts).
     env
         The environment of bundle `b` (`objectnav.make_environment`).
     builder : ObservationBuilder
@@ -171,8 +202,6 @@ def run_episode(session: Any, env: Any, builder: ObservationBuilder, b: Bundle, 
         The variant the episode belongs to.
     i : int
         The episode's index in ``b.episodes``.
-    know
-        The agent's `Knowledge`.
     label : str
         The row's name, written into the result.
     key : str
@@ -181,15 +210,41 @@ def run_episode(session: Any, env: Any, builder: ObservationBuilder, b: Bundle, 
         The scene's first visit (`exploration.run_first_visits`), summarized into the result.
     video : (Path, str), optional
         The results folder and the MP4's path relative to it: the episode is recorded there.
+    split : dict, optional
+        The dataset's split (`dataset_split`; default open).
+    out : Path, optional
+        The results folder: the begun episode's record is written there.
     """
     t0 = time.perf_counter()
     ep = b.episodes[i]
+    session = live.get(start)
+    know = live.knowledge
+    split = split or dataset_split(None)
     env.task.set_next_episode(i)
-    phase = Phase("episode", str(ep.scene), ep.episode_id, i, int(env.task.nav.max_steps), oracle_episode_parts(ep, know))
-    start: dict = {}
+    phase = Phase("episode", start.scene, opaque_token(split["salt_digest"], "episode", ep.episode_id), i,
+                  int(env.task.nav.max_steps), oracle_episode_parts(ep, know))
+    r = {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle, "mode": session.mode,
+         "seal": session.seal.describe(), "sealed": bool(session.seal.sealed), "split": split["split"],
+         "setup_seconds": session.setup_seconds, "run_key": key,
+         "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene, "category": ep.object_category,
+         "first_visit": None if not visit else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")}
+         | ({"floors": len(visit["floors"])} if "floors" in visit else {})
+         | ({"failure": visit["failure"]["cause"]} if visit.get("failure") else {})}
+    if out is not None:  # begun: recorded as a failure until its outcome replaces it
+        g = float(ep.geodesic_distance)
+        begun = {**r, "success": 0.0, "spl": 0.0, "soft_spl": 0.0, "distance_to_goal": g, "shortest": g,
+                 "path_length": 0.0, "steps": 0, "stop_called": False, "start_geodesic": g, "info": {},
+                 "failure": {"cause": "crash", "message": "the evaluation stopped during this episode"},
+                 "outcome": "agent failure", "trajectory": []}
+        atomic_write_text(result_path(out, label, ep.episode_id), json.dumps(json_safe(begun), sort_keys=True) + "\n")
     recorder = EpisodeVideo(video[0] / video[1], b.navmap(ep.floor), ep, label=label) if video else None
+    at_reset: dict = {}
+    failure = None
     try:
-        info = run_phase(session, env, builder, phase, start, recorder)
+        info = run_phase(session, env, builder, phase, at_reset, recorder)
+    except AgentError as e:
+        info, failure = {}, {"cause": e.cause, "message": str(e)[-2000:]}
+        live.fail()
     except BaseException:
         if recorder is not None:
             recorder.abort()
@@ -197,19 +252,18 @@ def run_episode(session: Any, env: Any, builder: ObservationBuilder, b: Bundle, 
     if recorder is not None:
         recorder.close()
     task = env.task
-    in_view, visible = start["in_view"], start["visible"]
-    m = task.metrics()
-    r = {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle, "mode": session.mode,
-         "seal": session.seal.describe(), "sealed": bool(session.seal.sealed), "run_key": key,
-         "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene, "category": ep.object_category,
-         **m.to_dict(), "collisions": task.collisions, "inside": any(g.open_part for g in ep.goals),
-         "must_open": bool(ep.goals) and all(g.open_part for g in ep.goals),
-         "part_moves": [list(t) for t in task.part_moves], "start_geodesic": float(task.shortest),
-         "goal_in_view": bool(in_view), "goal_visible_from_start": bool(visible),
-         "first_visit": None if visit is None else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")}
-         | ({"floors": len(visit["floors"])} if "floors" in visit else {}),
-         "info": info, "seconds": round(time.perf_counter() - t0, 3),
-         "trajectory": np.round(np.array(task.trajectory)[:, :2], 4).tolist()}
+    m = task.metrics().to_dict()
+    if failure:
+        m.update(success=0.0, spl=0.0)
+    if "qpos" in at_reset:  # the difficulty, on the start's physics state (parts the agent moved put back)
+        env.physics.data.qpos[:] = at_reset["qpos"]
+    in_view, visible = task.start_visibility(env.physics)
+    r.update(**m, collisions=task.collisions, inside=any(g.open_part for g in ep.goals),
+             must_open=bool(ep.goals) and all(g.open_part for g in ep.goals),
+             part_moves=[list(t) for t in task.part_moves], start_geodesic=float(task.shortest),
+             goal_in_view=bool(in_view), goal_visible_from_start=bool(visible), info=info,
+             seconds=round(time.perf_counter() - t0, 3),
+             trajectory=np.round(np.array(task.trajectory)[:, :2], 4).tolist(), failure=failure)
     if video:
         r["video"] = video[1]
     r["outcome"] = episode_outcome(r, ep, know.pose)

@@ -1,5 +1,6 @@
 """Why an episode ended as it did: success, the step limit, a search exhausted, another instance of the goal category,
-or a STOP near the goal that missed its view points (`episode_outcome`, read by the statistics and the tables)."""
+a STOP near the goal that missed its view points, or the agent's failure (`episode_outcome`, read by the statistics
+and the tables)."""
 
 from __future__ import annotations
 
@@ -12,13 +13,15 @@ from ..boundary import scene_frame_point
 
 
 # Why an episode ended as it did (`episode_outcome`), in table order.
-OUTCOMES = ("success", "step limit", "not found", "other instance", "missed stop")
+OUTCOMES = ("success", "step limit", "not found", "other instance", "missed stop", "agent failure")
 OUTCOME_HELP = {
     "success": "STOP within the success distance of a goal's view point",
     "step limit": "the step limit ended the episode (no STOP)",
     "not found": "STOP without having detected the goal category (the agent's search was exhausted)",
     "other instance": "STOP at an object of the goal category that is no goal (nowhere within the view radius sees it)",
     "missed stop": "STOP near a detected goal object, not within the success distance of its view points",
+    "agent failure": "the agent crashed, timed out or broke the protocol during the episode (its cause is recorded; "
+                     "the episode is not run again)",
 }
 
 
@@ -37,6 +40,8 @@ def episode_outcome(result: dict, episode: Any, pose: str = "absolute") -> str:
     ``gps+compass`` the centre is in the episode's start frame and is taken back to the scene frame here.
     Agents that report neither end as "missed stop" when they STOP elsewhere.
     """
+    if result.get("failure"):
+        return "agent failure"
     if result.get("success"):
         return "success"
     if not result.get("stop_called"):

@@ -1,4 +1,5 @@
-"""An evaluation's results folder: where each file of a run lies (per-episode JSON, first visits, videos, pictures),
+"""An evaluation's results folder: where each file of a run lies (per-episode JSON, first visits, videos, pictures,
+the agents' logs),
 the run key that marks a run's results, and reading a finished episode back (a rerun resumes).
 
 The run key is a digest of the row's label, the agent (an `AgentSpec`'s target and arguments, or an agent object's
@@ -70,6 +71,11 @@ def video_path(label: str, episode_id: str) -> str:
 def exploration_path(out: Path, label: str, scene: str) -> Path:
     """Return the file of a scene's first visit: ``exploration/<label>/<scene>.json``."""
     return out / "exploration" / label.replace(" ", "_") / f"{scene}.json"
+
+
+def agent_log_path(out: Path, label: str) -> Path:
+    """Return the file of a row's agent processes' stdout and stderr: ``agents/<label>.log`` (appended)."""
+    return out / "agents" / f"{label.replace(' ', '_')}.log"
 
 
 def picture_path(out: Path, label: str, episode_id: str) -> Path:

@@ -12,7 +12,7 @@ from typing import Any
 from ... import plugins
 from ...config import AgentConfig, NavConfig
 from ..bundle import Bundle, find_bundles, load_bundle
-from ..protocol import AgentSpec
+from ..protocol import REPLY_TIMEOUT, SETUP_TIMEOUT, AgentSpec
 from .loop import evaluate
 
 
@@ -79,14 +79,15 @@ class Row:
 
 def _row_task(task: tuple) -> list[dict]:
     """Evaluate one row on one scene's bundles (a worker's unit of `run_rows`)."""
-    bundles, row, nav, body, out, seed, seal, read, videos = task
+    bundles, row, nav, body, out, seed, seal, read, videos, timeout, setup_timeout = task
     return evaluate(bundles, row.agent, nav=nav, out=out, label=row.label, progress=False, mode=row.mode, seed=seed,
-                    body=body, seal=seal, read=read, videos=videos)
+                    body=body, seal=seal, read=read, videos=videos, timeout=timeout, setup_timeout=setup_timeout)
 
 
 def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Path | None = None, jobs: int = 1,
              episodes: int | None = None, seed: int = 0, nav: NavConfig | None = None, body: AgentConfig | None = None,
-             seal: bool = True, read: tuple[str, ...] = (), progress: bool = True, video: int = 0) -> dict[str, list[dict]]:
+             seal: bool = True, read: tuple[str, ...] = (), progress: bool = True, video: int = 0,
+             timeout: float = REPLY_TIMEOUT, setup_timeout: float = SETUP_TIMEOUT) -> dict[str, list[dict]]:
     """Evaluate table rows over the same episodes; return each row's results (episode order).
 
     The work is cut into tasks of one row on one scene (its first visit, then its episodes), run on `jobs`
@@ -116,6 +117,8 @@ def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Pa
         Print one line per finished task.
     video
         Record the first N episodes (in results order) of every row as MP4 (needs ``out``; `evaluate`'s ``videos``).
+    timeout, setup_timeout
+        As `evaluate`'s.
     """
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
@@ -135,7 +138,8 @@ def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Pa
     if len({r.label for r in rows}) != len(rows):
         raise ValueError("row labels must be unique")
     videos = tuple([e.episode_id for sc in scenes for b in scenes[sc] for e in b.episodes][:max(int(video), 0)])
-    tasks = [(row, sc, (scenes[sc], row, nav, body, out, seed, seal, tuple(read), videos)) for row in rows for sc in scenes]
+    tasks = [(row, sc, (scenes[sc], row, nav, body, out, seed, seal, tuple(read), videos, float(timeout),
+                        float(setup_timeout))) for row in rows for sc in scenes]
     got: dict[tuple[str, str], list[dict]] = {}
     t0 = time.perf_counter()
     if jobs <= 1:

@@ -59,6 +59,14 @@ def _summary(results: list[dict], bootstrap: int, seed: int) -> dict[str, Any]:
         out["knowledge"] = results[0].get("knowledge", "")
         out["mode"] = results[0].get("mode", "")
         out["seal"] = results[0].get("seal", "")
+        out["split"] = results[0].get("split", "open split")
+        setups = [float(r["setup_seconds"]) for r in results if isinstance(r.get("setup_seconds"), (int, float))
+                  and math.isfinite(r["setup_seconds"])]
+        if setups:
+            out["setup_seconds"] = round(max(setups), 2)
+        failed = [r["failure"]["cause"] for r in results if r.get("failure")]
+        if failed:
+            out["failures"] = {c: failed.count(c) for c in sorted(set(failed))}
         if all("outcome" in r for r in results):
             out["outcomes"] = {k: round(sum(r["outcome"] == k for r in results) / len(results), 4) for k in OUTCOMES}
         out["difficulty"] = difficulty(results)

@@ -30,11 +30,13 @@ def _share(x: Any) -> str:
 
 
 def ran_as(s: dict[str, Any]) -> str:
-    """Return how an agent ran, for the tables: sealed (file system sealed or not) or in-process."""
+    """Return how an agent ran, for the tables: sealed (file system sealed or not) or in-process, and on which split
+    (an open split, from public seeds, or a secret one: `loop.dataset_split`)."""
     mode = s.get("mode", "")
+    split = s.get("split", "open split")
     if mode == "sealed":
-        return "sealed" + ("" if "NOT" not in s.get("seal", "") else ", file system not sealed")
-    return mode or "-"
+        return "sealed" + ("" if "NOT" not in s.get("seal", "") else ", file system not sealed") + f", {split}"
+    return f"{mode}, {split}" if mode else "-"
 
 
 def overall_table(rows: dict[str, dict[str, Any]], paper: bool = True) -> str:
@@ -59,6 +61,14 @@ def overall_table(rows: dict[str, dict[str, Any]], paper: bool = True) -> str:
     seals = sorted({s.get("seal", "") for s in rows.values() if s.get("mode") == "sealed"} - {""})
     if seals:
         lines += ["", "Sealed rows: " + "; ".join(seals) + "."]
+    setups = [f"{n} {s['setup_seconds']:.1f} s" for n, s in rows.items() if s.get("setup_seconds") is not None]
+    if setups:
+        lines += ["", "Agent set-up (its process's start to its answer to setup, the longest of a row's processes): "
+                  + "; ".join(setups) + "."]
+    failed = [f"{n}: " + ", ".join(f"{k} {v}" for k, v in s["failures"].items()) for n, s in rows.items()
+              if s.get("failures")]
+    if failed:
+        lines += ["", "Agent failures (episodes, by cause; each counted as a failed episode): " + "; ".join(failed) + "."]
     shown = [n for n in rows if paper and n in PAPER]
     if shown:
         lines += ["", "Paper (SD-OVON-3k, tables 4-5, GT detector): other scenes (HM3D/MP3D scans), other objects, the",
