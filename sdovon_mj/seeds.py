@@ -2,7 +2,9 @@
 
 - a scene's seed: ``scene_seed(master, scene)`` (sha256 of ``"<master>/scene/<scene>"``, 31 bits);
 - a variant's seed: ``variant_seed(scene_seed, index)`` (a numpy SeedSequence of the scene seed and index);
-- a variant's episodes use the variant's seed (the episodes stage receives it with the variant).
+- a variant's episodes use the variant's seed (the episodes stage receives it with the variant);
+- day `t` of a scene's chain of days: ``day_seed(scene_seed, t)`` (a SeedSequence of the scene seed, the day and a
+  tag apart from the variants'); its episodes use it too.
 Stage commands and ``generate`` both take their seeds from here, so they produce the same bytes.
 """
 
@@ -29,4 +31,9 @@ def variant_seed(scene_seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(scene_seed) & 0xFFFFFFFF, int(index), 0x5D0]).generate_state(1)[0])
 
 
-__all__ = ["derive_seed", "scene_seed", "variant_seed"]
+def day_seed(scene_seed: int, day: int) -> int:
+    """Return the seed of day `day` of a scene's chain of days, derived from the scene seed (never a variant's)."""
+    return int(np.random.SeedSequence([int(scene_seed) & 0xFFFFFFFF, int(day), 0xDA7]).generate_state(1)[0])
+
+
+__all__ = ["day_seed", "derive_seed", "scene_seed", "variant_seed"]
