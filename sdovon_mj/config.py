@@ -392,15 +392,16 @@ def _moved_error(key: str, where: str) -> ConfigError | None:
     return ConfigError(f"config key '{key}'{where} has moved: use '{new}'") if new else None
 
 
-def to_dict(cfg: Any) -> dict[str, Any]:
-    """Return a config as plain YAML-able data (tuples become lists)."""
+def to_dict(cfg: Any, full: bool = False) -> dict[str, Any]:
+    """Return a config as plain YAML-able data (tuples become lists); quiet keys at their default left out (`_p`)
+    unless `full`."""
     out: dict[str, Any] = {}
     for f in fields(cfg):
         v = getattr(cfg, f.name)
-        if f.metadata.get("quiet") and v == f.default:  # a later key at its default: older bytes kept (`_p`)
+        if not full and f.metadata.get("quiet") and v == f.default:  # a later key at its default: older bytes kept
             continue
         if is_dataclass(v):
-            out[f.name] = to_dict(v)
+            out[f.name] = to_dict(v, full)
         elif isinstance(v, tuple):
             out[f.name] = list(v)
         else:
@@ -664,7 +665,7 @@ def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...], expl
     checked against its field's declared range/choices (the error names it), then the whole config against
     the cross-field rules (`validate`; ``source``, the config file, is named in their messages).
     """
-    data = to_dict(cfg)
+    data = to_dict(cfg, full=True)
     explicit = set(explicit)
     for item in overrides:
         if "=" not in item:

@@ -615,6 +615,19 @@ class Relevance(Record):
         out = [(r, c, self.pair_score(obj, r, c)) for r in self.regions for c in self.receptacles]
         return sorted(out, key=lambda t: (-t[2], t[0], t[1]))
 
+    def plane_relevance(self, category: str, planes: list["ReceptaclePlane"],
+                        pairs: list[tuple[str, str]] | None = None) -> np.ndarray:
+        """Return each plane's relevance for one object category in the placement direction: `joint` at the plane's
+        (region, receptacle) among `pairs` (default: the planes' own pairs), negative values as 0; ones for a
+        category this record does not know. The moves of a chain of days are drawn by it and their statistics
+        compare with it (`sdovon_mj.place.days`, `sdovon_mj.stats.day_statistics`)."""
+        if category not in self.objects:
+            return np.ones(len(planes))
+        pairs = sorted({(p.region, p.label) for p in planes}) if pairs is None else pairs
+        i = self.objects.index(category)
+        at = {q: max(float(self.joint(q[0], q[1], pairs)[i]), 0.0) for q in sorted({(p.region, p.label) for p in planes})}
+        return np.array([at[(p.region, p.label)] for p in planes])
+
     def top_pairs(self, pairs: list[tuple[str, str]], k: int) -> dict[str, set[tuple[str, str]]]:
         """Return, per object, the k of a scene's (region, receptacle) pairs where it belongs most.
 

@@ -174,17 +174,6 @@ def _keep_or_record(q: Placement, old: Placement, change: DayChange) -> None:
         change.resettled[q.object_id] = round(d, 6)
 
 
-def receptacle_weights(category: str, planes: list[ReceptaclePlane], relevance: Relevance,
-                       pairs: list[tuple[str, str]]) -> np.ndarray:
-    """Return each plane's relevance for a category in the placement direction (`Relevance.joint` at its pair;
-    ones for a category the record does not know). The moves' draw and the statistics use it."""
-    if category not in relevance.objects:
-        return np.ones(len(planes))
-    i = relevance.objects.index(category)
-    joint = {q: max(float(relevance.joint(q[0], q[1], pairs)[i]), 0.0) for q in {(p.region, p.label) for p in planes}}
-    return np.array([joint[(p.region, p.label)] for p in planes])
-
-
 def _draw_plane(weights: np.ndarray, rng: np.random.Generator) -> int:
     """Return an index drawn in proportion to `weights` (uniform when they sum to nothing)."""
     w = np.where(np.isfinite(weights), np.maximum(weights, 0.0), 0.0)
@@ -205,7 +194,7 @@ def _move_target(p: Placement, asset: ObjectAsset, planes: list[ReceptaclePlane]
         cand = [q for q in cand if (q.region, q.label) in best]
     if not cand:
         return None
-    weights = receptacle_weights(p.category, cand, relevance, pairs)
+    weights = relevance.plane_relevance(p.category, cand, pairs)
     for _ in range(PLANE_TRIES):
         plane = cand[_draw_plane(weights, rng)]
         pose = _place_one(asset, plane, taken.setdefault(plane.id, []), cfg, rng, headroom[plane.id])
@@ -256,4 +245,4 @@ def _write_day(variant: SceneVariant, change: DayChange, scene: SceneAsset, plan
     save_json(change, Path(store_root) / out_dir / "day.json")
 
 
-__all__ = ["STAY_TOL", "first_day", "next_day", "receptacle_weights"]
+__all__ = ["STAY_TOL", "first_day", "next_day"]
