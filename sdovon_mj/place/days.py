@@ -77,18 +77,7 @@ def next_day(previous: SceneVariant, before: DayChange, scene: SceneAsset, plane
         The day before (its resting objects are the ones present overnight).
     before : DayChange
         The day before's change record (the next free object number).
-    scene : SceneAsset
-        The converted scene (world metres, Z up).
-    planes : list of ReceptaclePlane
-        The scene's receptacle planes (with floor and region).
-    relevance : Relevance
-        Object-category relevance (the moves' and arrivals' draws).
-    objects : list of ObjectAsset
-        The object library.
-    store_root : str or Path
-        The run folder the scene's and objects' files are relative to (written into).
-    cfg : PlaceConfig
-        Placement, settling and the habit model's rates (``place.day_*``).
+    scene, planes, relevance, objects, store_root, cfg : as in `first_day`
     seed : int
         This day's seed (`sdovon_mj.seeds.day_seed`).
     out_dir : str
