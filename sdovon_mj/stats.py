@@ -585,6 +585,10 @@ def summary_table(stats: dict) -> str:
             ("goal categories", t["goal_categories"]), ("placed objects", t["placed_objects"]), ("episodes", t["episodes"]),
             ("objects rejected", t["objects_rejected"])]
     rows += [(f"  {k}", v) for k, v in _by_count(stats["placements"]["rejected_by_reason"])]
+    if stats.get("days"):  # chains of days (place.days): their days and what the nights changed
+        d = stats["days"]
+        rows += [("days (chains of days)", len(d["days"]))]
+        rows += [(f"  {k} overnight", v["observed"]) for k, v in d["rates"].items()]
     width = max(len(k) for k, _ in rows)
     vwidth = max(len(str(v)) for _, v in rows)
     line = "-" * (width + vwidth + 3)

@@ -291,6 +291,11 @@ def test_show_stats_prints_what_moved_per_day_and_where(chain, capsys):
     region_part = out.split("Moves by region")[1]
     for k, n in pairs.items():
         assert f"{n:>5}  {k}" in region_part
+    from sdovon_mj.stats import dataset_statistics, summary_table
+
+    moved = sum(len(c.moved) for c in changes[1:])
+    assert any(line.split()[:2] == ["moved", "overnight"] and line.split()[-1] == str(moved)
+               for line in summary_table(dataset_statistics(run)).splitlines())  # generate's closing table
 
 
 @pytest.mark.slow
