@@ -114,6 +114,7 @@ class Stage:
     applies: Callable[[StageContext], bool] = field(default=lambda ctx: True)
     after: tuple[str, ...] = ()  # stages that write this one's input files (run first; their digests are in `extra`)
     when_sections: Callable[[RunConfig], tuple[str, ...]] = field(default=lambda cfg: ())
+    drop: tuple[str, ...] = ()  # dotted fields of its sections it does not read (left out of its fingerprint)
 
     def read_sections(self, cfg: RunConfig) -> tuple[str, ...]:
         """Return every config section (or field) this stage reads under `cfg`."""
@@ -132,6 +133,10 @@ def stage_fingerprint(stage: Stage, ctx: StageContext) -> str:
     """Return a stage's fingerprint: its name, what its needs recorded, the config it reads, its extra inputs."""
     needs = [_recorded_fp(ctx.store, ctx.key(n)) for n in stage.needs]
     conf = {s: section_value(ctx.cfg, s) for s in stage.read_sections(ctx.cfg)}
+    for key in stage.drop:  # a field of a section read whole that this stage does not read
+        sec, _, name = key.rpartition(".")
+        if isinstance(conf.get(sec), dict):
+            conf[sec].pop(name, None)
     return fingerprint(stage.name, needs, conf, *stage.extra(ctx))
 
 
@@ -670,6 +675,10 @@ def _export(ctx: StageContext) -> list[str]:
 # ----------------------------------------------------------------------------------------------
 # The declarations (order = the order stages run in within a task)
 
+# The habit model's keys (place.day_*) are read by the chains of days only; how many days a chain has is read by
+# none of its days (day t is the same in a chain of 3 days and of 5), so a longer chain keeps the days it had.
+DAY_KEYS = ("place.day_move", "place.day_leave", "place.day_arrive", "place.day_rates")
+
 _DECLARED = [
     Stage("world:objects", "run", "inputs/objects", (), ("world.object_seed", "world.object_variants", "world.object_categories"),
           "the default world's object library as input files (only when no --objects are given)",
@@ -700,7 +709,8 @@ _DECLARED = [
     Stage("place", "variant", "scenes/{scene}/variants/{variant}/place", ("semantics", "objects"), ("place",),
           "variant.json (SceneVariant) and the composed variant MJCF",
           _place, extra=lambda ctx: [ctx.variant_seed],
-          when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else ()),
+          when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else (),
+          drop=("place.days",) + DAY_KEYS),
     Stage("episodes", "variant", "scenes/{scene}/variants/{variant}/episodes", ("place",),
           ("episodes", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
           "episodes.json (list[Episode])",
@@ -709,7 +719,7 @@ _DECLARED = [
           "variant.json (SceneVariant with its day), day.json (DayChange: stayed, moved, left, arrived) and the "
           "composed MJCF of one day of the scene's chain (place.days)",
           _day, extra=_day_extra, applies=lambda ctx: ctx.cfg.place.days > 0,
-          when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else ()),
+          when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else (), drop=("place.days",)),
     Stage("day:episodes", "chain", "scenes/{scene}/days/{day}/day_episodes", ("day",),
           ("episodes", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
           "episodes.json (list[Episode] with the day, each goal's history)",

@@ -327,3 +327,20 @@ def test_a_chain_killed_with_sigkill_resumes_to_the_same_bytes_on_two_workers(ch
     differ = sorted(k for k in ref.keys() | got.keys() if ref.get(k) != got.get(k))
     assert not differ, differ[:20]
     assert sum("/days/" in k for k in ref) >= 6 * DAYS
+
+
+def test_days_keys_leave_the_variants_and_earlier_days_alone(tmp_path):
+    from sdovon_mj import stages
+    from sdovon_mj.store import Store
+
+    store = Store(tmp_path)
+    store.write_json("inputs.json", {"scenes": [], "objects": []})
+
+    def fp(stage: str, cfg: RunConfig, day: int = -1) -> str:
+        return stages.stage_fingerprint(stages.STAGES[stage], stages.StageContext(store, cfg, "apt_0000", 0, day=day))
+
+    off, three, five = RunConfig(), load_config(None, ["place.days=3"]), load_config(None, ["place.days=5"])
+    rates = load_config(None, ["place.days=3", "place.day_move=0.5"])
+    assert fp("place", off) == fp("place", three) == fp("place", rates)  # days on: the variants stay done
+    assert fp("day", three, 1) == fp("day", five, 1) != fp("day", rates, 1)  # a longer chain keeps its days
+    assert fp("place", off) != fp("place", load_config(None, ["place.m=5"]))  # what it reads still counts
