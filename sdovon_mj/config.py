@@ -27,18 +27,20 @@ class ConfigError(UsageError, ValueError):
 
 def _p(default: Any, unit: str, doc: str, symbol: str = "", *, ge: float | None = None, gt: float | None = None,
        le: float | None = None, lt: float | None = None, choices: tuple[Any, ...] | None = None,
-       min_len: int | None = None, max_len: int | None = None) -> Any:
+       min_len: int | None = None, max_len: int | None = None, quiet: bool = False) -> Any:
     """Declare a config field with its unit, one-line meaning, paper symbol and allowed values.
 
     ``ge``/``gt``/``le``/``lt`` bound a number (each element of a tuple field); ``choices`` lists the
     allowed values; ``min_len``/``max_len`` bound a tuple's length. `validate` checks them at load.
+    ``quiet``: a key added after runs were made with its section; `to_dict` leaves it out while it holds its default,
+    so the config files and fingerprints of runs that do not use it keep their bytes.
     """
     if isinstance(default, (list, dict)):
         raise TypeError("use tuples for sequence defaults so configs stay frozen and hashable")
     limits = {k: v for k, v in (("ge", ge), ("gt", gt), ("le", le), ("lt", lt)) if v is not None}
     return field(default=default, metadata={"unit": unit, "doc": doc, "symbol": symbol, "limits": limits,
                                             "choices": tuple(choices) if choices is not None else None,
-                                            "min_len": min_len, "max_len": max_len})
+                                            "min_len": min_len, "max_len": max_len, "quiet": quiet})
 
 
 @dataclass(frozen=True)
@@ -226,6 +228,37 @@ class SemanticsConfig:
     regions: str = _p("window", "-", "region map: window (LLM sliding window, the paper) or input (the scene's own region annotations: HM3D/MP3D regions, Habitat region_annotations)", choices=("window", "input"))
 
 
+# The habit model's default table (place.day_rates): overnight (move, leave) probabilities per category of the default
+# world. Things used and put down through the day (cups, mugs, phones, remotes) move most; furnishings (lamps, vases,
+# plants, pillows) and shelved things (books) stay; food and disposables (fruit, cans, bottles) leave most.
+DAY_RATES: tuple[str, ...] = (
+    "alarm_clock: 0.03 0.01", "apple: 0.10 0.30", "banana: 0.10 0.30", "book: 0.05 0.02", "bottle: 0.20 0.15",
+    "bowl: 0.25 0.05", "can: 0.20 0.25", "candle: 0.05 0.05", "cereal_box: 0.10 0.10", "cup: 0.35 0.05",
+    "keyboard: 0.03 0.01", "knife: 0.25 0.03", "lamp: 0.02 0.01", "laptop: 0.30 0.05", "mug: 0.35 0.05",
+    "phone: 0.40 0.10", "pillow: 0.10 0.01", "plate: 0.25 0.03", "potted_plant: 0.02 0.01", "remote: 0.35 0.02",
+    "shoe: 0.20 0.10", "soap_dispenser: 0.02 0.02", "spoon: 0.25 0.03", "stuffed_toy: 0.20 0.05", "teapot: 0.10 0.02",
+    "toothbrush: 0.03 0.02", "towel: 0.15 0.10", "vase: 0.02 0.01", "wine_glass: 0.25 0.03",
+)
+
+
+def day_rates(cfg: "PlaceConfig", source: str = "") -> dict[str, tuple[float, float]]:
+    """Return category -> (move, leave) overnight probabilities from ``place.day_rates``; raise ConfigError naming a
+    malformed entry (``category: move leave``, both in [0, 1], their sum at most 1)."""
+    where = f" in {source}" if source else ""
+    out: dict[str, tuple[float, float]] = {}
+    for entry in cfg.day_rates:
+        head, _, tail = str(entry).partition(":")
+        try:
+            move, leave = (float(x) for x in tail.split())
+        except ValueError:
+            raise ConfigError(f"config key 'place.day_rates'{where}: entry {entry!r} is not 'category: move leave'") from None
+        if not head.strip() or not (0 <= move <= 1 and 0 <= leave <= 1 and move + leave <= 1):
+            raise ConfigError(f"config key 'place.day_rates'{where}: entry {entry!r} needs a category and move, leave in "
+                              "[0, 1] with move + leave <= 1")
+        out[head.strip()] = (move, leave)
+    return out
+
+
 @dataclass(frozen=True)
 class PlaceConfig:
     """Semantic placement and physical settling (paper section 3.4)."""
@@ -260,6 +293,11 @@ class PlaceConfig:
     part_ajar: tuple[float, float] = _p((0.15, 0.5), "-", "an ajar part is open a uniform fraction of its range in this interval", ge=0, le=1, min_len=2)
     part_settle_time: float = _p(0.5, "s", "articulated scenes: simulated time objects settle on the real shelves with the parts open, and again after the parts moved to the variant's state", gt=0)
     part_move_tol: float = _p(0.05, "m", "articulated scenes: an object that moves more than this relative to its shelf or drawer when the parts move is classified displaced (or tunnelled, when it left the piece)", gt=0)
+    days: int = _p(0, "-", "days in each scene's chain of days (docs/days.md): day 0 is placed as a variant, each next day derives from the one before by the habit model (objects stay, move, leave, arrive); 0: no chain", ge=0, quiet=True)
+    day_move: float = _p(0.15, "-", "days: probability that an object of a category day_rates does not name moves to another receptacle overnight", ge=0, le=1, quiet=True)
+    day_leave: float = _p(0.05, "-", "days: probability that an object of a category day_rates does not name leaves overnight", ge=0, le=1, quiet=True)
+    day_arrive: float = _p(0.05, "-", "days: new objects arriving overnight per object present (each present object brings one with this probability; category and receptacle drawn as place draws them)", ge=0, le=1, quiet=True)
+    day_rates: tuple[str, ...] = _p(DAY_RATES, "-", "days: per category 'category: move leave' (overnight probabilities; a category not named takes day_move and day_leave)", quiet=True)
 
 
 @dataclass(frozen=True)
@@ -363,13 +401,16 @@ def _moved_error(key: str, where: str) -> ConfigError | None:
     return ConfigError(f"config key '{key}'{where} has moved: use '{new}'") if new else None
 
 
-def to_dict(cfg: Any) -> dict[str, Any]:
-    """Return a config as plain YAML-able data (tuples become lists)."""
+def to_dict(cfg: Any, full: bool = False) -> dict[str, Any]:
+    """Return a config as plain YAML-able data (tuples become lists); quiet keys at their default left out (`_p`)
+    unless `full`."""
     out: dict[str, Any] = {}
     for f in fields(cfg):
         v = getattr(cfg, f.name)
+        if not full and f.metadata.get("quiet") and v == f.default:  # a later key at its default: older bytes kept
+            continue
         if is_dataclass(v):
-            out[f.name] = to_dict(v)
+            out[f.name] = to_dict(v, full)
         elif isinstance(v, tuple):
             out[f.name] = list(v)
         else:
@@ -547,6 +588,10 @@ def check_cross_fields(cfg: RunConfig, source: str = "") -> None:
             raise ConfigError(f"config keys {keys}{where}: {what}")
 
     need(o.r_min < o.r_max, "'observe.r_min', 'observe.r_max'", f"r_min ({o.r_min:g}) must be below r_max ({o.r_max:g})")
+    pl = cfg.place
+    day_rates(pl, source)
+    need(pl.day_move + pl.day_leave <= 1, "'place.day_move', 'place.day_leave'",
+         f"their sum ({pl.day_move + pl.day_leave:g}) must not exceed 1")
     for sec in ("observe", "perceive", "nav"):
         s = getattr(cfg, sec)
         need(s.depth_min < s.depth_max, f"'{sec}.depth_min', '{sec}.depth_max'",
@@ -629,7 +674,7 @@ def apply_overrides(cfg: RunConfig, overrides: list[str] | tuple[str, ...], expl
     checked against its field's declared range/choices (the error names it), then the whole config against
     the cross-field rules (`validate`; ``source``, the config file, is named in their messages).
     """
-    data = to_dict(cfg)
+    data = to_dict(cfg, full=True)
     explicit = set(explicit)
     for item in overrides:
         if "=" not in item:

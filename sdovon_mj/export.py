@@ -166,7 +166,8 @@ def unit_digest(run: RunView, unit: ExportUnit) -> str:
     files = [p for s in sorted(unit.scenes) for p in [run.root / "scenes" / s / "scene.json"]
              + sorted((run.root / "scenes" / s / "observe").glob("navmap_*.json"))
              + sorted((run.root / "scenes" / s / "semantics").glob("*.json"))
-             + sorted((run.root / "scenes" / s / "variants").glob("*/*.json"))]
+             + sorted((run.root / "scenes" / s / "variants").glob("*/*.json"))
+             + sorted((run.root / "scenes" / s / "days").glob("*/*.json"))]
     files += sorted(run.root.glob("objects/*/object.json"))
     parts = [(p.relative_to(run.root).as_posix(), hashlib.sha256(p.read_bytes()).hexdigest()) for p in files
              if p.is_file() and not p.name.startswith(".")]  # not the stages' done-markers and timing files
@@ -237,7 +238,7 @@ def run_export(exporter: Exporter, run: RunView, out_dir: Path, options: ExportO
 
 def exportable_variants(run: RunView, report: ExportReport) -> Iterator[tuple[SceneVariant, list[Episode]]]:
     """Yield (variant, episodes) for every variant with episodes; record the others in report.skipped."""
-    for variant in run.all_variants():
+    for variant in run.all_dataset_variants():
         eps = run.episodes(variant)
         if not eps:
             report.skipped[variant.name] = "no valid goals (zero episodes)"

@@ -12,6 +12,7 @@ Run folder layout (all record paths are relative to the run root):
     scenes/<scene>/perceive/    instances.npz, planes.json
     scenes/<scene>/semantics/   regions_<floor>.json, relevance.json, pictures
     scenes/<scene>/variants/<variant>/variant.json, episodes.json, composed MJCF, pictures
+    scenes/<scene>/days/<scene>_d<day>/   variant.json, day.json, episodes.json, composed MJCF (place.days)
     export/<format>/            exporter outputs
     stats/                      summary tables (markdown + JSON) and category charts
 
@@ -48,7 +49,7 @@ from .store import RunLock, Store, Timer, clean_temp_files
 class TaskSpec:
     """One unit of work; only paths and names, so it crosses process and machine boundaries."""
 
-    kind: str  # objects | scene | variant | export
+    kind: str  # objects | scene | variant | chain | export
     run_root: str
     scene: str = ""  # kind export: one export unit's key ('' = the finishing step, which also runs missing units)
     variant: int = -1
@@ -62,6 +63,8 @@ class TaskSpec:
             return f"{self.scene}/v{self.variant:03d}"
         if self.kind == "export" and self.scene:
             return f"export:{self.fmt}/{self.scene}"
+        if self.kind == "chain":
+            return f"{self.scene}/days"
         return {"objects": "objects", "scene": self.scene, "export": f"export:{self.fmt}"}.get(self.kind, self.kind)
 
 
@@ -539,7 +542,7 @@ class RunSummary:
         by_name = {sc.get("name"): sc for sc in st.get("scenes", [])}
         failed: dict[str, str] = {}
         for r in self.root_failures:
-            if r.spec.scene and r.spec.kind in ("scene", "variant"):
+            if r.spec.scene and r.spec.kind in ("scene", "variant", "chain"):
                 failed.setdefault(r.spec.scene, f"{r.spec.label}: {r.error}")
         width = max(len(n) for n in self.scenes)
         out = []
@@ -774,11 +777,14 @@ def _generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None, ob
     if only_scenes is not None:  # names `generate` selected with the --scene patterns
         scene_names = stages.select_scenes(scene_names, list(only_scenes))
     root = str(store.root)
-    run_st, scene_st, var_st = (tuple(stages.scope_stages(k, wanted)) for k in ("run", "scene", "variant"))
+    run_st, scene_st, var_st, chain_st = (tuple(stages.scope_stages(k, wanted))
+                                          for k in ("run", "scene", "variant", "chain"))
+    if cfg.place.days == 0:
+        chain_st = ()
     fmts = list(cfg.exporters if exporters is None else exporters) if "export" in wanted else []
     n_variants = len(scene_names) * cfg.place.k_v if var_st else 0
     results: list[TaskResult] = []
-    total = bool(run_st) + (len(scene_names) if scene_st else 0) + n_variants + len(fmts)
+    total = bool(run_st) + (len(scene_names) if scene_st else 0) + n_variants + len(fmts) + (len(scene_names) if chain_st else 0)
     with Progress(total=total, enabled=progress, desc="generate") as bar:
         def tick(r: TaskResult) -> None:
             bar.update(1, r.spec.label + ("" if r.ok else " FAILED"))
@@ -798,6 +804,9 @@ def _generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None, ob
         if var_st:
             bar.total -= (len(scene_names) - len(good)) * cfg.place.k_v
             variant_specs = [TaskSpec("variant", root, s, v, stages=var_st) for s in good for v in range(cfg.place.k_v)]
+        if chain_st:  # a scene's chain of days: one task (day t+1 needs day t), beside its variants
+            bar.total -= len(scene_names) - len(good)
+            variant_specs = [TaskSpec("chain", root, s, stages=chain_st) for s in good] + variant_specs  # longest first
         sched = ExportSchedule(root, fmts, cfg, variant_specs, [r for r in results if not r.ok])
         bar.total += sched.n_units
         results += ex.map(variant_specs + sched.ready(), tick, follow=sched.follow)
@@ -895,7 +904,7 @@ class ExportSchedule:
         """Account for a finished task and return the export tasks it lets start."""
         if not r.ok:
             self.failed.append(r)
-        if r.spec.kind == "variant":
+        if r.spec.kind in ("variant", "chain"):
             self.left[r.spec.scene] -= 1
             self.variants_ok += int(r.ok)
         elif r.spec.kind == "export" and r.spec.scene:

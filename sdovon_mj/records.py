@@ -636,6 +636,19 @@ class Relevance(Record):
         out = [(r, c, self.pair_score(obj, r, c)) for r in self.regions for c in self.receptacles]
         return sorted(out, key=lambda t: (-t[2], t[0], t[1]))
 
+    def plane_relevance(self, category: str, planes: list["ReceptaclePlane"],
+                        pairs: list[tuple[str, str]] | None = None) -> np.ndarray:
+        """Return each plane's relevance for one object category in the placement direction: `joint` at the plane's
+        (region, receptacle) among `pairs` (default: the planes' own pairs), negative values as 0; ones for a
+        category this record does not know. The moves of a chain of days are drawn by it and their statistics
+        compare with it (`sdovon_mj.place.days`, `sdovon_mj.stats.day_statistics`)."""
+        if category not in self.objects:
+            return np.ones(len(planes))
+        pairs = sorted({(p.region, p.label) for p in planes}) if pairs is None else pairs
+        i = self.objects.index(category)
+        at = {q: max(float(self.joint(q[0], q[1], pairs)[i]), 0.0) for q in sorted({(p.region, p.label) for p in planes})}
+        return np.array([at[(p.region, p.label)] for p in planes])
+
     def top_pairs(self, pairs: list[tuple[str, str]], k: int) -> dict[str, set[tuple[str, str]]]:
         """Return, per object, the k of a scene's (region, receptacle) pairs where it belongs most.
 
@@ -693,23 +706,79 @@ class SceneVariant(Record):
     mjcf: str = ""  # composed MJCF (scene + support + objects), relative path
     notes: list[str] = field(default_factory=list)
     articulation: dict[str, float] | None = None  # articulated part joint -> position (rad / m); omitted when None
+    day: int | None = None  # a day of the scene's chain of days (place.days): its index; omitted when None
 
     def to_dict(self) -> dict[str, Any]:
-        """Return the record as JSON-able data; `articulation` left out when None (older bytes kept)."""
+        """Return the record as JSON-able data; `articulation` and `day` left out when None (older bytes kept)."""
         out = super().to_dict()
-        if out.get("articulation", 0) is None:
-            del out["articulation"]
+        for key in ("articulation", "day"):
+            if out.get(key, 0) is None:
+                del out[key]
         return out
 
     @property
     def name(self) -> str:
-        """Return the variant's name, e.g. 'apt_0000_v002'."""
-        return f"{self.scene}_v{self.index:03d}"
+        """Return the variant's name, e.g. 'apt_0000_v002' ('apt_0000_d002' for day 2 of the scene's chain)."""
+        return f"{self.scene}_v{self.index:03d}" if self.day is None else day_name(self.scene, self.day)
 
     @property
     def resting(self) -> list[Placement]:
         """Return the placements that came to rest on their intended plane."""
         return [p for p in self.placements if p.status == "resting"]
+
+
+def day_name(scene: str, day: int) -> str:
+    """Return the name of day `day` of a scene's chain, e.g. 'apt_0000_d002' (a variant's name on that day)."""
+    return f"{scene}_d{day:03d}"
+
+
+# A goal's history on its day (`Goal.history`): where the object was the day before.
+UNMOVED, MOVED, NEW = "unmoved", "moved", "new"
+
+
+@dataclass
+class DayMove(Record):
+    """One object that moved overnight: from which receptacle plane (region, label) to which."""
+
+    object_id: str
+    category: str
+    from_plane: int
+    to_plane: int
+    from_receptacle: str
+    to_receptacle: str
+    from_region: str
+    to_region: str
+
+
+@dataclass
+class DayChange(Record):
+    """What changed from the day before in a scene's chain of days (day 0: everything arrived).
+
+    The lists are the habit model's draws (`sdovon_mj.place.days`), each object once: `stayed`, `moved`, `left`,
+    `arrived`. `dropped`: drawn objects that did not come to rest on their plane (object id -> why; absent that day
+    and after). `resettled`: objects that stayed but that settling moved (object id -> metres their position moved).
+    `rates`: the overnight probabilities each present object was drawn with (object id -> [move, leave]) and
+    `arrive_rate` the arrivals' (per object present the day before), so statistics can compare draws with the config.
+    """
+
+    scene: str
+    day: int
+    stayed: list[str] = field(default_factory=list)
+    moved: list[DayMove] = field(default_factory=list)
+    left: list[str] = field(default_factory=list)
+    arrived: list[str] = field(default_factory=list)
+    dropped: dict[str, str] = field(default_factory=dict)
+    resettled: dict[str, float] = field(default_factory=dict)
+    rates: dict[str, list[float]] = field(default_factory=dict)
+    arrive_rate: float = 0.0
+    previous: int = 0  # objects present (resting) the day before
+    next_object: int = 0  # the number of the next new object (``obj_<n>``: ids are never reused in a chain)
+
+    def history(self, object_id: str) -> str:
+        """Return an object's history on this day: `UNMOVED`, `MOVED` or `NEW`."""
+        if object_id in self.arrived or self.day == 0:
+            return NEW
+        return MOVED if any(m.object_id == object_id for m in self.moved) else UNMOVED
 
 
 # ----------------------------------------------------------------------------------------------
@@ -735,12 +804,14 @@ class Goal(Record):
     view_points: list[ViewPoint] = field(default_factory=list)
     bounds: np.ndarray | None = None  # (2, 3)
     open_part: str | None = None  # hidden in a closed articulated part: the joint to open (view points with it open)
+    history: str | None = None  # on a day of a chain: unmoved / moved / new since the day before; omitted when None
 
     def to_dict(self) -> dict[str, Any]:
-        """Return the record as JSON-able data; `open_part` left out when None (older bytes kept)."""
+        """Return the record as JSON-able data; `open_part` and `history` left out when None (older bytes kept)."""
         out = super().to_dict()
-        if out.get("open_part", 0) is None:
-            del out["open_part"]
+        for key in ("open_part", "history"):
+            if out.get(key, 0) is None:
+                del out[key]
         return out
 
 
@@ -762,6 +833,14 @@ class Episode(Record):
     # The Habitat-style start filters this start passed (episodes.min/max_start_distance, start_ratio_threshold)
     # and its geodesic / Euclidean ratio to the nearest view point.
     start_filters: dict[str, float] = field(default_factory=dict)
+    day: int | None = None  # an episode of a day of a chain (place.days): the day; omitted when None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the record as JSON-able data; `day` left out when None (older bytes kept)."""
+        out = super().to_dict()
+        if out.get("day", 0) is None:
+            del out["day"]
+        return out
 
 
 # ----------------------------------------------------------------------------------------------

@@ -11,6 +11,9 @@ Run folder layout (paths inside records are relative to the run root; writers: t
     <run>/scenes/<scene>/semantics/planes.json                 the same with floor and region (optional)
     <run>/scenes/<scene>/variants/<variant>/variant.json       SceneVariant (its .mjcf: composed MJCF)
     <run>/scenes/<scene>/variants/<variant>/episodes.json      list[Episode]
+    <run>/scenes/<scene>/days/<scene>_d<day>/variant.json      a day of the scene's chain (place.days): SceneVariant
+    <run>/scenes/<scene>/days/<scene>_d<day>/day.json          DayChange (what stayed, moved, left, arrived)
+    <run>/scenes/<scene>/days/<scene>_d<day>/episodes.json     list[Episode] (with the day, goals' histories)
     <run>/objects/<name>/object.json                           ObjectAsset (+ its asset files)
 
 Exporters, statistics and evaluation read runs through `RunView` only.
@@ -24,8 +27,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .errors import InputError
-from .records import (Episode, NavMap, ObjectAsset, ReceptaclePlane, RecordError, RegionMap, Relevance, SceneAsset,
-                      SceneVariant, load_json)
+from .records import (DayChange, Episode, NavMap, ObjectAsset, ReceptaclePlane, RecordError, RegionMap, Relevance,
+                      SceneAsset, SceneVariant, load_json)
 
 if TYPE_CHECKING:
     from .config import RunConfig
@@ -105,8 +108,27 @@ class RunView:
         """Return every variant of every scene."""
         return [v for s in self.scene_names() for v in self.variants(s)]
 
+    def days(self, scene: str) -> list[SceneVariant]:
+        """Return the days of a scene's chain of days (SceneVariants with their `day`) in day order ([]: none)."""
+        vs = [_load(p, SceneVariant) for p in sorted((self.root / "scenes" / scene / "days").glob("*/variant.json"))]
+        return sorted(vs, key=lambda v: v.day or 0)
+
+    def day_change(self, day: SceneVariant) -> DayChange:
+        """Return what changed on a day of a chain since the day before (its ``day.json``)."""
+        return _load(self.variant_dir(day) / "day.json", DayChange)
+
+    def dataset_variants(self, scene: str) -> list[SceneVariant]:
+        """Return what a dataset of the scene holds: its variants by index, then its chain's days in order."""
+        return self.variants(scene) + self.days(scene)
+
+    def all_dataset_variants(self) -> list[SceneVariant]:
+        """Return `dataset_variants` of every scene."""
+        return [v for s in self.scene_names() for v in self.dataset_variants(s)]
+
     def variant_dir(self, variant: SceneVariant) -> Path:
-        """Return the folder of a variant's records."""
+        """Return the folder of a variant's records (a day's: under the scene's ``days/``)."""
+        if variant.day is not None:
+            return self.root / "scenes" / variant.scene / "days" / variant.name
         return self.root / "scenes" / variant.scene / "variants" / variant.name
 
     def episodes(self, variant: SceneVariant) -> list[Episode]:
@@ -130,7 +152,8 @@ class RunView:
     def run_id(self) -> str:
         """Return a digest of the run's record files (identifies the run across exports)."""
         h = hashlib.sha256()
-        for p in sorted(self.root.glob("scenes/*/scene.json")) + sorted(self.root.glob("scenes/*/variants/*/*.json")) + sorted(self.root.glob("objects/*/object.json")):
+        for p in (sorted(self.root.glob("scenes/*/scene.json")) + sorted(self.root.glob("scenes/*/variants/*/*.json"))
+                  + sorted(self.root.glob("scenes/*/days/*/*.json")) + sorted(self.root.glob("objects/*/object.json"))):
             h.update(p.relative_to(self.root).as_posix().encode())
             h.update(p.read_bytes())
         return h.hexdigest()[:20]

@@ -1,6 +1,6 @@
 """The stage contract: every stage of the pipeline declared once.
 
-A `Stage` names its scope (run, scene, variant, export), the marker folder of its outputs in the run folder
+A `Stage` names its scope (run, scene, variant, chain, export), the marker folder of its outputs in the run folder
 (`key`), the stages whose outputs it reads (`needs`), the config it reads (`sections`: a section such as
 ``observe`` or one field such as ``world.floors``), further inputs of its fingerprint (`extra`: seeds, input
 file digests, converter version), the stages that write its input files (`after`: run first, but only the
@@ -9,11 +9,14 @@ the function that does the work (`make`, returning its output paths).
 From that declaration alone come
 
 - its fingerprint: ``fingerprint(name, needs' fingerprints, sections' values, extra)`` (`stage_fingerprint`);
-- its run-folder paths (``key`` with ``{scene}``, ``{variant}``, ``{fmt}`` filled in) and resume: a stage
+- its run-folder paths (``key`` with ``{scene}``, ``{variant}``, ``{day}``, ``{fmt}`` filled in) and resume: a stage
   whose marker holds the same fingerprint (and whose outputs exist) is skipped (`run_stage`);
 - the tasks of `sdovon_mj.pipeline` (a task runs the stages of one scope in declaration order) and the
   per-stage commands: ``sdovon-mj <stage> RUN_DIR`` runs that stage and the stages it needs through the
   same tasks as ``generate`` (`closure`), so both write the same bytes.
+
+Scope ``chain`` is a scene's chain of days (``place.days``): one task per scene runs its stages day after day
+(day t+1 reads day t), each day with its own markers, so a chain resumes at the first day not done.
 
 Stage functions call each stage package's public API with records read through the run view; the stage
 packages know records, config, store and sim, never this module. Seeds come from `sdovon_mj.seeds`.
@@ -31,13 +34,14 @@ from typing import Any, Callable
 from . import plugins
 from .config import RunConfig, to_dict
 from .errors import InputError, InputsError, StageError
-from .records import Instance, ReceptaclePlane, Relevance, SceneVariant, load_json, load_npz, save_json, save_npz
+from .records import (DayChange, Instance, ReceptaclePlane, Relevance, SceneVariant, day_name, load_json, load_npz,
+                      save_json, save_npz)
 from .runview import RunView
 from .naming import name_scenes  # noqa: F401 (the run's scene names; re-exported)
-from .seeds import scene_seed, secret_salt, variant_seed
+from .seeds import day_seed, scene_seed, secret_salt, variant_seed
 from .store import Store, file_hash, fingerprint
 
-SCOPES = ("run", "scene", "variant", "export")
+SCOPES = ("run", "scene", "variant", "chain", "export")
 OBJECT_SUFFIXES = (".obj", ".glb", ".gltf", ".ply", ".stl")
 # An object library also takes URDF objects (assets_convert.urdf); the meshes a URDF references are its links'
 # parts, not objects of their own (the converter drops them from the library).
@@ -54,6 +58,7 @@ class StageContext:
     variant: int = -1
     fmt: str = ""
     notes: list[str] = field(default_factory=list)  # lines a stage logs; `run_stage` hands them to the task's result
+    day: int = -1  # scope chain: the day of the scene's chain of days
 
     @property
     def view(self) -> RunView:
@@ -75,9 +80,16 @@ class StageContext:
         """Return this variant's name (``<scene>_v<index:03d>``)."""
         return f"{self.scene}_v{self.variant:03d}"
 
-    def key(self, stage: str) -> str:
-        """Return the marker folder (store-relative) of a declared stage in this context."""
-        return STAGES[stage].key.format(scene=self.scene, variant=self.variant_name, fmt=self.fmt)
+    @property
+    def day_seed(self) -> int:
+        """Return this day's seed (`sdovon_mj.seeds`: the secret salt of a secret split mixed in)."""
+        return day_seed(self.scene_seed, self.day, secret_salt())
+
+    def key(self, stage: str, day: int | None = None) -> str:
+        """Return the marker folder (store-relative) of a declared stage in this context (of another `day`)."""
+        d = self.day if day is None else day
+        return STAGES[stage].key.format(scene=self.scene, variant=self.variant_name, fmt=self.fmt,
+                                        day=day_name(self.scene, d))
 
     @cached_property
     def inputs(self) -> dict[str, list[str]]:
@@ -104,6 +116,7 @@ class Stage:
     applies: Callable[[StageContext], bool] = field(default=lambda ctx: True)
     after: tuple[str, ...] = ()  # stages that write this one's input files (run first; their digests are in `extra`)
     when_sections: Callable[[RunConfig], tuple[str, ...]] = field(default=lambda cfg: ())
+    drop: tuple[str, ...] = ()  # dotted fields of its sections it does not read (left out of its fingerprint)
 
     def read_sections(self, cfg: RunConfig) -> tuple[str, ...]:
         """Return every config section (or field) this stage reads under `cfg`."""
@@ -122,6 +135,10 @@ def stage_fingerprint(stage: Stage, ctx: StageContext) -> str:
     """Return a stage's fingerprint: its name, what its needs recorded, the config it reads, its extra inputs."""
     needs = [_recorded_fp(ctx.store, ctx.key(n)) for n in stage.needs]
     conf = {s: section_value(ctx.cfg, s) for s in stage.read_sections(ctx.cfg)}
+    for key in stage.drop:  # a field of a section read whole that this stage does not read
+        sec, _, name = key.rpartition(".")
+        if isinstance(conf.get(sec), dict):
+            conf[sec].pop(name, None)
     return fingerprint(stage.name, needs, conf, *stage.extra(ctx))
 
 
@@ -497,6 +514,44 @@ def _episodes(ctx: StageContext) -> list[str]:
     return [f"{vdir}/episodes.json"]
 
 
+def _day(ctx: StageContext) -> list[str]:
+    """Place one day of the scene's chain: day 0 as a variant, a later day from the day before by the habit model."""
+    from .place.days import first_day, next_day
+
+    s = ctx.key("semantics")
+    planes = load_json(ctx.store.path(f"{s}/planes.json"), ReceptaclePlane)
+    rel = load_json(ctx.store.path(f"{s}/relevance.json"), Relevance)
+    out = Path(ctx.key("day")).parent.as_posix()
+    args = (ctx.view.scene(ctx.scene), planes, rel, ctx.view.object_library(), ctx.store.root, ctx.cfg.place,
+            ctx.day_seed)
+    if ctx.day == 0:
+        variant, _change = first_day(*args, out, open_parts=ctx.cfg.observe.open_parts)
+    else:
+        before = Path(ctx.key("day", ctx.day - 1)).parent.as_posix()
+        previous = load_json(ctx.store.path(f"{before}/variant.json"), SceneVariant)
+        change = load_json(ctx.store.path(f"{before}/day.json"), DayChange)
+        variant, _change = next_day(previous, change, *args, out)
+    return [f"{out}/variant.json", f"{out}/day.json", variant.mjcf]
+
+
+def _day_episodes(ctx: StageContext) -> list[str]:
+    """ObjectNav episodes of one day of the chain, each goal labelled by its history since the day before."""
+    from .episodes import generate_episodes, label_day
+
+    d = Path(ctx.key("day:episodes")).parent.as_posix()
+    variant = load_json(ctx.store.path(f"{d}/variant.json"), SceneVariant)
+    change = load_json(ctx.store.path(f"{d}/day.json"), DayChange)
+    eps = generate_episodes(variant, ctx.view.navmaps(ctx.scene), ctx.store.root, ctx.cfg.episodes, ctx.day_seed,
+                            agent=ctx.cfg.agent)
+    save_json(label_day(eps, change), ctx.store.path(f"{d}/episodes.json"))
+    return [f"{d}/episodes.json"]
+
+
+def _day_extra(ctx: StageContext) -> list[Any]:
+    """Return a day's further fingerprint inputs: its seed and what the day before recorded (day t+1 needs day t)."""
+    return [ctx.day_seed, ctx.day, _recorded_fp(ctx.store, ctx.key("day", ctx.day - 1)) if ctx.day > 0 else ""]
+
+
 def export_unit_key(fmt: str, unit: str) -> str:
     """Return the marker folder (store-relative) of one export unit: ``export/<fmt>.units/<unit>``."""
     return f"export/{fmt}.units/{unit}"
@@ -608,6 +663,10 @@ def _export(ctx: StageContext) -> list[str]:
 # ----------------------------------------------------------------------------------------------
 # The declarations (order = the order stages run in within a task)
 
+# The habit model's keys (place.day_*) are read by the chains of days only; how many days a chain has is read by
+# none of its days (day t is the same in a chain of 3 days and of 5), so a longer chain keeps the days it had.
+DAY_KEYS = ("place.day_move", "place.day_leave", "place.day_arrive", "place.day_rates")
+
 _DECLARED = [
     Stage("world:objects", "run", "inputs/objects", (), ("world.object_seed", "world.object_variants", "world.object_categories"),
           "the default world's object library as input files (only when no --objects are given)",
@@ -638,11 +697,21 @@ _DECLARED = [
     Stage("place", "variant", "scenes/{scene}/variants/{variant}/place", ("semantics", "objects"), ("place",),
           "variant.json (SceneVariant) and the composed variant MJCF",
           _place, extra=lambda ctx: [ctx.variant_seed],
-          when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else ()),
+          when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else (),
+          drop=("place.days",) + DAY_KEYS),
     Stage("episodes", "variant", "scenes/{scene}/variants/{variant}/episodes", ("place",),
           ("episodes", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
           "episodes.json (list[Episode])",
           _episodes, extra=lambda ctx: [ctx.variant_seed]),
+    Stage("day", "chain", "scenes/{scene}/days/{day}/day", ("semantics", "objects"), ("place",),
+          "variant.json (SceneVariant with its day), day.json (DayChange: stayed, moved, left, arrived) and the "
+          "composed MJCF of one day of the scene's chain (place.days)",
+          _day, extra=_day_extra, applies=lambda ctx: ctx.cfg.place.days > 0,
+          when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else (), drop=("place.days",)),
+    Stage("day:episodes", "chain", "scenes/{scene}/days/{day}/day_episodes", ("day",),
+          ("episodes", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
+          "episodes.json (list[Episode] with the day, each goal's history)",
+          _day_episodes, extra=lambda ctx: [ctx.day_seed], applies=lambda ctx: ctx.cfg.place.days > 0),
     Stage("export", "export", "export/{fmt}.stage", (), ("name", "split", "episodes"),
           "export/<fmt>/ (the exporter plugin's files), export/<fmt>.report.json",
           _export, extra=lambda ctx: [ctx.fmt, _exporter_version(ctx.fmt), ctx.view.run_id()]),
@@ -673,7 +742,7 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
     runner : StageRunner
         Runs a stage once per fingerprint and records seconds (`sdovon_mj.pipeline.StageRunner`).
     scope : str
-        ``run``, ``scene``, ``variant`` or ``export``.
+        ``run``, ``scene``, ``variant``, ``chain`` (a scene's days, in order) or ``export``.
     scene, variant, fmt : str, int, str
         Where in the run: the scene name, the variant index, the export format (scope ``export``: ``scene``
         names one export unit to run alone; empty: every unit not done yet, then the finishing step).
@@ -685,6 +754,16 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
     """
     if scope not in SCOPES:
         raise StageError(f"unknown stage scope '{scope}' ({', '.join(SCOPES)})")
+    if scope == "chain":  # day after day; a day done (its markers) is skipped, so a fresh process resumes the chain
+        names = scope_stages(scope, selected)
+        ran = False
+        for day in range(cfg.place.days):
+            ctx = StageContext(store, cfg, scene, day=day)
+            for name in names:
+                if ran and fits is not None and not fits():
+                    return names
+                ran = run_stage(name, ctx, runner) or ran
+        return []
     ctx = StageContext(store, cfg, scene, variant, fmt)
     if scope == "export" and "export" in scope_stages(scope, selected):
         # An exporter's units first (each skipped when done); a task naming one unit (`scene`) runs only it.

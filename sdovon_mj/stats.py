@@ -8,6 +8,7 @@ Reads only the run folder's records (layout: ``sdovon_mj/runview.py``)::
     scenes/<scene>/semantics/regions_<floor>.json          RegionMap               (optional)
     scenes/<scene>/variants/<variant>/variant.json         SceneVariant
     scenes/<scene>/variants/<variant>/episodes.json        list[Episode]
+    scenes/<scene>/days/<day>/day.json, variant.json       a chain of days (`day_statistics`, through RunView)
     objects/<name>/object.json or objects/objects.json     ObjectAsset(s)
     config.yaml                                            the run's config        (optional)
 
@@ -490,7 +491,9 @@ def dataset_statistics(run_root: Path) -> dict:
     objects = _objects(root)
     cfg = _config_info(root)
     t = _tally([r for _, r in per_scene])
+    days = day_statistics(root) if (root / "scenes").is_dir() else {}
     return _round({
+        **({"days": days} if days else {}),  # runs with chains of days only: other runs keep their bytes
         "homes": _homes(scenes, [r for _, r in per_scene]),
         "dataset": cfg.get("name", "sdovon"),
         "totals": _totals(scenes, t, objects),
@@ -570,6 +573,8 @@ def statistics_markdown(stats: dict) -> str:
         [[s["name"], s["floors"], s["navigable_area_m2"], f"{s['receptacle_planes']} ({s['receptacle_planes_source']})", s["regions"],
           s["variants"], s["placed_objects"], s["episodes"]] for s in stats["scenes"]] or [["(none)", 0, 0.0, 0, 0, 0, 0, 0]]), ""]
     parts += ["## Homes: size, clutter, episode length", "", "```", homes_table(stats), "```", ""]
+    if stats.get("days"):
+        parts += ["## Days: what changed overnight", "", "```", days_table(stats["days"]), "```", ""]
     return "\n".join(parts)
 
 
@@ -580,6 +585,10 @@ def summary_table(stats: dict) -> str:
             ("goal categories", t["goal_categories"]), ("placed objects", t["placed_objects"]), ("episodes", t["episodes"]),
             ("objects rejected", t["objects_rejected"])]
     rows += [(f"  {k}", v) for k, v in _by_count(stats["placements"]["rejected_by_reason"])]
+    if stats.get("days"):  # chains of days (place.days): their days and what the nights changed
+        d = stats["days"]
+        rows += [("days (chains of days)", len(d["days"]))]
+        rows += [(f"  {k} overnight", v["observed"]) for k, v in d["rates"].items()]
     width = max(len(k) for k, _ in rows)
     vwidth = max(len(str(v)) for _, v in rows)
     line = "-" * (width + vwidth + 3)
@@ -710,3 +719,109 @@ def placement_top_pairs(run_root: Path, k: int = 3) -> dict[str, Any]:
     ceiling = ceil_hits / ceil_rand if ceil_rand > 0 else (math.inf if ceil_hits > 0 else 0.0)
     return {"k": int(k), "placed": placed, "on_top_k": hits, "share": share, "random_share": rshare, "ratio": ratio,
             "ceiling": ceiling}
+
+
+# ----------------------------------------------------------------------------------------------
+# Days: what the chains of days changed (place.days)
+
+DAY_LEVEL = 0.999  # the two-sided level of the intervals the observed counts are compared with
+
+
+def poisson_binomial_interval(rates: Iterable[float], level: float = DAY_LEVEL) -> tuple[int, int]:
+    """Return the central `level` interval (lo, hi) of the number of successes of independent trials with these
+    success probabilities (exact: the distribution by convolution; equal rates: the binomial interval). Counts below
+    `lo` and above `hi` each have probability at most (1 - level) / 2."""
+    pmf = np.ones(1)
+    for p in rates:
+        pmf = np.convolve(pmf, [1.0 - float(p), float(p)])
+    cdf = np.cumsum(pmf)
+    tail = (1.0 - level) / 2.0
+    lo = int(np.searchsorted(cdf, tail, side="right"))  # P(X < lo) = cdf[lo - 1] <= tail
+    hi = int(np.searchsorted(cdf, 1.0 - tail - 1e-12, side="left"))  # P(X > hi) = 1 - cdf[hi] <= tail
+    return lo, min(hi, len(pmf) - 1)
+
+
+def day_statistics(run_root: Path) -> dict[str, Any]:
+    """Return what the run's chains of days changed ({} when the run has none).
+
+    ``days``: per scene and day the objects present the day before and how many stayed, moved, left, arrived, were
+    dropped (could not rest) or resettled (stayed, but settling moved them). ``rates``: per outcome (moved, left,
+    arrived) over every object-day of the run, the count observed, the count the configured rates expect and its
+    `DAY_LEVEL` interval (`poisson_binomial_interval` of each object-day's configured rate). ``transitions``: moves
+    counted by (from receptacle, to receptacle) and by (from region, to region). ``prior``: the moves' mean relevance
+    of the plane moved to (`Relevance.plane_relevance`) beside the same objects' mean relevance over every plane of
+    their scene.
+    """
+    from .runview import RunView
+
+    view = RunView(run_root)
+    rows: list[dict[str, Any]] = []
+    rates: dict[str, list[float]] = {"moved": [], "left": [], "arrived": []}
+    seen = {"moved": 0, "left": 0, "arrived": 0}
+    by_rec: Counter = Counter()
+    by_region: Counter = Counter()
+    to_rel: list[float] = []
+    all_rel: list[float] = []
+    for scene in view.scene_names():
+        days = view.days(scene)
+        if not days:
+            continue
+        planes = view.planes(scene)
+        rel = view.relevance(scene)
+        plane_index = {p.id: k for k, p in enumerate(planes)}
+        for v in days:
+            c = view.day_change(v)
+            rows.append({"scene": scene, "day": c.day, "previous": c.previous, "present": len(v.resting),
+                         "stayed": len(c.stayed), "moved": len(c.moved), "left": len(c.left), "arrived": len(c.arrived),
+                         "dropped": len(c.dropped), "resettled": len(c.resettled)})
+            if c.day == 0:
+                continue
+            for move, leave in c.rates.values():
+                rates["moved"].append(move)
+                rates["left"].append(leave)
+            rates["arrived"] += [c.arrive_rate] * c.previous
+            seen["moved"] += len(c.moved)
+            seen["left"] += len(c.left)
+            seen["arrived"] += len(c.arrived)
+            for m in c.moved:
+                if m.to_plane < 0:
+                    continue
+                by_rec[f"{m.from_receptacle} -> {m.to_receptacle}"] += 1
+                by_region[f"{m.from_region} -> {m.to_region}"] += 1
+                if rel is not None and m.to_plane in plane_index:
+                    w = rel.plane_relevance(m.category, planes)
+                    to_rel.append(float(w[plane_index[m.to_plane]]))
+                    all_rel.append(float(w.mean()))
+    if not rows:
+        return {}
+    out_rates = {}
+    for k, rs in rates.items():
+        lo, hi = poisson_binomial_interval(rs)
+        out_rates[k] = {"observed": seen[k], "object_days": len(rs), "expected": float(sum(rs)),
+                        "interval": [lo, hi], "level": DAY_LEVEL, "within": lo <= seen[k] <= hi}
+    return _round({"days": rows, "rates": out_rates,
+                   "transitions": {"receptacle": _sorted_counts(by_rec), "region": _sorted_counts(by_region)},
+                   "prior": {"moves": len(to_rel), "mean_relevance_moved_to": float(np.mean(to_rel)) if to_rel else 0.0,
+                             "mean_relevance_all_planes": float(np.mean(all_rel)) if all_rel else 0.0}})
+
+
+def days_table(days: dict[str, Any]) -> str:
+    """Return `day_statistics` as plain-text tables: per day, the rates against the config, the transitions."""
+    if not days:
+        return "no chains of days in this run (place.days: 0)"
+    keys = ("previous", "present", "stayed", "moved", "left", "arrived", "dropped", "resettled")
+    lines = ["Days: what changed overnight (per scene and day)",
+             f"{'scene':<14}{'day':>4}" + "".join(f"{k:>10}" for k in keys)]
+    lines += [f"{r['scene']:<14}{r['day']:>4}" + "".join(f"{r[k]:>10}" for k in keys) for r in days["days"]]
+    lines += ["", f"Over every object-day: observed against the configured rates ({100 * DAY_LEVEL:g} % interval)",
+              f"{'outcome':<10}{'observed':>10}{'expected':>10}{'interval':>14}{'object-days':>13}  within"]
+    for k, r in days["rates"].items():
+        lines.append(f"{k:<10}{r['observed']:>10}{r['expected']:>10.1f}{str(r['interval'][0]) + '-' + str(r['interval'][1]):>14}"
+                     f"{r['object_days']:>13}  {'yes' if r['within'] else 'NO'}")
+    for what in ("receptacle", "region"):
+        lines += ["", f"Moves by {what} (from -> to)"]
+        lines += [f"  {n:>5}  {k}" for k, n in _by_count(days["transitions"][what])] or ["  (none)"]
+    p = days["prior"]
+    lines += ["", f"Moves and the prior: mean relevance of the plane moved to {p['mean_relevance_moved_to']:.4f}, "
+                  f"over every plane of the scene {p['mean_relevance_all_planes']:.4f} ({p['moves']} moves)"]
+    return "\n".join(lines)

@@ -267,8 +267,18 @@ def episode_json(ep: Episode, index: int, scene_id: str, dataset_config: str) ->
             "info": {"geodesic_distance": float(ep.geodesic_distance), "euclidean_distance": float(ep.euclidean_distance),
                      "closest_goal_object_id": habitat_object_id(ep.closest_goal_object_id, closest.category) if closest else "",
                      "sdovon_episode_id": ep.episode_id, "variant": ep.variant, "scene": ep.scene, "floor": int(ep.floor),
-                     "start_filters": {k: float(v) for k, v in sorted(ep.start_filters.items())}},
+                     "start_filters": {k: float(v) for k, v in sorted(ep.start_filters.items())},
+                     **_day_info(ep)},
             "goals": [], "start_room": None, "shortest_paths": None, "object_category": ep.object_category}
+
+
+def _day_info(ep: Episode) -> dict[str, Any]:
+    """Return an episode's day info ({} outside a chain of days): the day and each goal's history since the day
+    before, keyed by its Habitat object id (habitat-lab's ObjectGoal takes no extra keys, so it lives in info)."""
+    if ep.day is None:
+        return {}
+    return {"day": int(ep.day),
+            "goal_history": {habitat_object_id(g.object_id, g.category): g.history or "" for g in ep.goals}}
 
 
 OBJECTS_UNIT = "_objects"  # the object templates' unit (scene names never start with '_')
@@ -305,7 +315,8 @@ def _category_maps(run: RunView) -> dict[str, dict[str, int]]:
     """Return the category id maps over every variant's episodes (read as raw JSON: only the categories)."""
     cats: set[str] = set()
     for scene in run.scene_names():
-        for p in sorted((run.root / "scenes" / scene / "variants").glob("*/episodes.json")):
+        for p in (sorted((run.root / "scenes" / scene / "variants").glob("*/episodes.json"))
+                  + sorted((run.root / "scenes" / scene / "days").glob("*/episodes.json"))):
             if not (p.parent / "variant.json").is_file():  # not a variant of the run (RunView.variants)
                 continue
             text = p.read_text(encoding="utf-8")
@@ -364,7 +375,7 @@ class HabitatExporter(Exporter):
         """Write a scene's stage and its variants' scene instances and episode contents."""
         sd, ds, dataset_config = _dataset_paths(out_dir, options)
         maps = None
-        for variant in run.variants(scene_name):
+        for variant in run.dataset_variants(scene_name):
             eps = run.episodes(variant)
             if not eps:
                 res.skipped[variant.name] = "no valid goals (zero episodes)"
@@ -429,7 +440,7 @@ class HabitatExporter(Exporter):
         sd, _ds, _cfg = _dataset_paths(out_dir, options)
         objects = run.objects()
         done: set[str] = set()
-        for variant in run.all_variants():
+        for variant in run.all_dataset_variants():
             todo = sorted((p for p in variant.placements if p.asset not in done), key=lambda p: p.object_id)
             if not todo or not run.episodes(variant):
                 continue

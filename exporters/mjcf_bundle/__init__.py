@@ -268,13 +268,23 @@ def dataset_vocabulary(run: RunView, root: Path, results: list[UnitResult]) -> d
         for scene in sorted({str(json.loads((root / v / "bundle.json").read_text(encoding="utf-8"))["scene"])
                              for v in names}):
             labels |= {i.label for i in run.scene(scene).instances if i.label}
-            for variant in run.variants(scene):
+            for variant in run.dataset_variants(scene):
                 if variant.name in names:
                     objects |= {p.category for p in variant.placements if p.status in ("resting", "resting_elsewhere")}
         for v in names:
             goals |= set(json.loads((root / v / "bundle.json").read_text(encoding="utf-8")).get("categories", []))
     return {"goal_categories": sorted(goals), "labels": sorted(labels | objects | goals),
             "object_categories": sorted(objects | goals)}
+
+
+def _day_meta(variant: SceneVariant, days: list[str]) -> dict[str, Any]:
+    """Return a bundle's day keys ({} outside a chain of days): its day, and the sequence (the scene's days in order,
+    each a bundle folder beside this one; the one before and after, '' at the ends)."""
+    if variant.day is None:
+        return {}
+    i = days.index(variant.name)
+    return {"day": int(variant.day), "sequence": {"days": list(days), "previous": days[i - 1] if i > 0 else "",
+                                                  "next": days[i + 1] if i + 1 < len(days) else ""}}
 
 
 def _rel(path: Path, bdir: Path) -> str:
@@ -395,7 +405,8 @@ class MjcfBundleExporter(Exporter):
             navmaps = None
             scene_oracle: dict[str, object] | None = None
             sdir = root / SHARED_ORACLE / scene
-            for variant in run.variants(scene):
+            days = [d.name for d in run.days(scene)]  # the scene's chain of days, in order
+            for variant in run.dataset_variants(scene):
                 eps = run.episodes(variant)
                 if not eps:
                     scratch.skipped[variant.name] = "no valid goals (zero episodes)"
@@ -423,10 +434,12 @@ class MjcfBundleExporter(Exporter):
                         "keyframe": "settled" if variant.qpos is not None else "",
                         "visibility": visibility,
                         "categories": sorted({e.object_category for e in eps}), "n_episodes": len(eps),
+                        **_day_meta(variant, days),
                         "frame": "mujoco: metres, Z up, quaternions wxyz; positions are the agent base on the floor"}
                 atomic_write_text(bdir / "bundle.json", json.dumps(meta, indent=1, sort_keys=True) + "\n")
                 written.append(bdir / "bundle.json")
-                res.index.append({"variant": variant.name, "path": variant.name, "n_episodes": len(eps)})
+                res.index.append({"variant": variant.name, "path": variant.name, "n_episodes": len(eps),
+                                  **({"day": variant.day} if variant.day is not None else {})})
                 res.variants.append(variant.name)
                 res.episodes += len(eps)
         res.skipped = scratch.skipped

@@ -16,18 +16,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("run_dir", help="a run folder written by `sdovon-mj generate`")
     p.add_argument("--out", default=None, help="picture folder (default: RUN_DIR/pictures)")
     p.add_argument("--stats", action="store_true",
-                   help="print the scenes' size, clutter and episode lengths with their medians instead of pictures")
+                   help="print the scenes' size, clutter and episode lengths with their medians instead of pictures; "
+                        "with chains of days (place.days), what moved per day and where")
 
 
 def run(args: argparse.Namespace) -> int:
     """Render one picture per scene floor and per variant (or print the scene statistics)."""
     if args.stats:
-        from ..stats import dataset_statistics, homes_table
+        from ..stats import dataset_statistics, day_statistics, days_table, homes_table
 
         run_dir = Path(args.run_dir)
         if not (run_dir / "scenes").is_dir():
             raise InputError(run_dir, "not a run folder (no scenes/ inside)")
         print(homes_table(dataset_statistics(run_dir)))
+        days = day_statistics(run_dir)
+        if days:
+            print()
+            print(days_table(days))
         return 0
     written = show_run(Path(args.run_dir), Path(args.out) if args.out else None)
     for p in written:

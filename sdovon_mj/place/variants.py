@@ -228,7 +228,8 @@ def _occupied(settler: Settler, placements: list[Placement], assets: dict[str, O
 
 
 def write_variant_model(variant: SceneVariant, scene: SceneAsset, planes: list[ReceptaclePlane], objects: list[ObjectAsset],
-                        store_root: str | Path, cfg: PlaceConfig, out_root: str | Path | None = None) -> Path:
+                        store_root: str | Path, cfg: PlaceConfig, out_root: str | Path | None = None,
+                        rel: str | None = None) -> Path:
     """Write the composed MJCF (scene + support + resting objects at their settled poses); set variant.mjcf.
 
     Parameters
@@ -247,13 +248,15 @@ def write_variant_model(variant: SceneVariant, scene: SceneAsset, planes: list[R
         Placement and physics settings.
     out_root : str or Path, optional
         Folder written into (default: `store_root`).
+    rel : str, optional
+        The model's path relative to `out_root` (default: the variant's, `variant_paths`; a day of a chain: its own).
     """
     kept = [p for p in variant.placements if p.status == RESTING]
     assets = {a.name: a for a in objects}
     if scene.articulated:  # planes inside a door or drawer: the piece's own shelves hold the objects
         planes = [p for p in planes if p.part is None]
     composed = compose(kept, assets, planes, scene, store_root, cfg, with_scene=True, visual=True)
-    rel = variant_paths(scene.name, variant.index)[0]
+    rel = rel if rel is not None else variant_paths(scene.name, variant.index)[0]
     path = write_mjcf(composed.spec, Path(out_root if out_root is not None else store_root) / rel)
     variant.mjcf = rel
     return path

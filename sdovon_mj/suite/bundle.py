@@ -30,6 +30,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from ..errors import InputError
 from ..records import Episode, NavMap, RecordError, RegionMap, Relevance, SceneAsset, load_json, load_npz
@@ -55,6 +56,10 @@ class Bundle:
     # The episodes' visibility definition (bundle.json "visibility": segmentation width, height in px, eta_gt);
     # empty for bundles written before it was recorded (the suite then uses the episodes config's defaults).
     visibility: dict[str, float] = field(default_factory=dict)
+    # A day of a chain of days (bundle.json "day" and "sequence": the scene's days in order, the one before and
+    # after): None and empty for a variant.
+    day: int | None = None
+    sequence: dict[str, Any] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -217,7 +222,8 @@ def _load_v4(root: Path, meta: dict) -> Bundle:
                   _load_maps(navs["navmaps"], NavMap), None,
                   _load(rel, Relevance) if rel is not None else None, _load_maps(navs["region_maps"], RegionMap),
                   _labels(labels_p) if labels_p else {}, _labels(objects_p) if objects_p else {},
-                  _visibility(root, meta))
+                  _visibility(root, meta), int(meta["day"]) if meta.get("day") is not None else None,
+                  dict(meta.get("sequence") or {}))
 
 
 def load_bundle(path: str | Path) -> Bundle:

@@ -8,7 +8,8 @@ the layout fails loudly instead of reading episodes without goals).
 ``goals.npz`` (written with fixed zip timestamps: same goals, same bytes), arrays:
 
 - ``__meta__``: uint8 JSON ``{"format": "sdovon-goals-1", "goals": [{"object_id", "category", "n_view_points",
-  "bounds"}]}`` (``bounds``: whether the goal has bounds);
+  "bounds"}]}`` (``bounds``: whether the goal has bounds; ``history``, only on a day of a chain of days: the goal's
+  `Goal.history`);
 - ``position`` (G, 3) float64, ``bounds`` (G, 2, 3) float64 (zeros where a goal has none);
 - ``vp_position`` (V, 3), ``vp_rotation`` (V, 4) wxyz, ``vp_visible_fraction`` (V,): every goal's view points
   in table order, float64.
@@ -79,7 +80,7 @@ def goals_npz_bytes(goals: list[Goal]) -> bytes:
     pos, bounds, vpp, vpr, vpv = [], [], [], [], []
     for g in goals:
         meta.append({"object_id": g.object_id, "category": g.category, "n_view_points": len(g.view_points),
-                     "bounds": g.bounds is not None})
+                     "bounds": g.bounds is not None, **({"history": g.history} if g.history is not None else {})})
         pos.append(np.asarray(g.position, dtype=np.float64).reshape(3))
         bounds.append(np.zeros((2, 3)) if g.bounds is None else np.asarray(g.bounds, dtype=np.float64).reshape(2, 3))
         for vp in g.view_points:
@@ -121,7 +122,8 @@ def read_goals_npz(data: bytes | str | Path) -> list[Goal]:
             vps = [ViewPoint(vpp[j].copy(), vpr[j].copy(), float(vpv[j])) for j in range(k, k + n)]
             k += n
             goals.append(Goal(str(m["object_id"]), str(m["category"]), pos[i].copy(), vps,
-                              bnd[i].copy() if m["bounds"] else None))
+                              bnd[i].copy() if m["bounds"] else None,
+                              history=str(m["history"]) if m.get("history") is not None else None))
     except (KeyError, IndexError, TypeError) as e:
         raise RecordError(f"goal table does not match its arrays ({e})") from None
     return goals
