@@ -213,12 +213,15 @@ def use(render: str = "cpu") -> dict[str, Any]:
         _STATE["record"] = first
         os.environ["SDOVON_RENDER"] = render  # spawned children (workers, evaluation jobs) choose alike
     rec = dict(_STATE["record"], requested=render)
+    if render != "auto":  # a fallback is auto's: cpu and any got what they asked for
+        rec.pop("fallback", None)
     renderer = str(rec["renderer"])
     if render == "cpu" and not renderer.lower().startswith("llvmpipe"):
+        why = _STATE["record"].get("fallback") or f"chosen first ({_STATE['record']['requested']})"
         raise RendererError(f"render='cpu' needs Mesa llvmpipe (datasets are defined by its pixels), but this process "
-                            f"renders with {renderer!r} ({rec.get('vendor')}): {rec.get('fallback') or 'as chosen first'}"
-                            "; a process keeps the renderer it made first. To generate anyway (recorded in the "
-                            "manifest): `sdovon-mj generate --any-renderer` (SDOVON_RENDER=any)")
+                            f"renders with {renderer!r} ({rec.get('vendor')}): {why}; a process keeps the renderer it "
+                            "made first. To generate anyway (recorded in the manifest): `sdovon-mj generate "
+                            "--any-renderer` (SDOVON_RENDER=any)")
     if render == "gpu" and rec["render"] != "gpu":
         devices = _egl_devices() if os.environ.get("MUJOCO_GL", "egl").lower() == "egl" else []
         if not any(SOFTWARE_DEVICE not in e for e in devices):
