@@ -81,7 +81,9 @@ def evaluate_agents(out: Path, width: int, inside_only: bool = False) -> int:
     from sdovon_mj.config import AgentConfig, NavConfig
     from sdovon_mj.nav.agents import RandomAStar, SemanticAStar
     from sdovon_mj.suite import find_bundles, load_bundle
-    from sdovon_mj.suite.evaluate import evaluate, inside_table, overall_table, summarize
+    from sdovon_mj.suite.evaluation.loop import evaluate
+    from sdovon_mj.suite.evaluation.statistics import summarize
+    from sdovon_mj.suite.evaluation.tables import inside_table, overall_table
 
     mjcf = out.parent / "mjcf"
     if not mjcf.exists():

@@ -33,8 +33,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 from sdovon_mj.config import AgentConfig, NavConfig, SemanticsConfig, load_config  # noqa: E402
 from sdovon_mj.suite import find_bundles, load_bundle  # noqa: E402
 from sdovon_mj.store import json_safe  # noqa: E402
-from sdovon_mj.suite.evaluate import (Row, agent_spec, run_rows, select_bundles,  # noqa: E402
-                                      tables_markdown)
+from sdovon_mj.suite.evaluation.runner import Row, agent_spec, run_rows, select_bundles  # noqa: E402
+from sdovon_mj.suite.evaluation.tables import tables_markdown  # noqa: E402
 
 # The orderings the table is read for, each on the same episodes (paired, cluster bootstrap).
 PAIRS = [("semantic-astar", "random-astar"), ("random-astar", "semantic-frontier (no prior)"),

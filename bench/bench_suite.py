@@ -54,7 +54,10 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
     from sdovon_mj.config import AgentConfig, NavConfig
     from sdovon_mj.suite import find_bundles, load_bundle
     from sdovon_mj.suite.boundary import oracle_scene_parts
-    from sdovon_mj.suite.evaluate import _dataset_root, _episode, agent_spec, open_session, run_first_visits
+    from sdovon_mj.suite.evaluation.exploration import run_first_visits
+    from sdovon_mj.suite.evaluation.loop import dataset_root, run_episode
+    from sdovon_mj.suite.evaluation.phases import open_session
+    from sdovon_mj.suite.evaluation.runner import agent_spec
     from sdovon_mj.suite.objectnav import make_environment
     from sdovon_mj.suite.observation import ObservationBuilder, dataset_vocabulary, make_sensors
     from sdovon_mj.suite.protocol import SceneStart
@@ -62,7 +65,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
     body = replace(AgentConfig(), sensor_width=width, sensor_height=height)
     nav = NavConfig()
     bundles = [load_bundle(p) for p in find_bundles(dataset)]
-    vocab = dataset_vocabulary(_dataset_root(bundles), bundles)
+    vocab = dataset_vocabulary(dataset_root(bundles), bundles)
     plan = [(b, i) for b in bundles for i in range(len(b.episodes))][:episodes]
     spec = agent_spec(name, nav, 0, agent=body)
     out = {m: {"episodes": 0, "seconds": 0.0, "start": 0.0, "visit": 0.0, "success": 0.0} for m in ("in-process", "sealed")}
@@ -96,7 +99,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int) -> dict:
             env, builder = envs[b.name]
             for m in order:
                 t0 = time.perf_counter()
-                r = _episode(sessions[m], env, builder, b, i, know, name, "bench", visits.get(m))
+                r = run_episode(sessions[m], env, builder, b, i, know, name, "bench", visits.get(m))
                 out[m]["seconds"] += time.perf_counter() - t0
                 out[m]["episodes"] += 1
                 out[m]["success"] += r["success"]

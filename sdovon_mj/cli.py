@@ -29,7 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "episodes": ("sdovon_mj.commands.stage:episodes", "ObjectNav episodes for scene variants"),
     "generate": ("sdovon_mj.commands.generate", "the whole pipeline over scenes and objects (resumable)"),
     "export": ("sdovon_mj.commands.export", "export a run to habitat, mjcf or a plugin format"),
-    "eval": ("sdovon_mj.suite.evaluate", "evaluate agents on an MJCF dataset (SR, SPL, Soft SPL, DTG)"),
+    "eval": ("sdovon_mj.commands.eval", "evaluate agents on an MJCF dataset (SR, SPL, Soft SPL, DTG)"),
     "show": ("sdovon_mj.commands.show", "pictures of a run: maps, receptacles, placements, episodes"),
     "view": ("sdovon_mj.commands.view", "look at a run in the browser: scenes, objects, regions, episodes, trajectories"),
     "verify": ("sdovon_mj.commands.verify", "check a run folder's stage outputs and exports against their done-markers"),

@@ -23,7 +23,9 @@ from sdovon_mj.knowledge import Knowledge
 from sdovon_mj.nav.agents import Agent
 from sdovon_mj.nav.control import Navigator, lattice_approach, segment_checker
 from sdovon_mj.suite.bundle import Bundle, find_bundles, load_bundle
-from sdovon_mj.suite.evaluate import evaluate, inside_table, summarize
+from sdovon_mj.suite.evaluation.loop import evaluate
+from sdovon_mj.suite.evaluation.statistics import summarize
+from sdovon_mj.suite.evaluation.tables import inside_table
 from sdovon_mj.suite.objectnav import _box_distance, make_environment
 
 

@@ -16,7 +16,8 @@ import pytest
 from sdovon_mj.config import AgentConfig, NavConfig
 from sdovon_mj.suite import load_bundle
 from sdovon_mj.suite.bundle import find_bundles
-from sdovon_mj.suite.evaluate import agent_spec, evaluate
+from sdovon_mj.suite.evaluation.loop import evaluate
+from sdovon_mj.suite.evaluation.runner import agent_spec
 from test_generate import TINY_SET, TINY_YAML, cli
 
 pytestmark = pytest.mark.slow

@@ -24,7 +24,9 @@ import pytest
 
 from sdovon_mj.config import AgentConfig, NavConfig
 from sdovon_mj.suite import landlock
-from sdovon_mj.suite.evaluate import evaluate, overall_table, summarize
+from sdovon_mj.suite.evaluation.loop import evaluate
+from sdovon_mj.suite.evaluation.statistics import summarize
+from sdovon_mj.suite.evaluation.tables import overall_table
 from sdovon_mj.suite.protocol import AgentSpec
 from support.bundles import fixture_bundle
 
@@ -117,7 +119,7 @@ def test_a_disk_scanning_agent_cannot_read_the_dataset(dataset):
 def test_a_declared_oracle_gets_its_parts_and_no_other(dataset):
     """The oracle agent (navmap + view points declared) succeeds sealed; an agent reading an undeclared part gets
     KnowledgeError (the session reports the agent's error)."""
-    from sdovon_mj.suite.evaluate import agent_spec
+    from sdovon_mj.suite.evaluation.runner import agent_spec
     from sdovon_mj.suite.protocol import AgentError
 
     res = _run(dataset, agent_spec("oracle", NavConfig(), agent=SMALL), episodes=2)
@@ -190,7 +192,7 @@ def test_a_first_visit_shows_the_home_without_the_placed_objects(dataset):
     stay; the next reset is an episode again, with its objects, its goal and the scene as compiled."""
     from sdovon_mj.sim.model import OBJECT_ID_BASE
     from sdovon_mj.suite import load_bundle, make_environment
-    from sdovon_mj.suite.evaluate import exploration_start
+    from sdovon_mj.suite.evaluation.exploration import exploration_start
 
     b = load_bundle(dataset / "fixture_apartment_v000")
     env = make_environment(b, nav=NAV, agent=AgentConfig(sensor_width=64, sensor_height=48), semantic=True)
@@ -219,21 +221,21 @@ def test_a_first_visit_shows_the_home_without_the_placed_objects(dataset):
 def test_a_rerun_resumes_from_the_episodes_written_and_only_the_same_run(dataset, tmp_path, monkeypatch):
     """With an output folder, a rerun reads finished episodes back instead of starting the agent; an episode whose
     file is gone runs again (with the same result); another configuration of the agent is another run."""
-    import sdovon_mj.suite.evaluate as E
+    import sdovon_mj.suite.evaluation.loop as evaluation_loop
 
     keys = ("episode_id", "trajectory", "success", "run_key")
     first = _run(dataset, spec("Blind"), episodes=3, out=tmp_path)
-    real = E.open_session
+    real = evaluation_loop.open_session
 
     def no_agent(*a, **k):
         raise AssertionError("a finished run started its agent again")
 
-    monkeypatch.setattr(E, "open_session", no_agent)
+    monkeypatch.setattr(evaluation_loop, "open_session", no_agent)
     again = _run(dataset, spec("Blind"), episodes=3, out=tmp_path)
     assert [[r[k] for k in keys] for r in again] == [[r[k] for k in keys] for r in first]
     (tmp_path / "episodes" / "Blind" / f"{first[1]['episode_id']}.json").unlink()
     started = []
-    monkeypatch.setattr(E, "open_session", lambda *a, **k: started.append(1) or real(*a, **k))
+    monkeypatch.setattr(evaluation_loop, "open_session", lambda *a, **k: started.append(1) or real(*a, **k))
     third = _run(dataset, spec("Blind"), episodes=3, out=tmp_path)
     assert started == [1] and [[r[k] for k in keys] for r in third] == [[r[k] for k in keys] for r in first]
     other = _run(dataset, spec("Blind", steps=5), episodes=3, out=tmp_path)

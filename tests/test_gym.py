@@ -171,7 +171,7 @@ def test_render_choice_gpu_is_an_error_here_and_auto_falls_back_recorded(dataset
 
 
 def test_importing_the_package_does_not_import_gymnasium():
-    code = ("import sys, sdovon_mj, sdovon_mj.suite, sdovon_mj.suite.evaluate, sdovon_mj.cli; "
+    code = ("import sys, sdovon_mj, sdovon_mj.suite, sdovon_mj.suite.evaluation.runner, sdovon_mj.commands.eval, sdovon_mj.cli; "
             "assert 'gymnasium' not in sys.modules, 'imported'; import gymnasium; "
             f"assert {ENV_ID!r} not in gymnasium.registry; import sdovon_mj.suite.gym; "
             f"assert {ENV_ID!r} in gymnasium.registry")

@@ -17,8 +17,11 @@ from sdovon_mj.nav.astar import astar, plan, plan_cells
 from sdovon_mj.nav.control import lattice_plan
 from sdovon_mj.nav.goal import goal_points, infer_view_points
 from sdovon_mj.grid import segment_free
-from sdovon_mj.suite.evaluate import (OUTCOMES, episode_outcome, evaluate, make_agent, outcome_table,
-                                      paired_difference, paired_table, summarize)
+from sdovon_mj.suite.evaluation.loop import evaluate
+from sdovon_mj.suite.evaluation.outcomes import OUTCOMES, episode_outcome
+from sdovon_mj.suite.evaluation.runner import make_agent
+from sdovon_mj.suite.evaluation.statistics import paired_difference, summarize
+from sdovon_mj.suite.evaluation.tables import outcome_table, paired_table
 from sdovon_mj.grid import GridFrame
 from sdovon_mj.gridgraph import GeodesicField
 from sdovon_mj.records import Episode, Goal, ViewPoint, load_json, save_json
@@ -241,7 +244,7 @@ def test_fn_variants_and_the_distance_aware_order_run_on_fixture(tmp_path):
                          ("semantic-astar per-metre", SemanticAStar(agent=body, per_metre=True, explore_steps=600))):
         runs[label] = evaluate(root, agent, episodes=6, progress=False)
     n = len(runs["random-astar"])
-    from sdovon_mj.suite.evaluate import tables_markdown
+    from sdovon_mj.suite.evaluation.tables import tables_markdown
 
     print(tables_markdown(runs, categories=False)[0])
     for label, res in runs.items():
@@ -293,7 +296,7 @@ def test_the_first_visit_is_the_evaluators_and_the_agent_reports_it(easy_bundle,
     """An agent with a scene prior gets one first visit per scene from the evaluator (seeded start, declared budget,
     objects hidden): the same start for the same seed, its steps within the budget, recorded once per scene."""
     from sdovon_mj.suite.bundle import load_bundle
-    from sdovon_mj.suite.evaluate import exploration_start
+    from sdovon_mj.suite.evaluation.exploration import exploration_start
 
     b = load_bundle(easy_bundle)
     a, b2 = exploration_start(b, 0), exploration_start(b, 0)

@@ -20,7 +20,7 @@ import pytest
 
 from sdovon_mj.config import AgentConfig
 from sdovon_mj.nav.agents import RandomAStar, SemanticAStar, SemanticFrontierAgent
-from sdovon_mj.suite.evaluate import evaluate
+from sdovon_mj.suite.evaluation.loop import evaluate
 from sdovon_mj.suite import find_bundles, load_bundle
 
 pytestmark = pytest.mark.slow
@@ -53,7 +53,8 @@ def _dataset() -> tuple[Path, int | None]:
 
 def test_honest_baselines_run_sealed_on_default_world():
     """Semantic A*, Random A* (with and without FN) and the no-prior agent run every episode sealed; the table prints."""
-    from sdovon_mj.suite.evaluate import OUTCOMES, tables_markdown
+    from sdovon_mj.suite.evaluation.outcomes import OUTCOMES
+    from sdovon_mj.suite.evaluation.tables import tables_markdown
 
     root, limit = _dataset()
     total = sum(len(load_bundle(p).episodes) for p in find_bundles(root))

@@ -44,11 +44,11 @@ def run(args: argparse.Namespace) -> int:
     if render:
         print(f"render: {render}")
     if args.episodes > 0:
-        from ..suite import evaluate
+        from . import eval as eval_command
 
-        evaluate.run(argparse.Namespace(dataset=str(out / "export" / "mjcf"), agent=["random-astar", "semantic-astar"],
-                                        episodes=args.episodes, no_fn=False, fn_ablation=False, fn_mode=None, width=160, height=120,
-                                        seed=0, pictures=2, out=str(out / "eval")))
+        eval_command.run(argparse.Namespace(
+            dataset=str(out / "export" / "mjcf"), agent=["random-astar", "semantic-astar"], episodes=args.episodes,
+            no_fn=False, fn_ablation=False, fn_mode=None, width=160, height=120, seed=0, pictures=2, out=str(out / "eval")))
     print(f"done: {out.resolve()}")
     return 0
 

@@ -4,7 +4,7 @@
     env = suite.load("objectnav", task_kwargs={"bundle": "out/mjcf/apt_0000_v000"})
     ts = env.reset(); ts = env.step(suite.MOVE_FORWARD)
 
-The suite owns the environment and the evaluation loop (`suite.evaluate.evaluate`, the `eval`
+The suite owns the environment and the evaluation loop (`suite.evaluation.loop.evaluate`, the `eval`
 command); agents come from `sdovon_mj.nav` through the plugin registry.
 
 Tasks (tagged like `dm_control.suite`): ``objectnav`` (rgb+depth, 640x480), ``objectnav_semantic``

@@ -1,6 +1,6 @@
 """The knowledge boundary, evaluator side: what of the generator's data may cross to an agent (paper appendix D).
 
-An agent declares its `sdovon_mj.knowledge.Knowledge`. The evaluation (`suite.evaluate`, over the protocol of
+An agent declares its `sdovon_mj.knowledge.Knowledge`. The evaluation (`suite.evaluation`, over the protocol of
 `suite.protocol`) then sends it observations built within that declaration (`suite.observation`: rgb, depth, GPS +
 compass from the episode start, its camera pitch, the goal category; the category image of the current frame for the
 ground-truth detector; the scene-frame pose for ``pose="absolute"``, printed as "localized") and nothing else of the

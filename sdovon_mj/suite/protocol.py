@@ -1,6 +1,6 @@
 """The agent protocol: what crosses between the evaluator and an evaluated agent, in one process or two.
 
-The evaluator (`suite.evaluate`) keeps the environment, the bundle, physics, the task and every generator record;
+The evaluator (`suite.evaluation`) keeps the environment, the bundle, physics, the task and every generator record;
 it talks to the agent through a session with five calls, each answered by the agent:
 
     setup(sensors)            once: `observation.Sensors` (camera, actions, step limit, vocabulary)
