@@ -79,7 +79,7 @@ def episodes_per_minute(dataset: Path, agent: str, episodes: int, width: int, he
     from dataclasses import replace
 
     from sdovon_mj.config import AgentConfig, NavConfig
-    from sdovon_mj.suite.evaluate import Row, agent_spec, run_rows
+    from sdovon_mj.suite.evaluation.runner import Row, agent_spec, run_rows
 
     body = replace(AgentConfig(), sensor_width=width, sensor_height=height)
     nav = NavConfig() if max_steps is None else replace(NavConfig(), max_steps=int(max_steps))

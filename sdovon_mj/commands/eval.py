@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..config import AgentConfig, NavConfig
 from ..errors import InputError
+from ..sim.gl import RENDERS
 from ..store import atomic_write_text, json_safe
 from ..suite.evaluation.pictures import trajectory_picture
 from ..suite.evaluation.results import picture_path
@@ -44,7 +45,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run the agents in this process (debugging; every table says so) instead of sealed")
     parser.add_argument("--agent-read", action="append", default=[], metavar="PATH",
                         help="a file or folder a sealed agent may read (its weights; repeatable)")
-    parser.add_argument("--jobs", type=int, default=1, help="processes evaluating (one row on one scene at a time)")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="processes evaluating (one row on one scene at a time; on a GPU they share it)")
+    parser.add_argument("--render", choices=RENDERS, default="auto",
+                        help="renderer of the agents' observations: auto (the GPU's EGL when there is one, else the "
+                             "CPU's llvmpipe; default), cpu or gpu (an error without one); every table row says which")
     parser.add_argument("--out", required=True, help="output folder (a rerun resumes: finished episodes are kept)")
 
 
@@ -68,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--video", "the number of videos must be >= 0")
     per_agent = run_rows(args.dataset, rows, out, jobs=int(getattr(args, "jobs", 1) or 1), episodes=args.episodes,
                          seed=args.seed, nav=nav, body=body, read=tuple(getattr(args, "agent_read", []) or ()),
-                         video=int(getattr(args, "video", 0) or 0))
+                         video=int(getattr(args, "video", 0) or 0), render=getattr(args, "render", "auto"))
     for label, res in per_agent.items():
         for r in res[: max(0, args.pictures)]:
             trajectory_picture(args.dataset, r, picture_path(out, label, r["episode_id"]))

@@ -19,6 +19,7 @@ import numpy as np
 
 from ...config import AgentConfig, NavConfig
 from ...progress import Progress
+from ...sim.gl import use as use_renderer
 from ...store import atomic_write_text, json_safe
 from ..boundary import oracle_episode_parts, oracle_scene_parts
 from ..bundle import Bundle, find_bundles, load_bundle
@@ -41,7 +42,7 @@ def dataset_root(bundles: list[Bundle]) -> Path | None:
 def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConfig | None = None, episodes: int | None = None,
              out: Path | None = None, label: str | None = None, progress: bool = True, mode: str = "sealed",
              seed: int = 0, body: AgentConfig | None = None, seal: bool = True, read: tuple[str, ...] = (),
-             videos: tuple[str, ...] = ()) -> list[dict]:
+             videos: tuple[str, ...] = (), render: str = "auto") -> list[dict]:
     """Run an agent over a dataset's episodes through the agent protocol; return (and optionally write) one result
     dict per episode. A run with ``out`` resumes: episodes whose result of the same run is there are not run again
     (unless their video is asked for and missing: then they run again).
@@ -78,7 +79,12 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     videos
         Episode ids to record as MP4 (`suite.video`: the agent's view beside the top-down map) in
         ``out/videos/<label>/<episode id>.mp4``; each result names its file (``video``, relative to `out`).
+    render
+        Which renderer draws the observations (`sim.gl.use`): ``auto`` (default: the GPU's EGL when there is one, else
+        Mesa's llvmpipe), ``cpu`` or ``gpu`` (`RendererError` without one). Each result records what drew
+        (``render``: cpu or gpu, ``renderer``: the GL string) and, for ``auto`` on the CPU, ``render_fallback``.
     """
+    drawn = drawn_by(render)  # before any work: `gpu` without a GPU stops here
     kw = agent.kwargs if isinstance(agent, AgentSpec) else {}
     nav = nav or getattr(agent, "nav", None) or kw.get("nav") or NavConfig()
     body = body or getattr(agent, "agent_config", None) or kw.get("agent") or AgentConfig()
@@ -141,7 +147,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                                 continue
                             eid = b.episodes[i].episode_id
                             r = run_episode(session, env, builder, b, i, know, label, key, visit,
-                                         (out, video_path(label, eid)) if eid in videos else None)
+                                         (out, video_path(label, eid)) if eid in videos else None) | drawn
                             results.append(r)
                             if out is not None:
                                 atomic_write_text(result_path(out, label, r["episode_id"]),
@@ -153,6 +159,13 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
         if session is not None:
             session.close()
     return results
+
+
+def drawn_by(render: str) -> dict[str, str]:
+    """Choose this process's renderer (`sim.gl.use`) and return what each result records of it."""
+    rec = use_renderer(render)
+    return {"render": rec["render"], "renderer": rec["renderer"],
+            **({"render_fallback": rec["fallback"]} if rec.get("fallback") else {})}
 
 
 def run_episode(session: Any, env: Any, builder: ObservationBuilder, b: Bundle, i: int, know: Any, label: str, key: str,

@@ -13,7 +13,7 @@ from ... import plugins
 from ...config import AgentConfig, NavConfig
 from ..bundle import Bundle, find_bundles, load_bundle
 from ..protocol import AgentSpec
-from .loop import evaluate
+from .loop import drawn_by, evaluate
 
 
 def make_agent(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True, agent: AgentConfig | None = None) -> Any:
@@ -79,18 +79,20 @@ class Row:
 
 def _row_task(task: tuple) -> list[dict]:
     """Evaluate one row on one scene's bundles (a worker's unit of `run_rows`)."""
-    bundles, row, nav, body, out, seed, seal, read, videos = task
+    bundles, row, nav, body, out, seed, seal, read, videos, render = task
     return evaluate(bundles, row.agent, nav=nav, out=out, label=row.label, progress=False, mode=row.mode, seed=seed,
-                    body=body, seal=seal, read=read, videos=videos)
+                    body=body, seal=seal, read=read, videos=videos, render=render)
 
 
 def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Path | None = None, jobs: int = 1,
              episodes: int | None = None, seed: int = 0, nav: NavConfig | None = None, body: AgentConfig | None = None,
-             seal: bool = True, read: tuple[str, ...] = (), progress: bool = True, video: int = 0) -> dict[str, list[dict]]:
+             seal: bool = True, read: tuple[str, ...] = (), progress: bool = True, video: int = 0,
+             render: str = "auto") -> dict[str, list[dict]]:
     """Evaluate table rows over the same episodes; return each row's results (episode order).
 
     The work is cut into tasks of one row on one scene (its first visit, then its episodes), run on `jobs`
-    processes (``spawn``) in row-major order; with ``out`` every finished episode is written at once, and running
+    processes (``spawn``: each chooses its renderer, `render`; on a GPU their environments share it) in row-major
+    order; with ``out`` every finished episode is written at once, and running
     the same call again resumes (finished episodes are read back, not run). ``episodes``: the first N episodes of the
     dataset (bundles in order), the same for every row.
 
@@ -116,10 +118,13 @@ def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Pa
         Print one line per finished task.
     video
         Record the first N episodes (in results order) of every row as MP4 (needs ``out``; `evaluate`'s ``videos``).
+    render
+        As `evaluate`'s (checked here first: `gpu` without a GPU stops before any work).
     """
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
 
+    drawn_by(render)
     paths = find_bundles(dataset) if isinstance(dataset, (str, Path)) else list(dataset)
     bundles = [p if isinstance(p, Bundle) else load_bundle(p) for p in paths]
     left = sum(len(b.episodes) for b in bundles) if episodes is None else int(episodes)
@@ -135,7 +140,8 @@ def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Pa
     if len({r.label for r in rows}) != len(rows):
         raise ValueError("row labels must be unique")
     videos = tuple([e.episode_id for sc in scenes for b in scenes[sc] for e in b.episodes][:max(int(video), 0)])
-    tasks = [(row, sc, (scenes[sc], row, nav, body, out, seed, seal, tuple(read), videos)) for row in rows for sc in scenes]
+    tasks = [(row, sc, (scenes[sc], row, nav, body, out, seed, seal, tuple(read), videos, render))
+             for row in rows for sc in scenes]
     got: dict[tuple[str, str], list[dict]] = {}
     t0 = time.perf_counter()
     if jobs <= 1:
