@@ -1,5 +1,5 @@
 """Renderer speed on this machine: environment steps/s and our agents' episodes/min, drawn by the CPU (Mesa llvmpipe)
-and by the GPU (its EGL), each in a fresh process (a process keeps the renderer it made first: `sdovon_mj.sim.gl`).
+and by the GPU (its EGL), each in a fresh process (a process keeps the renderer it made first: `sdovon_mj.gl`).
 
     python bench/bench_device.py [--dataset DIR] [--agents random-astar semantic-astar] [--episodes 6]
                                  [--width 640 --height 480] [--steps 100] [--jobs 1 4]
@@ -95,7 +95,7 @@ def episodes_per_minute(dataset: Path, agent: str, episodes: int, width: int, he
 def child(args: argparse.Namespace) -> int:
     """Measure one renderer in this (fresh) process; print one JSON line per figure."""
     from sdovon_mj.errors import RendererError
-    from sdovon_mj.sim import gl
+    from sdovon_mj import gl
     from sdovon_mj.suite import find_bundles
     from support.bundles import fixture_bundle
 

@@ -40,4 +40,4 @@ class RunLockedError(UsageError):
 
 
 class RendererError(SdovonError, RuntimeError):
-    """The OpenGL renderer asked for is not the one this process can draw with (`sdovon_mj.sim.gl`)."""
+    """The OpenGL renderer asked for is not the one this process can draw with (`sdovon_mj.gl`)."""

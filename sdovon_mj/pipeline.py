@@ -39,10 +39,10 @@ from typing import Any, Callable, Iterable
 from . import __version__, numerics
 from .config import RunConfig, dump_yaml, load_config, to_dict
 from .errors import InputError, InputsError, SdovonError, StageError
+from .gl import generation_renderer, manifest_record
 from .records import dumps
 from .seeds import scene_seed
 from .store import RunLock, Store, Timer, clean_temp_files
-from .sim.gl import generation_renderer, manifest_record
 
 
 @dataclass(frozen=True)

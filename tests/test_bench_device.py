@@ -10,7 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from sdovon_mj.sim import gl
+from sdovon_mj import gl
 
 REPO = Path(__file__).resolve().parents[1]
 

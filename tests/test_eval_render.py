@@ -10,7 +10,7 @@ import json
 from pathlib import Path
 
 from sdovon_mj import cli
-from sdovon_mj.sim import gl
+from sdovon_mj import gl
 from support.bundles import fixture_bundle
 
 ARGS = ["--agent", "oracle", "--episodes", "3", "--width", "32", "--height", "24", "--pictures", "0"]

@@ -1,4 +1,4 @@
-"""The renderer a process draws with (`sdovon_mj.sim.gl`), on this CPU machine with another EGL vendor offered first.
+"""The renderer a process draws with (`sdovon_mj.gl`), on this CPU machine with another EGL vendor offered first.
 
 The stand-in for a GPU machine's NVIDIA vendor: a copy of Mesa's EGL vendor library under another name, listed before
 Mesa's ICD file in ``__EGL_VENDOR_LIBRARY_FILENAMES``, with ``GALLIUM_DRIVER=softpipe`` so that what EGL offers first
@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sdovon_mj.sim import gl
+from sdovon_mj import gl
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = """\
@@ -40,7 +40,7 @@ c.free()
 
 
 def _clean_env(**extra: str) -> dict[str, str]:
-    """Return this process's environment without what `sdovon_mj.sim.gl` set here, plus `extra`."""
+    """Return this process's environment without what `sdovon_mj.gl` set here, plus `extra`."""
     env = {k: v for k, v in os.environ.items() if k not in ("__EGL_VENDOR_LIBRARY_FILENAMES", "__EGL_VENDOR_LIBRARY_DIRS",
            "MUJOCO_EGL_DEVICE_ID", "SDOVON_RENDER", "LIBGL_ALWAYS_SOFTWARE", "GALLIUM_DRIVER")}
     return {**env, "MUJOCO_GL": "egl", "PYOPENGL_PLATFORM": "egl", **extra}
@@ -91,7 +91,7 @@ def test_generation_draws_with_llvmpipe_when_another_vendor_is_offered_first(imp
 def test_gpu_without_a_gpu_is_a_clear_error_and_auto_falls_back(impostor_first):
     code = """
 from sdovon_mj.errors import RendererError
-from sdovon_mj.sim import gl
+from sdovon_mj import gl
 try:
     gl.use("gpu")
 except RendererError as e:
@@ -116,7 +116,7 @@ c = mujoco.GLContext(1, 1); c.make_current(); c.free()
 from sdovon_mj import pipeline
 from sdovon_mj.config import RunConfig
 from sdovon_mj.errors import RendererError
-from sdovon_mj.sim import gl
+from sdovon_mj import gl
 try:
     pipeline.generate({str(tmp_path / 'run')!r}, RunConfig())
 except RendererError as e:
@@ -142,3 +142,32 @@ def test_vendor_list_puts_mesa_first(tmp_path):
         assert gl.prepare(env) == [mesa, str(other)] and env["__EGL_VENDOR_LIBRARY_FILENAMES"] == f"{mesa}:{other}"
     env = {"__EGL_VENDOR_LIBRARY_DIRS": str(tmp_path)}
     assert gl.prepare(env) == [mesa, str(other)]
+
+
+def test_device_choice_on_a_gpu_machines_device_list(monkeypatch):
+    """The devices a GPU machine with Mesa offers (Mesa's DRM node of the card, which Mesa cannot drive, Mesa's
+    software device, NVIDIA's device): cpu takes the software device with Mesa's software driver, gpu and auto NVIDIA's
+    device; without a GPU device gpu is an error and auto falls back; without Mesa cpu is an error, any goes on."""
+    from sdovon_mj.errors import RendererError
+
+    offered = ["EGL_EXT_device_drm EGL_EXT_device_drm_render_node", f"{gl.SOFTWARE_DEVICE} EGL_EXT_device_drm_render_node",
+               f"{gl.NVIDIA} EGL_EXT_device_drm EGL_EXT_device_drm_render_node"]
+    monkeypatch.setattr(gl, "_egl_devices", lambda: offered)
+    monkeypatch.setenv("MUJOCO_GL", "egl")
+    monkeypatch.setenv("MESA_LOADER_DRIVER_OVERRIDE", "zink")
+    for k in ("MUJOCO_EGL_DEVICE_ID", gl.OURS, *gl.CPU_ENV):
+        monkeypatch.delenv(k, raising=False)
+    assert gl._pick_device("cpu") == ("1", None, "cpu") and os.environ["MUJOCO_EGL_DEVICE_ID"] == "1"
+    assert all(os.environ[k] == v for k, v in gl.CPU_ENV.items()) and "MESA_LOADER_DRIVER_OVERRIDE" not in os.environ
+    # a child inherits that choice and chooses again (a user's MUJOCO_EGL_DEVICE_ID would count)
+    assert gl._pick_device("gpu") == ("2", None, "gpu") and "LIBGL_ALWAYS_SOFTWARE" not in os.environ
+    assert gl._pick_device("auto") == ("2", None, "gpu")
+    monkeypatch.setattr(gl, "_egl_devices", lambda: offered[1:2])
+    with pytest.raises(RendererError, match="no GPU EGL device"):
+        gl._pick_device("gpu")
+    device, note, tried = gl._pick_device("auto")
+    assert (device, tried) == ("0", "cpu") and note.startswith("auto: no GPU EGL device")
+    monkeypatch.setattr(gl, "_egl_devices", lambda: offered[2:])
+    with pytest.raises(RendererError, match="CPU renderer .* is not available"):
+        gl._pick_device("cpu")
+    assert gl._pick_device("any") == (None, None, "cpu") and "MUJOCO_EGL_DEVICE_ID" not in os.environ  # MuJoCo's pick

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..config import AgentConfig, NavConfig
 from ..errors import InputError
-from ..sim.gl import RENDERS
+from ..gl import RENDERS
 from ..store import atomic_write_text, json_safe
 from ..suite.evaluation.pictures import trajectory_picture
 from ..suite.evaluation.results import picture_path

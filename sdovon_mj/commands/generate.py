@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from ..stages import expand_scene_inputs
 
     cfg = load_config(args.config, args.overrides)
-    if args.any_renderer:  # the explicit override; workers inherit it (sim.gl)
+    if args.any_renderer:  # the explicit override; workers inherit it (gl)
         os.environ["SDOVON_RENDER"] = "any"
     summary = generate(args.out, cfg, scenes=expand_scene_inputs(args.scenes, cfg), objects=args.objects,
                        only_scenes=args.scene, executor=args.executor,

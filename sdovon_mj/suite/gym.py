@@ -38,8 +38,8 @@ from ..actions import ACTION_NAMES
 from ..config import AgentConfig, NavConfig
 from ..errors import InputError
 from ..knowledge import Knowledge
-from ..sim.gl import RENDERS
-from ..sim.gl import use as use_renderer
+from ..gl import RENDERS
+from ..gl import use as use_renderer
 from .bundle import Bundle, find_bundles, load_bundle
 from .objectnav import make_environment
 from .observation import ObservationBuilder, Sensors, Vocabulary, dataset_vocabulary, make_sensors
@@ -132,7 +132,7 @@ class ObjectNavEnv(gymnasium.Env):
     render
         Which OpenGL renderer draws the observations: ``auto`` (default: the GPU's EGL when the machine has one, else
         Mesa's llvmpipe on the CPU), ``cpu`` or ``gpu`` (`RendererError` on a machine without one). A process draws
-        with the renderer its first renderer chose (`sdovon_mj.sim.gl`): ``gpu`` after a CPU choice is an error, ``auto``
+        with the renderer its first renderer chose (`sdovon_mj.gl`): ``gpu`` after a CPU choice is an error, ``auto``
         then says so. The record (`render_info`; ``info["render"]`` of `reset`) names what draws, and why ``auto``
         fell back to the CPU.
     """

@@ -19,7 +19,7 @@ import numpy as np
 
 from ...config import AgentConfig, NavConfig
 from ...progress import Progress
-from ...sim.gl import use as use_renderer
+from ...gl import use as use_renderer
 from ...store import atomic_write_text, json_safe
 from ..boundary import oracle_episode_parts, oracle_scene_parts
 from ..bundle import Bundle, find_bundles, load_bundle
@@ -80,7 +80,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
         Episode ids to record as MP4 (`suite.video`: the agent's view beside the top-down map) in
         ``out/videos/<label>/<episode id>.mp4``; each result names its file (``video``, relative to `out`).
     render
-        Which renderer draws the observations (`sim.gl.use`): ``auto`` (default: the GPU's EGL when there is one, else
+        Which renderer draws the observations (`gl.use`): ``auto`` (default: the GPU's EGL when there is one, else
         Mesa's llvmpipe), ``cpu`` or ``gpu`` (`RendererError` without one). Each result records what drew
         (``render``: cpu or gpu, ``renderer``: the GL string) and, for ``auto`` on the CPU, ``render_fallback``.
     """
@@ -162,7 +162,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
 
 
 def drawn_by(render: str) -> dict[str, str]:
-    """Choose this process's renderer (`sim.gl.use`) and return what each result records of it."""
+    """Choose this process's renderer (`gl.use`) and return what each result records of it."""
     rec = use_renderer(render)
     return {"render": rec["render"], "renderer": rec["renderer"],
             **({"render_fallback": rec["fallback"]} if rec.get("fallback") else {})}

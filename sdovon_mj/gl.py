@@ -12,8 +12,9 @@ Mesa's ``50_mesa.json``), and it loads them when ``mujoco`` is imported. MuJoCo 
   first in ``__EGL_VENDOR_LIBRARY_FILENAMES``, the others after it, so Mesa is always loaded and a GPU vendor too;
 - `use` chooses, before the process's first GL context (MuJoCo keeps one EGL display per process): ``cpu`` the
   device with ``EGL_MESA_device_software`` and Mesa's software driver (``LIBGL_ALWAYS_SOFTWARE=1``,
-  ``GALLIUM_DRIVER=llvmpipe``, no ``MESA_LOADER_DRIVER_OVERRIDE``), ``gpu`` the first other device, ``auto`` a GPU
-  when one is there, else the CPU; ``any`` is the explicit override (the CPU preferred, whatever comes is used). It
+  ``GALLIUM_DRIVER=llvmpipe``, no ``MESA_LOADER_DRIVER_OVERRIDE``), ``gpu`` another device (NVIDIA's first),
+  ``auto`` a GPU when one is there, else the CPU; ``any`` is the explicit override (the CPU preferred, whatever comes
+  is used). It
   then reads ``GL_RENDERER`` / ``GL_VENDOR`` / ``GL_VERSION`` back through a tiny MuJoCo GL context and refuses
   (`RendererError`) what it did not ask for; ``SDOVON_RENDER`` carries the choice to child processes;
 - `ensure` is what every `SceneRenderer` calls: the choice made, else ``SDOVON_RENDER`` (unset: ``cpu``), so dataset
@@ -27,12 +28,14 @@ import os
 from pathlib import Path
 from typing import Any
 
-from ..errors import RendererError
+from .errors import RendererError
 
 RENDERS = ("auto", "cpu", "gpu")  # what evaluation and the Gymnasium environment offer
 CHOICES = RENDERS + ("any",)  # `any`: generation's explicit override (recorded)
 DEFAULT_VENDOR_DIRS = ("/etc/glvnd/egl_vendor.d", "/usr/share/glvnd/egl_vendor.d")
 SOFTWARE_DEVICE = "EGL_MESA_device_software"
+NVIDIA = "EGL_NV_device_cuda"  # in the extensions of NVIDIA's EGL devices
+OURS = "SDOVON_EGL_DEVICE_ID"  # the MUJOCO_EGL_DEVICE_ID this package set (children re-choose; a user's value stays)
 # GL_RENDERER prefixes of CPU rasterisers (Mesa's llvmpipe and softpipe, OpenSWR, Mesa's classic swrast)
 SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swr", "software rasterizer")
 CPU_ENV = {"LIBGL_ALWAYS_SOFTWARE": "1", "GALLIUM_DRIVER": "llvmpipe"}  # Mesa's driver choice, read at eglInitialize
@@ -148,12 +151,16 @@ def _pick_device(render: str) -> tuple[str | None, str | None, str]:
         return None, None, "gpu" if render == "gpu" else "cpu"  # OSMesa / GLFW: no device to choose
     devices = _egl_devices()
     soft = [i for i, e in enumerate(devices) if SOFTWARE_DEVICE in e]
-    hard = [i for i, e in enumerate(devices) if SOFTWARE_DEVICE not in e]
+    # NVIDIA's devices first: Mesa also lists an NVIDIA card's DRM render node, which it cannot drive
+    hard = sorted((i for i, e in enumerate(devices) if SOFTWARE_DEVICE not in e), key=lambda i: NVIDIA not in devices[i])
     user = os.environ.get("MUJOCO_EGL_DEVICE_ID")
+    if user is not None and user == os.environ.get(OURS):  # a parent process's choice, not the user's: chosen again
+        user = None
+        os.environ.pop("MUJOCO_EGL_DEVICE_ID")
     note = None
     want = render
     if render in ("gpu", "auto"):
-        if user is not None and render == "gpu":
+        if user is not None:  # the user's device, where it is no software one
             hard = [int(user)] if user.isdigit() and int(user) < len(devices) and int(user) not in soft else []
         if hard:
             want = "gpu"
@@ -166,12 +173,12 @@ def _pick_device(render: str) -> tuple[str | None, str | None, str]:
         for k, v in CPU_ENV.items():  # a parent's CPU pin must not hold a Mesa GPU driver back
             if os.environ.get(k) == v:
                 os.environ.pop(k)
-        os.environ["MUJOCO_EGL_DEVICE_ID"] = str(hard[0])
+        os.environ["MUJOCO_EGL_DEVICE_ID"] = os.environ[OURS] = str(hard[0])
         return str(hard[0]), note, "gpu"
     os.environ.update(CPU_ENV)
     os.environ.pop("MESA_LOADER_DRIVER_OVERRIDE", None)
     if soft:
-        os.environ["MUJOCO_EGL_DEVICE_ID"] = str(soft[0])
+        os.environ["MUJOCO_EGL_DEVICE_ID"] = os.environ[OURS] = str(soft[0])
         return str(soft[0]), note, "cpu"
     if render == "cpu":
         raise RendererError(f"the CPU renderer (Mesa llvmpipe through EGL) is not available: {_offered(devices)}; "
