@@ -13,4 +13,10 @@ from . import numerics as _numerics  # noqa: E402  (stdlib only)
 
 _numerics.apply()
 
+# The renderer (`gl`): Mesa's EGL vendor listed first, before anything imports mujoco (which loads the EGL
+# vendors), so the CPU renderer llvmpipe can always be chosen; which device draws is chosen at the first context.
+from . import gl as _gl  # noqa: E402  (stdlib only until a renderer is chosen)
+
+_gl.prepare()
+
 __version__ = "0.1.0"

@@ -37,3 +37,7 @@ class InputsError(UsageError, InputError):
 
 class RunLockedError(UsageError):
     """The run folder is being written by another live process (named in the message)."""
+
+
+class RendererError(SdovonError, RuntimeError):
+    """The OpenGL renderer asked for is not the one this process can draw with (`sdovon_mj.gl`)."""

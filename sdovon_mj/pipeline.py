@@ -40,6 +40,7 @@ from typing import Any, Callable, Iterable
 from . import __version__, numerics
 from .config import RunConfig, dump_yaml, load_config, to_dict
 from .errors import InputError, InputsError, SdovonError, StageError
+from .gl import generation_renderer, manifest_record
 from .records import dumps
 from .seeds import SALT_ENV, scene_seed, secret_salt, split_record
 from .store import RunLock, Store, Timer, clean_temp_files
@@ -738,6 +739,7 @@ def generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None = No
     else:
         checked = scenes
     check_inputs(checked, objects)  # before the run folder is touched or anything expensive starts
+    generation_renderer()  # llvmpipe (or the recorded override) in this process and its workers, else refuse now
     lock = RunLock(Path(run_root).resolve())
     in_main = threading.current_thread() is threading.main_thread()
     old = signal.signal(signal.SIGTERM, _raise_interrupted) if in_main else None  # before the lock shows
@@ -927,6 +929,7 @@ def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
         "scene_seeds": {s: scene_seed(cfg.seed, s) for s in summary.scenes},
         "packages": package_versions(),
         "numerics": numerics.describe(),
+        "renderer": manifest_record(),
         "stages": fps,
         "failures": [{"task": r.spec.label, "error": r.error, "attempts": r.attempts,
                       **({"caused_by": r.caused_by} if r.caused_by else {})} for r in summary.failures],

@@ -5,7 +5,9 @@
 - an `AsyncVectorEnv` of two bundles (two variants of one dataset, each its own process) steps within its spaces;
 - under evaluation (the default) the reward is 0.0 on every step, also on steps that bring the agent closer to the
   goal (where training mode's dense reward is positive), and neither ``info`` nor the observation holds generator data;
-- importing the package does not import Gymnasium; a dataset of several variants is a clear error.
+- importing the package does not import Gymnasium; a dataset of several variants is a clear error;
+- the renderer: ``render="gpu"`` on this machine (no GPU) is a clear error, ``auto`` falls back to the CPU and
+  ``reset``'s info records it, with why.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from sdovon_mj.errors import InputError
+from sdovon_mj.errors import InputError, RendererError
 from sdovon_mj.knowledge import Knowledge
 from sdovon_mj.suite.gym import ENV_ID, ObjectNavEnv
 from sdovon_mj.suite.observation import ObservationBuilder, dataset_vocabulary
@@ -46,7 +48,7 @@ def test_the_registered_env_passes_gymnasiums_checker(dataset):
     assert env.action_space == gymnasium.spaces.Discrete(8)
     assert set(env.observation_space.spaces) == KEYS
     obs, info = env.reset(seed=7)
-    assert env.observation_space.contains(obs) and info == {}
+    assert env.observation_space.contains(obs) and set(info) == {"render"}  # which renderer draws, nothing else
     assert env.render().shape == (24, 32, 3)
     # the same seed, the same episode; the observation is the one the sealed evaluation builds from the same state
     again, _ = env.reset(seed=7)
@@ -109,7 +111,7 @@ def test_under_evaluation_no_reward_and_no_generator_data(dataset):
     ev = ObjectNavEnv(bundle, **SIZE)
     o_t, i_t = train.reset(seed=3)
     o_e, i_e = ev.reset(seed=3)
-    assert i_e == {} and "distance_to_goal" in i_t
+    assert set(i_e) == {"render"} and "distance_to_goal" in i_t
     closer = 0
     for _ in range(40):
         a = _toward_goal(train._env.task)
@@ -151,6 +153,21 @@ def test_render_and_options(dataset):
         ObjectNavEnv(dataset, **SIZE)
     with pytest.raises(ValueError, match="first visit"):
         ObjectNavEnv(bundle, knowledge=Knowledge(prior="scene", explore_steps=10), **SIZE)
+
+
+def test_render_choice_gpu_is_an_error_here_and_auto_falls_back_recorded(dataset):
+    bundle = dataset / "fixture_apartment_v000"
+    with pytest.raises(RendererError, match="render='gpu' but this machine offers no GPU EGL device"):
+        ObjectNavEnv(bundle, render="gpu", **SIZE)
+    with pytest.raises(ValueError, match="render 'vulkan'"):
+        ObjectNavEnv(bundle, render="vulkan", **SIZE)
+    for render in ("auto", "cpu"):
+        env = ObjectNavEnv(bundle, render=render, **SIZE)
+        _obs, info = env.reset(seed=0)
+        rec = info["render"]
+        assert rec["requested"] == render and rec["render"] == "cpu" and rec["renderer"].startswith("llvmpipe")
+        assert ("fallback" in rec) == (render == "auto"), rec  # auto says why it draws on the CPU; cpu was asked for
+        env.close()
 
 
 def test_importing_the_package_does_not_import_gymnasium():

@@ -4,7 +4,7 @@
 
 Prints (or writes) JSON {relative path: sha256}. Left out: wall-clock files (`timings.json`,
 `.timing.json`) and the environment part of `manifest.json` (`packages`: the versions of the
-installed libraries), which is hashed without that key.
+installed libraries; `renderer`: the GL strings of the Mesa build that drew), which is hashed without those keys.
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ def run_digests(root: str | Path) -> dict[str, str]:
         if rel == "manifest.json":
             m = json.loads(data)
             m.pop("packages", None)
+            m.pop("renderer", None)  # the GL strings: the machine's Mesa build (llvmpipe is checked, not hashed)
             data = json.dumps(m, sort_keys=True).encode("utf-8")
         out[rel] = hashlib.sha256(data).hexdigest()
     return out

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..config import AgentConfig, NavConfig
 from ..errors import InputError
+from ..gl import RENDERS
 from ..store import atomic_write_text, json_safe
 from ..suite.evaluation.pictures import trajectory_picture
 from ..suite.evaluation.results import picture_path
@@ -50,7 +51,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "is recorded as its timeout")
     parser.add_argument("--agent-setup-timeout", type=float, default=SETUP_TIMEOUT, metavar="S",
                         help=f"seconds a sealed agent has to start and answer setup (default {SETUP_TIMEOUT:g})")
-    parser.add_argument("--jobs", type=int, default=1, help="processes evaluating (one row on one scene at a time)")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="processes evaluating (one row on one scene at a time; on a GPU they share it)")
+    parser.add_argument("--render", choices=RENDERS, default="auto",
+                        help="renderer of the agents' observations: auto (the GPU's EGL when there is one, else the "
+                             "CPU's llvmpipe; default), cpu or gpu (an error without one); every table row says which")
     parser.add_argument("--out", required=True, help="output folder (a rerun resumes: finished episodes are kept)")
 
 
@@ -79,7 +84,8 @@ def run(args: argparse.Namespace) -> int:
                          seed=args.seed, nav=nav, body=body, read=tuple(getattr(args, "agent_read", []) or ()),
                          video=int(getattr(args, "video", 0) or 0),
                          timeout=float(getattr(args, "agent_timeout", REPLY_TIMEOUT)),
-                         setup_timeout=float(getattr(args, "agent_setup_timeout", SETUP_TIMEOUT)))
+                         setup_timeout=float(getattr(args, "agent_setup_timeout", SETUP_TIMEOUT)),
+                         render=getattr(args, "render", "auto"))
     for label, res in per_agent.items():
         for r in res[: max(0, args.pictures)]:
             trajectory_picture(args.dataset, r, picture_path(out, label, r["episode_id"]))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from ..config import load_config
@@ -31,6 +32,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(default: sdovon_mj.pipeline.WORKER_MEMORY_MB; 0: never); outputs are the same bytes")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--secret-salt-file", default=None, metavar="FILE", help=SALT_HELP)
+    p.add_argument("--any-renderer", action="store_true",
+                   help="generate even where Mesa llvmpipe (the CPU renderer that defines a dataset's bytes) is not "
+                        "what renders: other pixels, recorded in manifest.json `renderer` (SDOVON_RENDER=any)")
     p.add_argument("--allow-empty", action="store_true",
                    help="exit 0 even when a scene yields no receptacle or no episode (default: a warning and exit 1)")
 
@@ -43,6 +47,8 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = load_config(args.config, args.overrides)
     use_secret_salt(getattr(args, "secret_salt_file", None))
+    if args.any_renderer:  # the explicit override; workers inherit it (gl)
+        os.environ["SDOVON_RENDER"] = "any"
     summary = generate(args.out, cfg, scenes=expand_scene_inputs(args.scenes, cfg), objects=args.objects,
                        only_scenes=args.scene, executor=args.executor,
                        jobs=args.jobs, address=args.address, retries=args.retries,

@@ -18,6 +18,7 @@ import numpy as np
 
 import mujoco
 
+from .. import gl
 from . import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from .camera import intrinsics, vfov_from_hfov
 
@@ -76,6 +77,7 @@ class SceneRenderer:
         model.vis.map.zfar = zfar / extent
         model.vis.global_.fovy = vfov_from_hfov(hfov, width, height)
         self.K = intrinsics(width, height, hfov)
+        gl.ensure()  # the process's renderer: llvmpipe unless this process chose otherwise (gl)
         self._renderer = mujoco.Renderer(model, height=self.height, width=self.width)
         self.option = mujoco.MjvOption()
         mujoco.mjv_defaultOption(self.option)

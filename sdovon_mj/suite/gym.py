@@ -16,8 +16,8 @@ ground-truth category image, GPS+compass), over the dataset's `Vocabulary`, so a
 keys, shapes and indices that `sdovon-mj eval` hands an agent. Several bundles: one environment each in
 ``gymnasium.vector.AsyncVectorEnv`` (all variants of one dataset share its vocabulary, so their spaces match).
 
-The knowledge boundary (docs/toolbox.md): by default (evaluation mode) the reward is always 0.0 and ``info`` is empty,
-as in the sealed evaluation. ``training=True`` returns the task's dense reward (the decrease of the geodesic distance
+The knowledge boundary (docs/toolbox.md): by default (evaluation mode) the reward is always 0.0 and ``info`` holds
+nothing of the scene, as in the sealed evaluation (`reset`'s ``info["render"]`` says which renderer draws). ``training=True`` returns the task's dense reward (the decrease of the geodesic distance
 to the nearest goal view point, habitat-lab's) and puts the distance to goal and, at the episode's end, its metrics
 in ``info``: generator knowledge, for training only. The environment object itself holds the generator's state (it
 runs in the caller's process): results for a paper come from `sdovon-mj eval`, which seals the agent off.
@@ -38,6 +38,8 @@ from ..actions import ACTION_NAMES
 from ..config import AgentConfig, NavConfig
 from ..errors import InputError
 from ..knowledge import Knowledge
+from ..gl import RENDERS
+from ..gl import use as use_renderer
 from .bundle import Bundle, find_bundles, load_bundle
 from .objectnav import make_environment
 from .observation import ObservationBuilder, Sensors, Vocabulary, dataset_vocabulary, make_sensors
@@ -127,6 +129,12 @@ class ObjectNavEnv(gymnasium.Env):
         libraries accept Box / Discrete spaces only.
     render_map
         `render` draws the top-down map too (generator knowledge: needs `training`).
+    render
+        Which OpenGL renderer draws the observations: ``auto`` (default: the GPU's EGL when the machine has one, else
+        Mesa's llvmpipe on the CPU), ``cpu`` or ``gpu`` (`RendererError` on a machine without one). A process draws
+        with the renderer its first renderer chose (`sdovon_mj.gl`): ``gpu`` after a CPU choice is an error, ``auto``
+        then says so. The record (`render_info`; ``info["render"]`` of `reset`) names what draws, and why ``auto``
+        fell back to the CPU.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": FPS}
@@ -135,7 +143,7 @@ class ObjectNavEnv(gymnasium.Env):
                  width: int | None = None, height: int | None = None, max_steps: int | None = None,
                  nav: NavConfig | None = None, agent: AgentConfig | None = None, knowledge: Knowledge | None = None,
                  episode_order: str = "random", vocabulary: Vocabulary | None = None, goal_text: bool = False,
-                 render_map: bool = False) -> None:
+                 render_map: bool = False, render: str = "auto") -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r}: only 'rgb_array' is offered")
         if episode_order not in EPISODE_ORDERS:
@@ -146,6 +154,9 @@ class ObjectNavEnv(gymnasium.Env):
                              "the Gymnasium environment runs episodes only")
         if render_map and not training:
             raise ValueError("render_map draws goals and the navigable map (generator knowledge): it needs training=True")
+        if render not in RENDERS:
+            raise ValueError(f"render {render!r}: one of {', '.join(RENDERS)}")
+        self.render_info: dict[str, Any] = use_renderer(render)  # before the first context (RendererError here)
         self._bundle = _one_bundle(bundle)
         nav = nav or NavConfig()
         if max_steps is not None:
@@ -203,12 +214,14 @@ class ObjectNavEnv(gymnasium.Env):
         self._rgb = o["rgb"]
         return {k: o[k] for k in self.observation_space.spaces}
 
-    def _info(self, last: bool) -> dict[str, Any]:
-        """Return ``info``: empty in evaluation mode; in training mode the generator's distance and final metrics."""
+    def _info(self, last: bool, first: bool = False) -> dict[str, Any]:
+        """Return ``info``: in evaluation mode only the renderer record (`first`: at reset); in training mode that, the
+        generator's distance and the final metrics."""
         if not self.training:
-            return {}
+            return {"render": dict(self.render_info)} if first else {}
         task = self._env.task
-        info: dict[str, Any] = {"distance_to_goal": float(task.distance), "episode_id": task.episode.episode_id}
+        info: dict[str, Any] = {"distance_to_goal": float(task.distance), "episode_id": task.episode.episode_id,
+                                **({"render": dict(self.render_info)} if first else {})}
         if last:
             m = task.metrics()
             info.update({"success": float(m.success), "spl": float(m.spl), "soft_spl": float(m.soft_spl),
@@ -222,7 +235,7 @@ class ObjectNavEnv(gymnasium.Env):
         self._env.task.render_frames = True
         self._ts = self._env.reset()
         self._panel = None
-        return self._observe(self._ts), self._info(False)
+        return self._observe(self._ts), self._info(False, first=True)
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
         """Take one action (an index into `action_names`); return (observation, reward, terminated, truncated, info).

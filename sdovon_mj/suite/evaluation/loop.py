@@ -20,6 +20,7 @@ import numpy as np
 
 from ...config import AgentConfig, NavConfig
 from ...progress import Progress
+from ...gl import use as use_renderer
 from ...store import atomic_write_text, json_safe
 from ..boundary import oracle_episode_parts, oracle_scene_parts
 from ..bundle import Bundle, find_bundles, load_bundle
@@ -59,7 +60,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
              out: Path | None = None, label: str | None = None, progress: bool = True, mode: str = "sealed",
              seed: int = 0, body: AgentConfig | None = None, seal: bool = True, read: tuple[str, ...] = (),
              videos: tuple[str, ...] = (), timeout: float = REPLY_TIMEOUT,
-             setup_timeout: float = SETUP_TIMEOUT) -> list[dict]:
+             setup_timeout: float = SETUP_TIMEOUT, render: str = "auto") -> list[dict]:
     """Run an agent over a dataset's episodes through the agent protocol; return (and optionally write) one result
     dict per episode. A run with ``out`` resumes: episodes whose result of the same run is there are not run again
     (a video asked for later is not recorded for them: an episode is never played twice).
@@ -106,7 +107,12 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
         ``out/videos/<label>/<episode id>.mp4``; each result names its file (``video``, relative to `out`).
     timeout, setup_timeout
         Seconds for one reply of a sealed agent and for its set-up (`protocol.REPLY_TIMEOUT`, `SETUP_TIMEOUT`).
+    render
+        Which renderer draws the observations (`gl.use`): ``auto`` (default: the GPU's EGL when there is one, else
+        Mesa's llvmpipe), ``cpu`` or ``gpu`` (`RendererError` without one). Each result records what drew
+        (``render``: cpu or gpu, ``renderer``: the GL string) and, for ``auto`` on the CPU, ``render_fallback``.
     """
+    drawn = drawn_by(render)  # before any work: `gpu` without a GPU stops here
     kw = agent.kwargs if isinstance(agent, AgentSpec) else {}
     nav = nav or getattr(agent, "nav", None) or kw.get("nav") or NavConfig()
     body = body or getattr(agent, "agent_config", None) or kw.get("agent") or AgentConfig()
@@ -165,7 +171,8 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                                 continue
                             eid = b.episodes[i].episode_id
                             r = run_episode(live, start, env, builder, b, i, label, key, visit,
-                                            (out, video_path(label, eid)) if eid in videos else None, split, out)
+                                            (out, video_path(label, eid)) if eid in videos else None, split,
+                                            out) | drawn
                             results.append(r)
                             if out is not None:
                                 atomic_write_text(result_path(out, label, r["episode_id"]),
@@ -176,6 +183,13 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     finally:
         live.close()
     return results
+
+
+def drawn_by(render: str) -> dict[str, str]:
+    """Choose this process's renderer (`gl.use`) and return what each result records of it."""
+    rec = use_renderer(render)
+    return {"render": rec["render"], "renderer": rec["renderer"],
+            **({"render_fallback": rec["fallback"]} if rec.get("fallback") else {})}
 
 
 def run_episode(live: LiveAgent, start: SceneStart, env: Any, builder: ObservationBuilder, b: Bundle, i: int,

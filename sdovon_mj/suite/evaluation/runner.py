@@ -13,7 +13,7 @@ from ... import plugins
 from ...config import AgentConfig, NavConfig
 from ..bundle import Bundle, find_bundles, load_bundle
 from ..protocol import REPLY_TIMEOUT, SETUP_TIMEOUT, AgentSpec
-from .loop import evaluate
+from .loop import drawn_by, evaluate
 
 
 def make_agent(name: str, nav: NavConfig, seed: int = 0, final_nav: bool = True, agent: AgentConfig | None = None) -> Any:
@@ -79,19 +79,22 @@ class Row:
 
 def _row_task(task: tuple) -> list[dict]:
     """Evaluate one row on one scene's bundles (a worker's unit of `run_rows`)."""
-    bundles, row, nav, body, out, seed, seal, read, videos, timeout, setup_timeout = task
+    bundles, row, nav, body, out, seed, seal, read, videos, timeout, setup_timeout, render = task
     return evaluate(bundles, row.agent, nav=nav, out=out, label=row.label, progress=False, mode=row.mode, seed=seed,
-                    body=body, seal=seal, read=read, videos=videos, timeout=timeout, setup_timeout=setup_timeout)
+                    body=body, seal=seal, read=read, videos=videos, timeout=timeout, setup_timeout=setup_timeout,
+                    render=render)
 
 
 def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Path | None = None, jobs: int = 1,
              episodes: int | None = None, seed: int = 0, nav: NavConfig | None = None, body: AgentConfig | None = None,
              seal: bool = True, read: tuple[str, ...] = (), progress: bool = True, video: int = 0,
-             timeout: float = REPLY_TIMEOUT, setup_timeout: float = SETUP_TIMEOUT) -> dict[str, list[dict]]:
+             timeout: float = REPLY_TIMEOUT, setup_timeout: float = SETUP_TIMEOUT,
+             render: str = "auto") -> dict[str, list[dict]]:
     """Evaluate table rows over the same episodes; return each row's results (episode order).
 
     The work is cut into tasks of one row on one scene (its first visit, then its episodes), run on `jobs`
-    processes (``spawn``) in row-major order; with ``out`` every finished episode is written at once, and running
+    processes (``spawn``: each chooses its renderer, `render`; on a GPU their environments share it) in row-major
+    order; with ``out`` every finished episode is written at once, and running
     the same call again resumes (finished episodes are read back, not run). ``episodes``: the first N episodes of the
     dataset (bundles in order), the same for every row.
 
@@ -119,10 +122,13 @@ def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Pa
         Record the first N episodes (in results order) of every row as MP4 (needs ``out``; `evaluate`'s ``videos``).
     timeout, setup_timeout
         As `evaluate`'s.
+    render
+        As `evaluate`'s (checked here first: `gpu` without a GPU stops before any work).
     """
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
 
+    drawn_by(render)
     paths = find_bundles(dataset) if isinstance(dataset, (str, Path)) else list(dataset)
     bundles = [p if isinstance(p, Bundle) else load_bundle(p) for p in paths]
     left = sum(len(b.episodes) for b in bundles) if episodes is None else int(episodes)
@@ -139,7 +145,7 @@ def run_rows(dataset: str | Path | list[Path | Bundle], rows: list[Row], out: Pa
         raise ValueError("row labels must be unique")
     videos = tuple([e.episode_id for sc in scenes for b in scenes[sc] for e in b.episodes][:max(int(video), 0)])
     tasks = [(row, sc, (scenes[sc], row, nav, body, out, seed, seal, tuple(read), videos, float(timeout),
-                        float(setup_timeout))) for row in rows for sc in scenes]
+                        float(setup_timeout), render)) for row in rows for sc in scenes]
     got: dict[tuple[str, str], list[dict]] = {}
     t0 = time.perf_counter()
     if jobs <= 1:

@@ -67,6 +67,9 @@ def _summary(results: list[dict], bootstrap: int, seed: int) -> dict[str, Any]:
         failed = [r["failure"]["cause"] for r in results if r.get("failure")]
         if failed:
             out["failures"] = {c: failed.count(c) for c in sorted(set(failed))}
+        out["render"] = "+".join(sorted({str(r.get("render", "-")) for r in results}))  # results of older runs: -
+        if any(r.get("render_fallback") for r in results):
+            out["render_fallback"] = next(r["render_fallback"] for r in results if r.get("render_fallback"))
         if all("outcome" in r for r in results):
             out["outcomes"] = {k: round(sum(r["outcome"] == k for r in results) / len(results), 4) for k in OUTCOMES}
         out["difficulty"] = difficulty(results)

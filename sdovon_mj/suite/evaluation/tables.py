@@ -30,12 +30,16 @@ def _share(x: Any) -> str:
 
 
 def ran_as(s: dict[str, Any]) -> str:
-    """Return how an agent ran, for the tables: sealed (file system sealed or not) or in-process, and on which split
-    (an open split, from public seeds, or a secret one: `loop.dataset_split`)."""
+    """Return how an agent ran, for the tables: sealed (file system sealed or not) or in-process, on which split
+    (an open split, from public seeds, or a secret one: `loop.dataset_split`), and the renderer that drew its
+    observations (cpu or gpu; ``auto`` that fell back to the CPU says so)."""
     mode = s.get("mode", "")
     split = s.get("split", "open split")
     if mode == "sealed":
-        return "sealed" + ("" if "NOT" not in s.get("seal", "") else ", file system not sealed") + f", {split}"
+        mode += "" if "NOT" not in s.get("seal", "") else ", file system not sealed"
+    render = s.get("render", "")
+    if render and render != "-":
+        mode = f"{mode or '-'}, {render}" + (" (auto: no GPU)" if s.get("render_fallback") else "")
     return f"{mode}, {split}" if mode else "-"
 
 
