@@ -121,9 +121,9 @@ class ObserveConfig:
     # floors (apartments of seeds 0-9 with 1 and 2 storeys, houses 0-2: 35 floors) three view points in a row
     # always added >= 0.32 % coverage together and no floor needed more than 3 view points per r_max disc of its
     # navigable area. 0.1 % of the goal over 3 points (3.4x below that) and 8 per disc (2.7x above) leave margin.
-    coverage_min_gain: float = _p(0.001, "-", "the coverage sampler stops when coverage_patience view points in a row add together less than this share of coverage_threshold (the goal is out of reach: small or cluttered floors); 0: never", ge=0, le=1)
-    coverage_patience: int = _p(3, "-", "view points in a row whose coverage gain coverage_min_gain judges", ge=1)
-    max_viewpoints_per_disc: float = _p(8.0, "-", "the coverage sampler accepts at most this many view points per disc of radius r_max that the navigable area would fill (rounded up to whole discs: the bound grows with the floor area); 0: no bound", ge=0)
+    coverage_min_gain: float = _p(0.001, "-", "the coverage sampler stops when coverage_patience view points in a row add together less than this share of coverage_threshold (the goal is out of reach: small or cluttered floors); 0: never", ge=0, le=1, quiet=True)
+    coverage_patience: int = _p(3, "-", "view points in a row whose coverage gain coverage_min_gain judges", ge=1, quiet=True)
+    max_viewpoints_per_disc: float = _p(8.0, "-", "the coverage sampler accepts at most this many view points per disc of radius r_max that the navigable area would fill (rounded up to whole discs: the bound grows with the floor area); 0: no bound", ge=0, quiet=True)
     open_parts: float = _p(1.0, "-", "articulated scene pieces (world.articulated): observe/perceive render every door and drawer open this fraction of its range", ge=0, le=1)
     min_obstacle_distance: float = _p(0.3, "m", "candidates closer than this to an obstacle are rejected", ge=0)
     yaw_steps: int = _p(6, "-", "camera yaw steps per viewpoint (360 deg / yaw_steps)", ge=1)
