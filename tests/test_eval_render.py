@@ -14,7 +14,7 @@ from sdovon_mj import gl
 from support.bundles import fixture_bundle
 
 ARGS = ["--agent", "oracle", "--episodes", "3", "--width", "32", "--height", "24", "--pictures", "0"]
-WALL = ("seconds", "render_fallback")  # wall-clock figures; auto's note on why it drew on the CPU
+WALL = ("seconds", "setup_seconds", "render_fallback")  # wall-clock figures; auto's note on why it drew on the CPU
 
 
 def _results(out: Path) -> dict[str, dict]:
@@ -43,5 +43,5 @@ def test_eval_render_cpu_equals_the_default_path_and_gpu_without_one_is_an_error
     fell_back = [json.loads(p.read_text()) for p in (runs["default"] / "episodes" / "oracle").glob("*.json")]
     assert all(r["render_fallback"].startswith("auto") for r in fell_back)  # auto records why it drew on the CPU
     tables = {n: (runs[n] / "tables.md").read_text() for n in runs}
-    assert "| oracle | " in tables["cpu"] and ", cpu |" in tables["cpu"] and "auto: no GPU" not in tables["cpu"]
-    assert ", cpu (auto: no GPU) |" in tables["default"]
+    assert "| oracle | " in tables["cpu"] and ", cpu, open split |" in tables["cpu"] and "auto: no GPU" not in tables["cpu"]
+    assert ", cpu (auto: no GPU), open split |" in tables["default"]
