@@ -267,7 +267,7 @@ class TreeMemory:
 
 def run_big(args: argparse.Namespace, work: Path) -> None:
     """Write the HM3D-size scene, run it through generate in one worker, print per-stage seconds and peak memory."""
-    from sdovon_mj.pipeline import peak_rss_mb, reset_peak_rss
+    from sdovon_mj.memory import peak_rss_mb, reset_peak_rss
 
     reset_peak_rss()
     t0 = time.perf_counter()
@@ -409,7 +409,7 @@ def main() -> None:
     if args.no_scan:
         return
     # ---- peak memory of a scan-mode apartment of ~500k triangles through the scene pipeline
-    from sdovon_mj.pipeline import peak_rss_mb, reset_peak_rss
+    from sdovon_mj.memory import peak_rss_mb, reset_peak_rss
     from sdovon_mj.world import generate_home, write_apartment
 
     scan_dir = work / "scan_input"

@@ -28,19 +28,16 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, Callable
 
-from . import plugins
 from .config import RunConfig, to_dict
 from .errors import InputError, InputsError, StageError
+from .inputs import object_files, scene_problem
+from .plugins import converter
 from .records import Instance, ReceptaclePlane, Relevance, SceneVariant, load_json, load_npz, save_json, save_npz
 from .runview import RunView
 from .seeds import scene_seed, variant_seed
 from .store import Store, file_hash, fingerprint
 
 SCOPES = ("run", "scene", "variant", "export")
-OBJECT_SUFFIXES = (".obj", ".glb", ".gltf", ".ply", ".stl")
-# An object library also takes URDF objects (assets_convert.urdf); the meshes a URDF references are its links'
-# parts, not objects of their own (the converter drops them from the library).
-OBJECT_LIBRARY_SUFFIXES = OBJECT_SUFFIXES + (".urdf",)
 
 
 @dataclass
@@ -269,16 +266,9 @@ def _object_files(ctx: StageContext) -> list[tuple[Path, str | None]]:
         # the converter's category (as `convert` gives it: assets.yaml, else meta.json, else its guess, which knows the
         # library folder: a flat lib/mug.obj is a mug, not a 'lib'); a converter without one: meta.json only
         guess = getattr(converter(), "object_category", None)
-        for p in map(Path, ctx.inputs["objects"]):
-            if p.is_dir():
-                found = sorted(q for q in p.rglob("*") if q.suffix.lower() in OBJECT_LIBRARY_SUFFIXES)
-                if not found:
-                    raise InputError(p, "folder holds no OBJ/GLB/glTF/PLY/STL/URDF object files")
-                files += [(q, guess(q, p) if guess else _meta_category(q)) for q in found]
-            elif p.exists():
-                files.append((p, guess(p, None) if guess else _meta_category(p)))
-            else:
-                raise InputError(p, "object file not found")
+        for p in map(Path, ctx.inputs["objects"]):  # the input check's files (it names a missing or bad one)
+            folder = p if p.is_dir() else None
+            files += [(q, guess(q, folder) if guess else _meta_category(q)) for q in object_files(p)]
         return files
     mark = ctx.store.mark(ctx.key("world:objects"))
     if mark is None:
@@ -293,12 +283,6 @@ def _input_name(store: Store, path: Path) -> str:
         return store.rel(path)
     except ValueError:
         return str(Path(path).resolve())
-
-
-def converter(name: str = "mesh") -> Any:
-    """Return an instance of the converter plugin `name` (kind ``converter``; ``mesh`` is assets_convert's)."""
-    obj = plugins.load("converter", name)
-    return obj() if isinstance(obj, type) else obj
 
 
 # ----------------------------------------------------------------------------------------------
@@ -387,8 +371,9 @@ def scene_file(ctx: StageContext) -> Path:
             raise StageError(f"default-world apartment {ctx.scene} wrote no mesh")
         src = str(ctx.store.path(mesh[0]))
     path = Path(src)
-    if not path.exists():
-        raise InputError(path, "scene file not found")
+    why = scene_problem(path)  # the input check, again: a resumed run's input may have changed since
+    if why:
+        raise InputError(path, why)
     return path
 
 
@@ -683,7 +668,7 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
     cfg : RunConfig
         The run's config.
     runner : StageRunner
-        Runs a stage once per fingerprint and records seconds (`sdovon_mj.pipeline.StageRunner`).
+        Runs a stage once per fingerprint and records seconds (`sdovon_mj.tasks.StageRunner`).
     scope : str
         ``run``, ``scene``, ``variant`` or ``export``.
     scene, variant, fmt : str, int, str
@@ -693,7 +678,7 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
         Only these stages (default: every stage of the scope).
     fits : callable, optional
         Asked before each stage after one that ran: False stops here, and the stages not run are returned (the
-        caller runs them in a fresh process; `sdovon_mj.pipeline.run_task`). Default: run them all.
+        caller runs them in a fresh process; `sdovon_mj.tasks.run_task`). Default: run them all.
     """
     if scope not in SCOPES:
         raise StageError(f"unknown stage scope '{scope}' ({', '.join(SCOPES)})")

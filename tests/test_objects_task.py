@@ -9,7 +9,8 @@ import trimesh
 from sdovon_mj import stages
 from sdovon_mj.records import ObjectAsset, load_json
 from sdovon_mj.config import ConvertConfig, RunConfig
-from sdovon_mj.pipeline import StageRunner, TaskResult, TaskSpec, prepare_run
+from sdovon_mj.pipeline import prepare_run
+from sdovon_mj.tasks import StageRunner, TaskResult, TaskSpec
 
 
 def test_bad_object_is_reported_and_the_library_goes_on(tmp_path):

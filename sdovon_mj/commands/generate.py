@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--retries", type=int, default=1, help="retries of a failed task")
     p.add_argument("--worker-memory", type=float, default=None, metavar="MIB",
                    help="a local worker holding more than this after a stage hands on its work to a fresh process "
-                        "(default: sdovon_mj.pipeline.WORKER_MEMORY_MB; 0: never); outputs are the same bytes")
+                        "(default: sdovon_mj.executors.WORKER_MEMORY_MB; 0: never); outputs are the same bytes")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--allow-empty", action="store_true",
                    help="exit 0 even when a scene yields no receptacle or no episode (default: a warning and exit 1)")
