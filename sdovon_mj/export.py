@@ -162,11 +162,7 @@ def unit_digest(run: RunView, unit: ExportUnit) -> str:
     """
     if unit.scenes is None:
         return run.run_id()
-    files = [p for s in sorted(unit.scenes) for p in [run.root / "scenes" / s / "scene.json"]
-             + sorted((run.root / "scenes" / s / "observe").glob("navmap_*.json"))
-             + sorted((run.root / "scenes" / s / "semantics").glob("*.json"))
-             + sorted((run.root / "scenes" / s / "variants").glob("*/*.json"))]
-    files += sorted(run.root.glob("objects/*/object.json"))
+    files = [p for s in sorted(unit.scenes) for p in run.scene_record_files(s)] + run.object_record_files()
     parts = [(p.relative_to(run.root).as_posix(), hashlib.sha256(p.read_bytes()).hexdigest()) for p in files
              if p.is_file() and not p.name.startswith(".")]  # not the stages' done-markers and timing files
     return fingerprint(parts)

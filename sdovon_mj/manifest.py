@@ -14,6 +14,7 @@ from typing import Any
 from . import __version__, numerics
 from .config import RunConfig, to_dict
 from .records import dumps
+from .runview import RunLayout
 from .seeds import scene_seed
 from .store import Store
 from .tasks import TaskResult
@@ -114,7 +115,7 @@ def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
                       **({"caused_by": r.caused_by} if r.caused_by else {})} for r in summary.failures],
         "llm_fallbacks": stats.llm_fallbacks(store.root),
     }
-    store.write_json("manifest.json", manifest)
+    store.write_json(RunLayout.MANIFEST, manifest)
     timings = {
         "stage_seconds": {k: round(v, 3) for k, v in sorted(summary.seconds.items())},
         "tasks": [{"task": r.spec.label, "ok": r.ok, "seconds": {k: round(v, 3) for k, v in r.seconds.items()},
@@ -122,7 +123,7 @@ def write_manifest(store: Store, cfg: RunConfig, summary: RunSummary) -> None:
                    "peak_rss_mb": r.counters.get("peak_rss_mb", {})} for r in summary.results],
         "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
     }
-    store.write_json("timings.json", timings)
+    store.write_json(RunLayout.TIMINGS, timings)
 
 
 def summary_json(summary: RunSummary) -> str:

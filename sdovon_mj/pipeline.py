@@ -17,6 +17,7 @@ from .executors import WORKER_MEMORY_MB, make_executor
 from .inputs import check_inputs
 from .interrupt import sigterm_interrupts
 from .manifest import RunSummary, write_manifest
+from .runview import RunLayout
 from .schedule import ExportSchedule
 from .store import RunLock, Store, clean_temp_files
 from .tasks import TaskResult, TaskSpec
@@ -28,14 +29,14 @@ def prepare_run(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None =
     store = Store(run_root)
     clean_temp_files(store.root)
     cfg_text = dump_yaml(cfg)
-    cfg_path = store.path("config.yaml")
+    cfg_path = store.path(RunLayout.CONFIG)
     if cfg_path.exists() and cfg_path.read_text(encoding="utf-8") != cfg_text:
         # A changed config is fine: stages whose fingerprint changed are redone, the rest kept.
         pass
-    store.write_text("config.yaml", cfg_text)
+    store.write_text(RunLayout.CONFIG, cfg_text)
     inputs = {"scenes": [str(Path(s).resolve()) for s in (scenes or [])],
               "objects": [str(Path(o).resolve()) for o in (objects or [])]}
-    store.write_json("inputs.json", inputs)
+    store.write_json(RunLayout.INPUTS, inputs)
     return store
 
 

@@ -16,6 +16,7 @@ from typing import Any, Callable
 from .config import load_config
 from .errors import InputError, SdovonError, UsageError
 from .memory import before_stage, holds_too_much, peak_rss_mb, rss_mb
+from .runview import RunLayout
 from .store import Store, Timer
 
 
@@ -104,15 +105,8 @@ class StageRunner:
 
 
 def stage_name(key: str) -> str:
-    """Return the stage a marker key belongs to (e.g. scenes/a/observe -> observe, export/mjcf.stage -> export:mjcf)."""
-    parts = key.split("/")
-    if parts[0] == "inputs" and len(parts) > 1:
-        return "world:objects" if parts[1] == "objects" else "world:scene"
-    if parts[0] == "export":
-        if len(parts) > 2 and parts[1].endswith(".units"):  # export/<fmt>.units/<unit>: an export unit
-            return "export:" + parts[1].removesuffix(".units")
-        return "export:" + parts[-1].removesuffix(".stage")
-    return parts[-1]
+    """Return the stage a marker key belongs to (`sdovon_mj.runview.RunLayout.stage_of`)."""
+    return RunLayout.stage_of(key)
 
 
 def run_task(spec: TaskSpec, memory_mb: float = 0.0) -> TaskResult:
@@ -129,7 +123,7 @@ def run_task(spec: TaskSpec, memory_mb: float = 0.0) -> TaskResult:
         from . import stages
 
         store = Store(spec.run_root)
-        cfg = load_config(store.path("config.yaml"))
+        cfg = load_config(store.path(RunLayout.CONFIG))
         runner = StageRunner(store, result)
         scope = {"objects": "run"}.get(spec.kind, spec.kind)
         rest = stages.run_task(store, cfg, runner, scope, spec.scene, spec.variant, spec.fmt, spec.stages or None,

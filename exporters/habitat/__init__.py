@@ -36,6 +36,7 @@ import numpy as np
 
 from sdovon_mj.errors import InputError
 from sdovon_mj.records import ArticulatedFixture, Episode, Goal, SceneAsset, SceneVariant
+from sdovon_mj.runview import RunLayout
 from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from sdovon_mj.sim.model import pose_settled
 from sdovon_mj.store import atomic_write_bytes, dumps
@@ -255,8 +256,8 @@ def _category_maps(run: RunView) -> dict[str, dict[str, int]]:
     """Return the category id maps over every variant's episodes (read as raw JSON: only the categories)."""
     cats: set[str] = set()
     for scene in run.scene_names():
-        for p in sorted((run.root / "scenes" / scene / "variants").glob("*/episodes.json")):
-            if not (p.parent / "variant.json").is_file():  # not a variant of the run (RunView.variants)
+        for p in sorted(run.root.glob(RunLayout.episodes(scene))):
+            if not run.path(RunLayout.variant_record(scene, p.parent.name)).is_file():  # not a variant (RunView.variants)
                 continue
             text = p.read_text(encoding="utf-8")
             found = _episode_categories(text)

@@ -66,7 +66,9 @@ def library_warnings(run_root: str) -> list[str]:
     import json
     from pathlib import Path
 
-    path = Path(run_root) / "objects" / "failures.json"
+    from ..runview import RunLayout
+
+    path = Path(run_root) / RunLayout.OBJECT_FAILURES
     if not path.is_file():
         return []
     failures = json.loads(path.read_text(encoding="utf-8"))
@@ -78,9 +80,9 @@ def unused_input_warnings(run_root: str) -> list[str]:
     summary line counting them; nothing when every input was used."""
     from pathlib import Path
 
-    from ..runview import RunView
+    from ..runview import RunLayout, RunView
 
-    if not (Path(run_root) / "scenes").is_dir():  # the run stopped before any scene was converted
+    if not (Path(run_root) / RunLayout.SCENES).is_dir():  # the run stopped before any scene was converted
         return []
     view = RunView(run_root)
     lines = [f"scene {sc.name}: not used: {what}" for sc in view.scenes() for what in sc.unused]

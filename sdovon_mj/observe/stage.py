@@ -18,6 +18,7 @@ import numpy as np
 from ..config import AgentConfig, ObserveConfig
 from ..errors import InputError, StageError
 from ..records import CoverageView, NavMap, SceneAsset, dumps, save_json
+from ..runview import RunLayout
 from ..sim.model import load_scene_mesh
 from ..store import atomic_write_text
 from .coverage import coverage_viewpoints
@@ -121,8 +122,8 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
     per_floor = []
     for nm in maps:
         vps, mp, stats = coverage_viewpoints(nm, cfg, seed=[int(seed), int(cfg.seed), int(nm.floor)], agent=agent)
-        save_json(nm, root / _p(f"navmap_{nm.floor}.json"))
-        save_png(navmap_image(nm), root / _p(f"navmap_{nm.floor}.png"))
+        save_json(nm, root / _p(RunLayout.navmap_file(nm.floor)))
+        save_png(navmap_image(nm), root / _p(RunLayout.navmap_file(nm.floor, ".png")))
         pts = np.array([vp.position for vp in vps]) if vps else None
         save_png(navmap_image(nm, coverage=mp, points=pts), root / _p(f"coverage_{nm.floor}.png"))
         res2 = nm.resolution ** 2
