@@ -268,7 +268,21 @@ class RayExecutor:
 
 def make_executor(name: str, jobs: int = 1, address: str | None = None, retries: int = 1,
                   memory_mb: float = WORKER_MEMORY_MB) -> Any:
-    """Return the executor named `local` or `ray` (`memory_mb`: the local workers' memory limit, `LocalExecutor`)."""
+    """Return the executor named `local` or `ray`.
+
+    Parameters
+    ----------
+    name : str
+        ``local`` (worker processes, `LocalExecutor`) or ``ray`` (`RayExecutor`).
+    jobs : int
+        Parallel tasks (local workers; Ray CPUs when it starts a local cluster).
+    address : str, optional
+        A Ray cluster's address (none: a local Ray).
+    retries : int
+        Runs of a failed task after its first (a bad input is not retried).
+    memory_mb : float
+        The local workers' memory limit in MiB (0: none; `LocalExecutor`).
+    """
     if name == "local":
         return LocalExecutor(jobs, retries, memory_mb)
     if name == "ray":

@@ -15,6 +15,8 @@ from __future__ import annotations
 import ast
 import re
 import functools
+import io
+import tokenize
 from collections import defaultdict
 from pathlib import Path
 
@@ -350,3 +352,71 @@ h = root / "config.yaml"
 '''
     assert run_folder_paths(src) == [(2, "scene.json"), (2, "scenes"), (3, "/variant.json"), (3, "/variants/"),
                                      (3, "scenes/"), (4, "/planes.json"), (5, "navmap_*.json"), (9, "config.yaml")]
+
+
+# ----------------------------------------------------------------------------------------------
+# Nothing dangling: every repository path the code's docstrings and comments name exists
+
+# Top-level folders of the repository (and the one it must never cite: research/ is outside the product).
+REPO_TOPS = ("research", "docs", "tests", "sdovon_mj", "assets_convert", "exporters", "tools", "bench", "mjcf_templates")
+REFERENCE_SCOPE = ("sdovon_mj", "assets_convert", "exporters", "mjcf_templates", "tools", "bench")
+# Text that looks like a repository path and is not one, each with why.
+NOT_REFERENCES = {"sdovon_mj/ObjectNav-v0": "the Gymnasium environment id"}
+
+
+def _reference_pattern() -> re.Pattern[str]:
+    """Return the pattern of a repository path in prose: a top-level folder and more (``docs/evaluation.md``,
+    ``tests/support``), or a module path inside the package (``world/articulated.py``). A path inside another
+    project's (``habitat-lab/habitat/tasks/nav/nav.py``) is not one: the match may not follow a name, dot or slash."""
+    subs = sorted(p.name for p in (ROOT / "sdovon_mj").iterdir() if (p / "__init__.py").exists())
+    return re.compile(r"(?<![\w./-])((?:%s)/[\w./-]*[\w/]|(?:%s)/[\w/-]*\.py)\b" % ("|".join(REPO_TOPS), "|".join(subs)))
+
+
+def _prose(source: str) -> list[tuple[int, str]]:
+    """Return (line, text) of a module's docstrings and comments."""
+    out = []
+    tree = ast.parse(source)
+    for n in ast.walk(tree):
+        if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            doc = ast.get_docstring(n, clean=False)
+            if doc:
+                out.append((n.body[0].lineno, doc))
+    out += [(t.start[0], t.string) for t in tokenize.generate_tokens(io.StringIO(source).readline)
+            if t.type == tokenize.COMMENT]
+    return out
+
+
+def dangling_references(source: str, pattern: re.Pattern[str] | None = None) -> list[tuple[int, str]]:
+    """Return (line, path) of each repository path a module's docstrings and comments name that does not exist (a
+    module path such as ``world/home.py`` is looked up inside ``sdovon_mj/``)."""
+    pattern = pattern or _reference_pattern()
+    out = []
+    for line, text in _prose(source):
+        for m in pattern.finditer(text):
+            ref = m.group(1).rstrip("/.")
+            if ref in NOT_REFERENCES:
+                continue
+            base = ROOT if ref.split("/")[0] in REPO_TOPS else ROOT / "sdovon_mj"
+            if not (base / ref).exists():
+                out.append((line, ref))
+    return out
+
+
+def test_no_dangling_repository_references():
+    """Every repository path named in the product's docstrings and comments (and the tools' and benches') exists;
+    research notes are outside the repository (their facts are in docs/background.md)."""
+    pattern = _reference_pattern()
+    bad = [f"{p.relative_to(ROOT).as_posix()}:{line}: {ref}" for d in REFERENCE_SCOPE for p in sorted((ROOT / d).rglob("*.py"))
+           for line, ref in dangling_references(p.read_text(encoding="utf-8"), pattern)]
+    assert not bad, "references to files this repository does not have:\n" + "\n".join(bad)
+
+
+def test_the_reference_check_finds_dangling_paths():
+    src = '''"""Facts in research/peers.md section 0 and docs/evaluation.md; wired in world/apartment.py, see world/home.py.
+
+The habitat-lab file ``habitat-lab/habitat/tasks/nav/nav.py`` is another project's.
+"""
+# tests/no_such_test.py and tests/test_structure.py; the id sdovon_mj/ObjectNav-v0
+x = "docs/nowhere.md"  # a string, not prose: the run-path and config checks see those
+'''
+    assert dangling_references(src) == [(1, "research/peers.md"), (1, "world/apartment.py"), (5, "tests/no_such_test.py")]

@@ -1,4 +1,5 @@
-"""Habitat exporter: habitat-sim scene dataset + habitat-lab ObjectNav-v1 episodes (research/habitat_format.md section 6).
+"""Habitat exporter: habitat-sim scene dataset + habitat-lab ObjectNav-v1 episodes (docs/formats/habitat.md;
+the rules it keeps: docs/background.md, "Habitat export rules").
 
 Layout under the output folder (``<name>`` = dataset name, ``<split>`` = split)::
 

@@ -1,6 +1,6 @@
 """The dm_control ObjectNav task: a kinematic cylinder agent in an MJCF episode bundle.
 
-Design (research/mjcf_and_dmcontrol.md section 4):
+Design (docs/background.md, "The dm_control ObjectNav task"):
 - The bundle's MJCF is loaded with MjSpec and gets a mocap body ``agent`` (a cylinder of
   ``AgentConfig.radius`` x ``height``, geom group 5, no contacts) carrying the camera ``agent/camera``
   at ``camera_height``, so
@@ -159,7 +159,27 @@ class AgentState:
 
 
 class ObjectNavTask(control.Task):
-    """ObjectNav on one bundle: discrete actions, RGB-D(+seg), GPS+compass, object goal; habitat metrics."""
+    """ObjectNav on one bundle: discrete actions, RGB-D(+seg), GPS+compass, object goal; habitat metrics.
+
+    Parameters
+    ----------
+    bundle : Bundle
+        The episode bundle (at least one episode).
+    nav : NavConfig
+        Action sizes, step budget, success distance.
+    semantic : bool
+        Whether observations hold the ``semantic`` image (instance ids).
+    episode_order : str
+        ``sequential`` (each reset the next episode) or ``random`` (drawn with `random`).
+    random : int or Generator, optional
+        Seed or generator of the random episode order.
+    categories : list of str, optional
+        The goal vocabulary (default: the bundle's categories).
+    pose_observations : bool
+        Whether observations hold the agent's position, heading and pitch.
+    agent : AgentConfig
+        The agent's body and camera.
+    """
 
     def __init__(self, bundle: Bundle, nav: NavConfig = NavConfig(), semantic: bool = False,
                  episode_order: str = "sequential", random: int | np.random.Generator | None = None,
