@@ -263,20 +263,12 @@ def lattice_approach(pos: np.ndarray, yaw: float, target: np.ndarray, can_stand:
 
     Parameters
     ----------
-    pos : ndarray
-        The agent's position (world XY, metres).
-    yaw : float
-        Its heading in degrees.
-    target : ndarray
-        The goal (world XY, metres).
+    pos, yaw, target : as in `lattice_plan`
     can_stand : callable
         can_stand(a, b): whether the straight move a -> b is allowed.
-    nav : NavConfig
-        Forward step and turn angle.
+    nav, max_nodes : as in `lattice_plan`
     radius : float
         Metres from target that count as arrived.
-    max_nodes : int
-        Expanded poses after which the search gives up (None).
     """
     step, turn = nav.forward_step, nav.turn_angle
     n_head = int(round(360.0 / turn))

@@ -2,7 +2,7 @@
 
 Outputs under ``<out_root>/<out_rel_dir>/`` (paths in the summary are relative to out_root):
 ``floors.json`` (Floor list), ``navmap_<i>.json`` (NavMap) + ``navmap_<i>.png``,
-``coverage_<i>.png`` (M_P over the navmap with the viewpoints), ``viewpoints.json`` (CoverageView
+``coverage_<i>.png`` (M_P over the navmap with the viewpoints), ``viewpoints.json`` (CoverageCamera
 list, all floors), ``obs_<k>.npz`` shards (Observation records with K and T_cam) and
 ``summary.json``..
 """
@@ -17,7 +17,7 @@ import numpy as np
 
 from ..config import AgentConfig, ObserveConfig
 from ..errors import InputError, StageError
-from ..records import CoverageView, NavMap, SceneAsset, dumps, save_json
+from ..records import CoverageCamera, NavMap, SceneAsset, dumps, save_json
 from ..runview import RunLayout
 from ..sim.model import load_scene_mesh
 from ..store import atomic_write_text
@@ -118,7 +118,7 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
         return outputs[-1]
 
     save_json(floors, root / _p("floors.json"))
-    viewpoints: list[CoverageView] = []
+    viewpoints: list[CoverageCamera] = []
     per_floor = []
     for nm in maps:
         vps, mp, stats = coverage_viewpoints(nm, cfg, seed=[int(seed), int(cfg.seed), int(nm.floor)], agent=agent)

@@ -43,7 +43,7 @@ from dm_control.mujoco import wrapper as dm_wrapper
 from dm_control.rl import control
 from dm_env import specs
 
-from .. import metrics as M
+from .. import metrics
 from ..actions import ACTION_NAMES, CLOSE, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, OPEN, STOP, TURN_LEFT, TURN_RIGHT
 from ..config import AgentConfig, EpisodeConfig, NavConfig
 from ..errors import InputError
@@ -591,13 +591,13 @@ class ObjectNavTask(control.Task):
             return 1.0
         return None
 
-    def metrics(self) -> M.EpisodeMetrics:
+    def metrics(self) -> metrics.EpisodeMetrics:
         """Return the episode's habitat metrics so far (final after the last step)."""
-        p = M.path_length(np.array(self.trajectory))
-        s = M.success(self.stop_called, self.distance, self.nav.success_distance)
+        p = metrics.path_length(np.array(self.trajectory))
+        s = metrics.success(self.stop_called, self.distance, self.nav.success_distance)
         if s and self.goal_seen is False:  # a part hid the goal (see `needs_sight`)
             s = 0.0
-        return M.EpisodeMetrics(success=s, spl=M.spl(s, self.shortest, p), soft_spl=M.soft_spl(self.distance, self.shortest, p),
+        return metrics.EpisodeMetrics(success=s, spl=metrics.spl(s, self.shortest, p), soft_spl=metrics.soft_spl(self.distance, self.shortest, p),
                                 distance_to_goal=float(self.distance), shortest=float(self.shortest), path_length=p,
                                 steps=self.steps, stop_called=self.stop_called)
 
