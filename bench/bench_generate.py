@@ -280,7 +280,7 @@ def run_big(args: argparse.Namespace, work: Path) -> None:
     print(f"big HM3D-layout scene {glb}: {len(lines)} labelled instances, {n_faces} triangles; written in "
           f"{write_s:.0f} s, peak {write_mb:.0f} MiB", flush=True)
     t0 = time.perf_counter()
-    from sdovon_mj.pipeline import check_inputs
+    from sdovon_mj.inputs import check_inputs
 
     check_inputs([str(glb)])
     print(f"up-front input check: {time.perf_counter() - t0:.2f} s")

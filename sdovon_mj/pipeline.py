@@ -168,4 +168,4 @@ def _generate(run_root: str | Path, cfg: RunConfig, scenes: list[str] | None, ob
     return summary
 
 
-__all__ = ["check_inputs", "generate", "prepare_run"]
+__all__ = ["generate", "prepare_run"]

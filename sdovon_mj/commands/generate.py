@@ -24,7 +24,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--executor", choices=("local", "ray"), default="local", help="local process pool or Ray")
     p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
     p.add_argument("--jobs", type=int, default=1, help="parallel tasks (local workers / Ray CPUs)")
-    p.add_argument("--retries", type=int, default=1, help="retries of a failed task")
+    p.add_argument("--retries", type=int, default=1,
+                   help="retries of a failed task (not of a bad input: it fails the same way every time)")
     p.add_argument("--worker-memory", type=float, default=None, metavar="MIB",
                    help="a local worker holding more than this after a stage hands on its work to a fresh process "
                         "(default: sdovon_mj.executors.WORKER_MEMORY_MB; 0: never); outputs are the same bytes")
