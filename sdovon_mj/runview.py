@@ -26,8 +26,8 @@ Run folder layout::
     <run>/pictures/                                            `sdovon-mj show`'s top-down pictures (default)
 
 Each stage's marker folder (`RunLayout.MARKERS`) holds its ``.done.json`` (`sdovon_mj.store`). A stage's own
-working files that no other module reads (pictures, observation shards) are named by the stage inside the folder
-the layout gives it.
+files that no other module opens by name (pictures, view points, observation shards: perceive takes every shard,
+`RunLayout.observations`) are named by the stage inside the folder the layout gives it.
 
 How to add a path: add a `RunLayout` method (or constant) returning the run-relative path, its arguments the names
 it depends on (scene, variant name, floor, format; ``"*"`` makes a glob pattern); add its line to the table above;
