@@ -55,7 +55,8 @@ def main() -> None:
     args = ap.parse_args()
     from sdovon_mj.config import load_config
     from sdovon_mj.export import ExportOptions, RunView, make_exporter, run_export
-    from sdovon_mj.pipeline import ExportSchedule, LocalExecutor
+    from sdovon_mj.executors import LocalExecutor
+    from sdovon_mj.schedule import ExportSchedule
 
     src = Path(args.run_dir).resolve()
     run = RunView(src)

@@ -267,7 +267,7 @@ class TreeMemory:
 
 def run_big(args: argparse.Namespace, work: Path) -> None:
     """Write the HM3D-size scene, run it through generate in one worker, print per-stage seconds and peak memory."""
-    from sdovon_mj.pipeline import peak_rss_mb, reset_peak_rss
+    from sdovon_mj.memory import peak_rss_mb, reset_peak_rss
 
     reset_peak_rss()
     t0 = time.perf_counter()
@@ -280,7 +280,7 @@ def run_big(args: argparse.Namespace, work: Path) -> None:
     print(f"big HM3D-layout scene {glb}: {len(lines)} labelled instances, {n_faces} triangles; written in "
           f"{write_s:.0f} s, peak {write_mb:.0f} MiB", flush=True)
     t0 = time.perf_counter()
-    from sdovon_mj.pipeline import check_inputs
+    from sdovon_mj.inputs import check_inputs
 
     check_inputs([str(glb)])
     print(f"up-front input check: {time.perf_counter() - t0:.2f} s")
@@ -409,7 +409,7 @@ def main() -> None:
     if args.no_scan:
         return
     # ---- peak memory of a scan-mode apartment of ~500k triangles through the scene pipeline
-    from sdovon_mj.pipeline import peak_rss_mb, reset_peak_rss
+    from sdovon_mj.memory import peak_rss_mb, reset_peak_rss
     from sdovon_mj.world import generate_home, write_apartment
 
     scan_dir = work / "scan_input"

@@ -1,4 +1,4 @@
-"""MJCF templates in Menagerie style (object, scene, agent, episode bundle); see `template_path`."""
+"""MJCF templates in Menagerie style (object.xml, scene.xml); see `template_path`."""
 
 from pathlib import Path
 

@@ -99,7 +99,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SdovonError as e:
         print(f"sdovon-mj {args.command}: error: {e}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM during generate (`pipeline.Interrupted`)
+    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM during generate (`interrupt.Interrupted`)
         why = f": {e}" if str(e) else ""
         print(f"sdovon-mj {args.command}: interrupted{why}", file=sys.stderr)
         return int(getattr(e, "exit_code", 130))

@@ -366,7 +366,7 @@ class RunConfig:
 
 FUSION_PRESETS: dict[str, dict[str, float]] = {
     # The paper's appendix E values. The paper's text multiplies k_sem with the point-overlap term
-    # and k_geo with the label term (names swapped, see research/peers.md section 0). We follow the
+    # and k_geo with the label term (names swapped, see docs/choices.md). We follow the
     # names: k_sem weighs label similarity, k_geo weighs geometric overlap.
     "paper": {"k_sem": 0.4, "k_geo": 1.6, "phi_min": 0.8},
     # ConceptGraphs: equal weights of 1 on both terms, match threshold 1.1 on the sum (of max 2).

@@ -163,12 +163,7 @@ def unit_digest(run: RunView, unit: ExportUnit) -> str:
     """
     if unit.scenes is None:
         return run.run_id()
-    files = [p for s in sorted(unit.scenes) for p in [run.root / "scenes" / s / "scene.json"]
-             + sorted((run.root / "scenes" / s / "observe").glob("navmap_*.json"))
-             + sorted((run.root / "scenes" / s / "semantics").glob("*.json"))
-             + sorted((run.root / "scenes" / s / "variants").glob("*/*.json"))
-             + sorted((run.root / "scenes" / s / "days").glob("*/*.json"))]
-    files += sorted(run.root.glob("objects/*/object.json"))
+    files = [p for s in sorted(unit.scenes) for p in run.scene_record_files(s)] + run.object_record_files()
     parts = [(p.relative_to(run.root).as_posix(), hashlib.sha256(p.read_bytes()).hexdigest()) for p in files
              if p.is_file() and not p.name.startswith(".")]  # not the stages' done-markers and timing files
     return fingerprint(parts)
@@ -199,7 +194,19 @@ def read_manifest(out_dir: Path) -> list[dict[str, str]] | None:
 
 
 def prepare_out_dir(out_dir: Path, fmt: str, name: str, split: str, run_id: str, merge: bool = False) -> None:
-    """Apply the output-folder policy (module docstring); raise ExportError when the export must not go there."""
+    """Apply the output-folder policy (module docstring); raise ExportError when the export must not go there.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The export's output folder.
+    fmt, name, split : str
+        The exporter's format, the dataset name and split (what the folder's manifest records).
+    run_id : str
+        The run's id (`RunView.run_id`): the same dataset from another run is refused.
+    merge : bool
+        Whether another dataset may share the folder.
+    """
     out_dir = Path(out_dir)
     if not out_dir.exists() or not any(out_dir.iterdir()):
         return
@@ -218,7 +225,15 @@ def prepare_out_dir(out_dir: Path, fmt: str, name: str, split: str, run_id: str,
 
 
 def record_export(out_dir: Path, fmt: str, name: str, split: str, run_id: str) -> None:
-    """Add (or refresh) this export's entry in the folder's manifest."""
+    """Add (or refresh) this export's entry in the folder's manifest.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The export's output folder.
+    fmt, name, split, run_id : str
+        The entry: format, dataset name, split and the run's id (as in `prepare_out_dir`).
+    """
     entries = [e for e in (read_manifest(out_dir) or []) if not (e.get("format") == fmt and e.get("name") == name)]
     entries.append({"format": fmt, "name": name, "split": split, "run_id": run_id})
     entries.sort(key=lambda e: (e["format"], e["name"]))
@@ -249,7 +264,25 @@ def exportable_variants(run: RunView, report: ExportReport) -> Iterator[tuple[Sc
 def finish_export(report: ExportReport, root: Path, options: ExportOptions, index: list[dict], written: list[Path],
                   index_key: str = "variants", extra: dict[str, Any] | None = None) -> ExportReport:
     """Write the dataset's ``index.json`` ({dataset, split, <index_key>: index, **extra}, and ``secret_split`` (the
-    salt's digest) for a split made with a secret salt: absent for an open one) and fill report.files; return report."""
+    salt's digest) for a split made with a secret salt: absent for an open one) and fill report.files; return report.
+
+    Parameters
+    ----------
+    report : ExportReport
+        The export's report (its ``files`` are filled, relative to ``report.out_dir``).
+    root : Path
+        The dataset folder ``index.json`` goes into.
+    options : ExportOptions
+        Dataset name and split (and `secret`: the secret split's record, if any).
+    index : list of dict
+        One entry per exported item.
+    written : list of Path
+        Every file the export wrote (``index.json`` is added).
+    index_key : str
+        The key of `index` in ``index.json``.
+    extra : dict, optional
+        More top-level keys of ``index.json``.
+    """
     secret = {"secret_split": dict(options.secret)} if options.secret else {}
     atomic_write_text(root / "index.json", json.dumps({"dataset": options.name, "split": options.split,
                                                        index_key: index, **(extra or {}), **secret},

@@ -35,6 +35,7 @@ CHOICES = RENDERS + ("any",)  # `any`: generation's explicit override (recorded)
 DEFAULT_VENDOR_DIRS = ("/etc/glvnd/egl_vendor.d", "/usr/share/glvnd/egl_vendor.d")
 SOFTWARE_DEVICE = "EGL_MESA_device_software"
 NVIDIA = "EGL_NV_device_cuda"  # in the extensions of NVIDIA's EGL devices
+RENDER_ENV = "SDOVON_RENDER"  # the renderer choice a process hands to its children (workers, evaluation jobs)
 OURS = "SDOVON_EGL_DEVICE_ID"  # the MUJOCO_EGL_DEVICE_ID this package set (children re-choose; a user's value stays)
 # GL_RENDERER prefixes of CPU rasterisers (Mesa's llvmpipe and softpipe, OpenSWR, Mesa's classic swrast)
 SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swr", "software rasterizer")
@@ -218,7 +219,7 @@ def use(render: str = "cpu") -> dict[str, Any]:
         if note and got == "cpu":
             first["fallback"] = note
         _STATE["record"] = first
-        os.environ["SDOVON_RENDER"] = render  # spawned children (workers, evaluation jobs) choose alike
+        os.environ[RENDER_ENV] = render  # spawned children (workers, evaluation jobs) choose alike
     rec = dict(_STATE["record"], requested=render)
     if render != "auto":  # a fallback is auto's: cpu and any got what they asked for
         rec.pop("fallback", None)
@@ -250,15 +251,15 @@ def ensure() -> dict[str, Any]:
     """
     if "record" in _STATE:
         return dict(_STATE["record"])
-    want = os.environ.get("SDOVON_RENDER", "").strip().lower() or "cpu"
+    want = os.environ.get(RENDER_ENV, "").strip().lower() or "cpu"
     return use(want if want in CHOICES else "cpu")
 
 
 def generation_renderer() -> dict[str, Any]:
     """Pin the CPU renderer for dataset generation (``SDOVON_RENDER=any``: the recorded override) and return the
     record; `RendererError` when llvmpipe is not what this process renders with."""
-    rec = use("any" if os.environ.get("SDOVON_RENDER", "").strip().lower() == "any" else "cpu")
-    os.environ["SDOVON_RENDER"] = rec["requested"]  # the workers: the same pin (or override)
+    rec = use("any" if os.environ.get(RENDER_ENV, "").strip().lower() == "any" else "cpu")
+    os.environ[RENDER_ENV] = rec["requested"]  # the workers: the same pin (or override)
     return rec
 
 

@@ -54,7 +54,19 @@ def lookup(mask: np.ndarray, frame: GridFrame, xy: np.ndarray) -> np.ndarray:
 
 
 def segment_free(mask: np.ndarray, frame: GridFrame, a: np.ndarray, b: np.ndarray, step: float | None = None) -> bool:
-    """Return whether every sample of the straight segment a -> b (world XY) lies on True cells."""
+    """Return whether every sample of the straight segment a -> b (world XY) lies on True cells.
+
+    Parameters
+    ----------
+    mask : ndarray (H, W) bool
+        The grid's cells.
+    frame : GridFrame
+        The grid's frame.
+    a, b : ndarray
+        The segment's ends (world XY, metres).
+    step : float, optional
+        Metres between samples (default: half a cell).
+    """
     ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
     res = frame.resolution
     step = res / 2.0 if step is None else step

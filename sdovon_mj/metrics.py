@@ -1,6 +1,6 @@
 """Navigation metrics with habitat-lab's definitions: success, SPL, Soft SPL, distance to goal.
 
-Definitions (habitat-lab ``tasks/nav/nav.py``; research/habitat_format.md section 3.1):
+Definitions (habitat-lab ``tasks/nav/nav.py``; docs/background.md, "Navigation metrics"):
 
 - distance to goal ``d(t)``: geodesic from the agent base position to the nearest goal view point
   (``distance_to: VIEW_POINTS``); ``inf`` when no view point is reachable.
@@ -98,7 +98,21 @@ class EpisodeMetrics:
 
 def episode_metrics(positions: Sequence[np.ndarray] | np.ndarray, view_points: np.ndarray, stop_called: bool,
                     success_distance: float = 0.1, geodesic: DistanceFn | None = None) -> EpisodeMetrics:
-    """Return the metrics of one trajectory of agent base positions (first = start) against goal view points."""
+    """Return the metrics of one trajectory of agent base positions (first = start) against goal view points.
+
+    Parameters
+    ----------
+    positions : sequence of ndarray or ndarray (T + 1, 3)
+        The agent's base positions, the start first (metres).
+    view_points : ndarray (V, 3)
+        Every goal view point (metres).
+    stop_called : bool
+        Whether the agent called STOP.
+    success_distance : float
+        Metres to the nearest view point within which STOP succeeds (strict).
+    geodesic : callable, optional
+        (position, view points) -> distance in metres; default the Euclidean distance.
+    """
     pos = np.atleast_2d(np.asarray(positions, dtype=float))
     l = distance_to_goal(pos[0], view_points, geodesic)
     d_t = distance_to_goal(pos[-1], view_points, geodesic)

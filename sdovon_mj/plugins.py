@@ -99,3 +99,9 @@ def load(kind: str, name: str) -> Any:
     except Exception as e:  # a broken plugin must say which one and why
         raise PluginError(f"{kind} plugin '{name}' failed to load: {type(e).__name__}: {e}") from e
     raise PluginError(f"no {kind} plugin named '{name}' (available: {', '.join(available(kind)) or 'none'})")
+
+
+def converter(name: str = "mesh") -> Any:
+    """Return an instance of the converter plugin `name` (kind ``converter``; ``mesh`` is assets_convert's)."""
+    obj = load("converter", name)
+    return obj() if isinstance(obj, type) else obj

@@ -418,8 +418,9 @@ class NavMap(Record):
 
 
 @dataclass
-class CoverageView(Record, tag="Viewpoint"):  # tag: the files' name of this record before its rename
-    """A coverage camera position on a floor, sampled by the observe stage (not an episode's goal `ViewPoint`)."""
+class CoverageCamera(Record, tag="Viewpoint"):  # tag: the files' name of this record before its renames
+    """Where the observe stage put a camera to cover a floor (its frames sweep yaw and pitch from here); not an
+    episode goal's `ViewPoint`, which is where an agent stands to see its goal."""
 
     floor: int
     position: np.ndarray  # (3,) world, camera height included
@@ -787,7 +788,8 @@ class DayChange(Record):
 
 @dataclass
 class ViewPoint(Record):
-    """A goal view point: agent base position (on the floor) and camera orientation."""
+    """An episode goal's view point (habitat-lab's ``view_points``): where an agent stands, base on the floor, and its
+    camera orientation to see the goal; not the observe stage's `CoverageCamera`."""
 
     position: np.ndarray  # (3,) agent base on the floor
     rotation: np.ndarray  # (4,) wxyz yaw about +Z

@@ -31,21 +31,18 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, Callable
 
-from . import plugins
 from .config import RunConfig, to_dict
 from .errors import InputError, InputsError, StageError
+from .inputs import object_files, scene_problem
+from .naming import name_scenes  # noqa: F401 (the run's scene names; re-exported)
+from .plugins import converter
 from .records import (DayChange, Instance, ReceptaclePlane, Relevance, SceneVariant, day_name, load_json, load_npz,
                       save_json, save_npz)
-from .runview import RunView
-from .naming import name_scenes  # noqa: F401 (the run's scene names; re-exported)
+from .runview import RunLayout, RunView
 from .seeds import day_seed, scene_seed, secret_salt, variant_seed
 from .store import Store, file_hash, fingerprint
 
 SCOPES = ("run", "scene", "variant", "chain", "export")
-OBJECT_SUFFIXES = (".obj", ".glb", ".gltf", ".ply", ".stl")
-# An object library also takes URDF objects (assets_convert.urdf); the meshes a URDF references are its links'
-# parts, not objects of their own (the converter drops them from the library).
-OBJECT_LIBRARY_SUFFIXES = OBJECT_SUFFIXES + (".urdf",)
 
 
 @dataclass
@@ -77,8 +74,8 @@ class StageContext:
 
     @property
     def variant_name(self) -> str:
-        """Return this variant's name (``<scene>_v<index:03d>``)."""
-        return f"{self.scene}_v{self.variant:03d}"
+        """Return this variant's name (`RunLayout.variant_name`)."""
+        return RunLayout.variant_name(self.scene, self.variant)
 
     @property
     def day_seed(self) -> int:
@@ -88,13 +85,12 @@ class StageContext:
     def key(self, stage: str, day: int | None = None) -> str:
         """Return the marker folder (store-relative) of a declared stage in this context (of another `day`)."""
         d = self.day if day is None else day
-        return STAGES[stage].key.format(scene=self.scene, variant=self.variant_name, fmt=self.fmt,
-                                        day=day_name(self.scene, d))
+        return RunLayout.marker(stage, self.scene, self.variant_name, self.fmt, day_name(self.scene, d))
 
     @cached_property
     def inputs(self) -> dict[str, list[str]]:
         """Return the run's inputs.json ({'scenes': [...], 'objects': [...]}; empty lists: the default world)."""
-        return self.store.read_json("inputs.json")
+        return self.store.read_json(RunLayout.INPUTS)
 
     def scene_source(self) -> str:
         """Return this scene's input file ('' for a default-world home)."""
@@ -193,7 +189,7 @@ def scope_stages(scope: str, selected: list[str] | tuple[str, ...] | None = None
 
 def scene_inputs(store: Store, cfg: RunConfig) -> dict[str, str]:
     """Return scene name -> input file ('' for a default-world home)."""
-    return scene_table(store.read_json("inputs.json")["scenes"], cfg)
+    return scene_table(store.read_json(RunLayout.INPUTS)["scenes"], cfg)
 
 
 def scene_table(scenes: list[str] | None, cfg: RunConfig) -> dict[str, str]:
@@ -273,16 +269,9 @@ def _object_files(ctx: StageContext) -> list[tuple[Path, str | None]]:
         # the converter's category (as `convert` gives it: assets.yaml, else meta.json, else its guess, which knows the
         # library folder: a flat lib/mug.obj is a mug, not a 'lib'); a converter without one: meta.json only
         guess = getattr(converter(), "object_category", None)
-        for p in map(Path, ctx.inputs["objects"]):
-            if p.is_dir():
-                found = sorted(q for q in p.rglob("*") if q.suffix.lower() in OBJECT_LIBRARY_SUFFIXES)
-                if not found:
-                    raise InputError(p, "folder holds no OBJ/GLB/glTF/PLY/STL/URDF object files")
-                files += [(q, guess(q, p) if guess else _meta_category(q)) for q in found]
-            elif p.exists():
-                files.append((p, guess(p, None) if guess else _meta_category(p)))
-            else:
-                raise InputError(p, "object file not found")
+        for p in map(Path, ctx.inputs["objects"]):  # the input check's files (it names a missing or bad one)
+            folder = p if p.is_dir() else None
+            files += [(q, guess(q, folder) if guess else _meta_category(q)) for q in object_files(p)]
         return files
     mark = ctx.store.mark(ctx.key("world:objects"))
     if mark is None:
@@ -297,12 +286,6 @@ def _input_name(store: Store, path: Path) -> str:
         return store.rel(path)
     except ValueError:
         return str(Path(path).resolve())
-
-
-def converter(name: str = "mesh") -> Any:
-    """Return an instance of the converter plugin `name` (kind ``converter``; ``mesh`` is assets_convert's)."""
-    obj = plugins.load("converter", name)
-    return obj() if isinstance(obj, type) else obj
 
 
 # ----------------------------------------------------------------------------------------------
@@ -326,9 +309,9 @@ def _objects(ctx: StageContext) -> list[str]:
     failures.update({k: v for k, v in _library_skipped(ctx, conv).items() if k not in failures})
     if not assets:
         raise StageError("no object converted: " + "; ".join(f"{k}: {v}" for k, v in failures.items()))
-    save_json(assets, ctx.store.path("objects/objects.json"))
-    ctx.store.write_json("objects/failures.json", failures)
-    return ["objects/objects.json", "objects/failures.json"] + [f"objects/{a.name}/object.json" for a in assets]
+    save_json(assets, ctx.store.path(RunLayout.OBJECT_LIBRARY))
+    ctx.store.write_json(RunLayout.OBJECT_FAILURES, failures)
+    return [RunLayout.OBJECT_LIBRARY, RunLayout.OBJECT_FAILURES] + [RunLayout.object_record(a.name) for a in assets]
 
 
 def _library_skipped(ctx: StageContext, conv: Any) -> dict[str, str]:
@@ -391,16 +374,17 @@ def scene_file(ctx: StageContext) -> Path:
             raise StageError(f"default-world apartment {ctx.scene} wrote no mesh")
         src = str(ctx.store.path(mesh[0]))
     path = Path(src)
-    if not path.exists():
-        raise InputError(path, "scene file not found")
+    why = scene_problem(path)  # the input check, again: a resumed run's input may have changed since
+    if why:
+        raise InputError(path, why)
     return path
 
 
 def _convert(ctx: StageContext) -> list[str]:
     """Convert the scene file into ``scenes/<scene>/`` (scene.json, MJCF, mesh sidecar)."""
     asset = converter().convert_scene(scene_file(ctx), ctx.store.root, ctx.scene, ctx.cfg.convert)
-    save_json(asset, ctx.store.path(f"scenes/{ctx.scene}/scene.json"))
-    return [f"scenes/{ctx.scene}/scene.json", asset.mjcf, asset.mesh]
+    save_json(asset, ctx.store.path(RunLayout.scene_record(ctx.scene)))
+    return [RunLayout.scene_record(ctx.scene), asset.mjcf, asset.mesh]
 
 
 def _observe(ctx: StageContext) -> list[str]:
@@ -431,7 +415,7 @@ def _llm_backend(ctx: StageContext) -> Any:
     from .semantics import get_backend
 
     cfg = ctx.cfg
-    return get_backend(cfg.semantics, cache_dir=ctx.store.path("cache/llm") if cfg.semantics.cache else None)
+    return get_backend(cfg.semantics, cache_dir=ctx.store.path(RunLayout.LLM_CACHE) if cfg.semantics.cache else None)
 
 
 def _perceive(ctx: StageContext) -> list[str]:
@@ -439,8 +423,7 @@ def _perceive(ctx: StageContext) -> list[str]:
     from .observe import load_shards
     from .perceive.surfaces import perceive_and_find_planes, save_targeted_views
 
-    d = ctx.key("perceive")
-    shards = sorted(ctx.store.path(ctx.key("observe")).glob("*.npz"))
+    shards = sorted(ctx.store.root.glob(RunLayout.observations(ctx.scene)))
     # with no prespecified receptacle labels the LLM backend names them (prompt C.1), cached like semantics
     backend = None if ctx.cfg.receptacles.labels and not ctx.cfg.receptacles.llm_share else _llm_backend(ctx)
     instances, planes, views = perceive_and_find_planes(load_shards(shards), ctx.view.scene(ctx.scene), ctx.store.root,
@@ -449,22 +432,24 @@ def _perceive(ctx: StageContext) -> list[str]:
         from .receptacles.inside import assign_parts
 
         planes = assign_parts(planes, ctx.view.scene(ctx.scene), ctx.store.root, ctx.cfg.observe.open_parts, instances)
-    save_npz(instances, ctx.store.path(f"{d}/instances.npz"))
-    save_json(planes, ctx.store.path(f"{d}/planes.json"))
-    save_targeted_views(views, ctx.store.path(f"{d}/targeted_views.json"))
+    out = [RunLayout.instances(ctx.scene), RunLayout.planes(ctx.scene, "perceive"), RunLayout.targeted_views(ctx.scene),
+           RunLayout.llm_record(ctx.scene)]
+    save_npz(instances, ctx.store.path(out[0]))
+    save_json(planes, ctx.store.path(out[1]))
+    save_targeted_views(views, ctx.store.path(out[2]))
     # receptacle naming's LLM replies that failed and fell back (semantics records its own in its records)
-    ctx.store.write_json(f"{d}/llm.json", {"backend": backend.label if backend is not None else "",
+    ctx.store.write_json(out[3], {"backend": backend.label if backend is not None else "",
                                            "fallbacks": list(backend.fallbacks) if backend is not None else []})
-    return [f"{d}/instances.npz", f"{d}/planes.json", f"{d}/targeted_views.json", f"{d}/llm.json"]
+    return out
 
 
 def _semantics(ctx: StageContext) -> list[str]:
     """Region maps per floor, planes with floor and region, relevance of the library's categories."""
     from .semantics import annotate_planes, input_region_map, region_map, region_picture, relevance
 
-    d, p = ctx.key("semantics"), ctx.key("perceive")
-    instances: list[Instance] = load_npz(ctx.store.path(f"{p}/instances.npz"))  # type: ignore[assignment]
-    planes: list[ReceptaclePlane] = load_json(ctx.store.path(f"{p}/planes.json"), ReceptaclePlane)
+    sc = ctx.scene
+    instances: list[Instance] = load_npz(ctx.store.path(RunLayout.instances(sc)))  # type: ignore[assignment]
+    planes: list[ReceptaclePlane] = load_json(ctx.store.path(RunLayout.planes(sc, "perceive")), ReceptaclePlane)
     backend = _llm_backend(ctx)
     outs: list[str] = []
     maps = {}
@@ -478,40 +463,40 @@ def _semantics(ctx: StageContext) -> list[str]:
         else:
             rm = region_map(instances, nm, backend, ctx.cfg.semantics)
         maps[nm.floor] = (nm, rm)
-        save_json(rm, ctx.store.path(f"{d}/regions_{nm.floor}.json"))
-        region_picture(rm, ctx.store.path(f"{d}/regions_{nm.floor}.png"), navmap=nm)
-        outs += [f"{d}/regions_{nm.floor}.json", f"{d}/regions_{nm.floor}.png"]
+        rec, pic = RunLayout.regions(sc, nm.floor), RunLayout.regions(sc, nm.floor, ".png")
+        save_json(rm, ctx.store.path(rec))
+        region_picture(rm, ctx.store.path(pic), navmap=nm)
+        outs += [rec, pic]
     annotated = annotate_planes(planes, maps)
-    save_json(annotated, ctx.store.path(f"{d}/planes.json"))
+    save_json(annotated, ctx.store.path(RunLayout.planes(sc, "semantics")))
     categories = sorted({o.category for o in ctx.view.object_library()})
     regions = sorted({p.region for p in annotated if p.region} | set(ctx.cfg.semantics.region_labels))
     receptacles = sorted({p.label for p in annotated})
-    save_json(relevance(categories, regions, receptacles, backend), ctx.store.path(f"{d}/relevance.json"))
-    return outs + [f"{d}/planes.json", f"{d}/relevance.json"]
+    save_json(relevance(categories, regions, receptacles, backend), ctx.store.path(RunLayout.relevance(sc)))
+    return outs + [RunLayout.planes(sc, "semantics"), RunLayout.relevance(sc)]
 
 
 def _place(ctx: StageContext) -> list[str]:
     """Sample, settle and write one variant of the scene."""
     from .place import place_variant
 
-    s = ctx.key("semantics")
-    planes = load_json(ctx.store.path(f"{s}/planes.json"), ReceptaclePlane)
-    rel = load_json(ctx.store.path(f"{s}/relevance.json"), Relevance)
+    planes = load_json(ctx.store.path(RunLayout.planes(ctx.scene, "semantics")), ReceptaclePlane)
+    rel = load_json(ctx.store.path(RunLayout.relevance(ctx.scene)), Relevance)
     variant = place_variant(ctx.view.scene(ctx.scene), planes, rel, ctx.view.object_library(), ctx.store.root,
                             ctx.cfg.place, ctx.variant_seed, ctx.variant, open_parts=ctx.cfg.observe.open_parts)
-    return [f"{Path(ctx.key('place')).parent.as_posix()}/variant.json", variant.mjcf]
+    return [RunLayout.variant_record(ctx.scene, ctx.variant_name), variant.mjcf]
 
 
 def _episodes(ctx: StageContext) -> list[str]:
     """ObjectNav episodes of one variant."""
     from .episodes import generate_episodes
 
-    vdir = Path(ctx.key("episodes")).parent.as_posix()
-    variant = load_json(ctx.store.path(f"{vdir}/variant.json"), SceneVariant)
+    variant = load_json(ctx.store.path(RunLayout.variant_record(ctx.scene, ctx.variant_name)), SceneVariant)
     eps = generate_episodes(variant, ctx.view.navmaps(ctx.scene), ctx.store.root, ctx.cfg.episodes, ctx.variant_seed,
                             agent=ctx.cfg.agent)
-    save_json(eps, ctx.store.path(f"{vdir}/episodes.json"))
-    return [f"{vdir}/episodes.json"]
+    path = RunLayout.episodes(ctx.scene, ctx.variant_name)
+    save_json(eps, ctx.store.path(path))
+    return [path]
 
 
 def _day(ctx: StageContext) -> list[str]:
@@ -553,8 +538,8 @@ def _day_extra(ctx: StageContext) -> list[Any]:
 
 
 def export_unit_key(fmt: str, unit: str) -> str:
-    """Return the marker folder (store-relative) of one export unit: ``export/<fmt>.units/<unit>``."""
-    return f"export/{fmt}.units/{unit}"
+    """Return the marker folder (store-relative) of one export unit (`RunLayout.export_unit`)."""
+    return RunLayout.export_unit(fmt, unit)
 
 
 def _export_setup(ctx: StageContext) -> tuple[Any, Any, list[Any] | None]:
@@ -598,7 +583,7 @@ def run_export_units(ctx: StageContext, runner: Any, only: str = "") -> bool:
         return False
     if only and only not in {u.key for u in units}:
         raise StageError(f"exporter {ctx.fmt} has no unit '{only}' (units: {', '.join(u.key for u in units)})")
-    out = ctx.store.path(f"export/{ctx.fmt}")
+    out = ctx.store.path(RunLayout.export_dir(ctx.fmt))
     for unit in units:
         if only and unit.key != only:
             continue
@@ -610,7 +595,7 @@ def run_export_units(ctx: StageContext, runner: Any, only: str = "") -> bool:
         def make(unit: Any = unit, key: str = key) -> list[str]:
             res = exporter.export_unit(ctx.view, out, options, unit)
             ctx.store.write_json(f"{key}/unit.json", res.to_dict())
-            return [f"{key}/unit.json"] + [f"export/{ctx.fmt}/{f}" for f in res.files]
+            return [f"{key}/unit.json"] + [f"{RunLayout.export_dir(ctx.fmt)}/{f}" for f in res.files]
 
         runner.run(key, fp, make)
     return True
@@ -626,7 +611,7 @@ def _export(ctx: StageContext) -> list[str]:
     from .export import UnitResult, record_export, run_export
 
     exporter, options, units = _export_setup(ctx)
-    out = ctx.store.path(f"export/{ctx.fmt}")
+    out = ctx.store.path(RunLayout.export_dir(ctx.fmt))
     if units is None:
         if out.exists():
             shutil.rmtree(out)
@@ -651,13 +636,13 @@ def _export(ctx: StageContext) -> list[str]:
                 p.unlink()
             elif p.is_dir() and not any(p.iterdir()):
                 p.rmdir()
-        udir = ctx.store.path(f"export/{ctx.fmt}.units")
+        udir = ctx.store.path(RunLayout.export_unit(ctx.fmt))
         for d in sorted(udir.iterdir()) if udir.is_dir() else []:
             if d.is_dir() and d.name not in {u.key for u in units}:
                 shutil.rmtree(d)
-    ctx.store.write_json(f"export/{ctx.fmt}.report.json", {"format": report.format, "variants": report.variants,
+    ctx.store.write_json(RunLayout.export_report(ctx.fmt), {"format": report.format, "variants": report.variants,
                                                            "skipped": report.skipped, "episodes": report.episodes})
-    return [f"export/{ctx.fmt}.report.json"] + [f"export/{ctx.fmt}/{f}" for f in own]
+    return [RunLayout.export_report(ctx.fmt)] + [f"{RunLayout.export_dir(ctx.fmt)}/{f}" for f in own]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -668,51 +653,51 @@ def _export(ctx: StageContext) -> list[str]:
 DAY_KEYS = ("place.day_move", "place.day_leave", "place.day_arrive", "place.day_rates")
 
 _DECLARED = [
-    Stage("world:objects", "run", "inputs/objects", (), ("world.object_seed", "world.object_variants", "world.object_categories"),
+    Stage("world:objects", "run", RunLayout.MARKERS["world:objects"], (), ("world.object_seed", "world.object_variants", "world.object_categories"),
           "the default world's object library as input files (only when no --objects are given)",
           _world_objects, applies=lambda ctx: not ctx.inputs["objects"]),
-    Stage("objects", "run", "objects", (), ("convert",),
+    Stage("objects", "run", RunLayout.MARKERS["objects"], (), ("convert",),
           "objects/objects.json (list[ObjectAsset]), objects/failures.json, objects/<name>/ (MJCF, hulls, textures)",
           _objects, extra=_objects_extra, after=("world:objects",)),
-    Stage("world:scene", "scene", "inputs/scenes/{scene}", (), ("world.floors", "world.scene_mode"),
+    Stage("world:scene", "scene", RunLayout.MARKERS["world:scene"], (), ("world.floors", "world.scene_mode"),
           "a default-world apartment as an input file (only for default-world scenes)",
           _world_scene, extra=lambda ctx: [_apartment_seed(ctx.scene)] + (["articulated"] if ctx.cfg.world.articulated else [])
           + ([ctx.cfg.world.preset] if ctx.cfg.world.preset != "apartment" else []), applies=lambda ctx: not ctx.scene_source()),
-    Stage("convert", "scene", "scenes/{scene}/convert", (), ("convert",),
+    Stage("convert", "scene", RunLayout.MARKERS["convert"], (), ("convert",),
           "scenes/<scene>/scene.json (SceneAsset), its MJCF and mesh sidecar",
           _convert, extra=lambda ctx: _convert_extra(converter(), scene_file(ctx)),
           after=("world:scene",)),
-    Stage("observe", "scene", "scenes/{scene}/observe", ("convert",),
+    Stage("observe", "scene", RunLayout.MARKERS["observe"], ("convert",),
           ("observe", "agent.radius", "agent.height", "agent.camera_height", "agent.hfov"),
           "navmap_<floor>.json, viewpoints.json, obs_*.npz shards, pictures",
           _observe, extra=lambda ctx: [ctx.scene_seed]),
-    Stage("perceive", "scene", "scenes/{scene}/perceive", ("observe",),
+    Stage("perceive", "scene", RunLayout.MARKERS["perceive"], ("observe",),
           ("observe", "perceive", "receptacles", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
           "instances.npz, planes.json, targeted_views.json, llm.json (receptacle naming: backend, fallbacks)",
           _perceive, extra=lambda ctx: [ctx.scene_seed],
           when_sections=lambda cfg: () if cfg.receptacles.labels and not cfg.receptacles.llm_share else LLM_IDENTITY),
-    Stage("semantics", "scene", "scenes/{scene}/semantics", ("perceive", "objects"), ("semantics",),
+    Stage("semantics", "scene", RunLayout.MARKERS["semantics"], ("perceive", "objects"), ("semantics",),
           "regions_<floor>.json + .png, planes.json (with floor and region), relevance.json",
           _semantics, extra=lambda ctx: [_offline_semantics()]),
-    Stage("place", "variant", "scenes/{scene}/variants/{variant}/place", ("semantics", "objects"), ("place",),
+    Stage("place", "variant", RunLayout.MARKERS["place"], ("semantics", "objects"), ("place",),
           "variant.json (SceneVariant) and the composed variant MJCF",
           _place, extra=lambda ctx: [ctx.variant_seed],
           when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else (),
           drop=("place.days",) + DAY_KEYS),
-    Stage("episodes", "variant", "scenes/{scene}/variants/{variant}/episodes", ("place",),
+    Stage("episodes", "variant", RunLayout.MARKERS["episodes"], ("place",),
           ("episodes", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
           "episodes.json (list[Episode])",
           _episodes, extra=lambda ctx: [ctx.variant_seed]),
-    Stage("day", "chain", "scenes/{scene}/days/{day}/day", ("semantics", "objects"), ("place",),
+    Stage("day", "chain", RunLayout.MARKERS["day"], ("semantics", "objects"), ("place",),
           "variant.json (SceneVariant with its day), day.json (DayChange: stayed, moved, left, arrived) and the "
           "composed MJCF of one day of the scene's chain (place.days)",
           _day, extra=_day_extra, applies=lambda ctx: ctx.cfg.place.days > 0,
           when_sections=lambda cfg: ("observe.open_parts",) if cfg.world.articulated else (), drop=("place.days",)),
-    Stage("day:episodes", "chain", "scenes/{scene}/days/{day}/day_episodes", ("day",),
+    Stage("day:episodes", "chain", RunLayout.MARKERS["day:episodes"], ("day",),
           ("episodes", "agent.camera_height", "agent.hfov", "agent.eta_gt"),
           "episodes.json (list[Episode] with the day, each goal's history)",
           _day_episodes, extra=lambda ctx: [ctx.day_seed], applies=lambda ctx: ctx.cfg.place.days > 0),
-    Stage("export", "export", "export/{fmt}.stage", (), ("name", "split", "episodes"),
+    Stage("export", "export", RunLayout.MARKERS["export"], (), ("name", "split", "episodes"),
           "export/<fmt>/ (the exporter plugin's files), export/<fmt>.report.json",
           _export, extra=lambda ctx: [ctx.fmt, _exporter_version(ctx.fmt), ctx.view.run_id()]),
 ]
@@ -740,7 +725,7 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
     cfg : RunConfig
         The run's config.
     runner : StageRunner
-        Runs a stage once per fingerprint and records seconds (`sdovon_mj.pipeline.StageRunner`).
+        Runs a stage once per fingerprint and records seconds (`sdovon_mj.tasks.StageRunner`).
     scope : str
         ``run``, ``scene``, ``variant``, ``chain`` (a scene's days, in order) or ``export``.
     scene, variant, fmt : str, int, str
@@ -750,7 +735,7 @@ def run_task(store: Store, cfg: RunConfig, runner: Any, scope: str, scene: str =
         Only these stages (default: every stage of the scope).
     fits : callable, optional
         Asked before each stage after one that ran: False stops here, and the stages not run are returned (the
-        caller runs them in a fresh process; `sdovon_mj.pipeline.run_task`). Default: run them all.
+        caller runs them in a fresh process; `sdovon_mj.tasks.run_task`). Default: run them all.
     """
     if scope not in SCOPES:
         raise StageError(f"unknown stage scope '{scope}' ({', '.join(SCOPES)})")

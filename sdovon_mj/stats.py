@@ -1,21 +1,13 @@
 """Dataset statistics of a run folder: tables like the paper's tables 1-2 and category charts like its figures 4-7.
 
-Reads only the run folder's records (layout: ``sdovon_mj/runview.py``)::
-
-    scenes/<scene>/scene.json                              SceneAsset
-    scenes/<scene>/observe/navmap_<floor>.json             NavMap
-    scenes/<scene>/perceive/planes.json                    list[ReceptaclePlane]   (optional)
-    scenes/<scene>/semantics/regions_<floor>.json          RegionMap               (optional)
-    scenes/<scene>/variants/<variant>/variant.json         SceneVariant
-    scenes/<scene>/variants/<variant>/episodes.json        list[Episode]
-    scenes/<scene>/days/<day>/day.json, variant.json       a chain of days (`day_statistics`, through RunView)
-    objects/<name>/object.json or objects/objects.json     ObjectAsset(s)
-    config.yaml                                            the run's config        (optional)
+Reads only the run folder's records, where `sdovon_mj.runview.RunLayout` places them: each scene's SceneAsset,
+NavMaps, perceived planes and region maps (optional), each variant's SceneVariant and episodes, a chain of days'
+records (`day_statistics`), the object library and the run's config (optional).
 
 Any of these may be missing (a partial run): missing parts count as zero. A file that exists but
 cannot be read raises ``InputError`` naming it.
 
-Writes ``<run>/stats/``: ``statistics.json`` (sorted keys, floats rounded), ``statistics.md``
+Writes the run's statistics folder (`RunLayout.STATS`): ``statistics.json`` (sorted keys, floats rounded), ``statistics.md``
 (markdown tables) and four PNG bar charts; the same records give the same bytes.
 """
 
@@ -47,6 +39,7 @@ from .records import (
     dumps,
     load_json,
 )
+from .runview import RunLayout
 from .store import atomic_write_bytes, atomic_write_text
 
 DIGITS = 4  # decimals kept for floats in statistics.json
@@ -90,9 +83,9 @@ def _floor_of(path: Path) -> int:
 def _objects(root: Path) -> list[ObjectAsset]:
     """Return the run's object library (deduplicated by name, sorted)."""
     found: dict[str, ObjectAsset] = {}
-    for obj in _read_list(root / "objects" / "objects.json", ObjectAsset):
+    for obj in _read_list(root / RunLayout.OBJECT_LIBRARY, ObjectAsset):
         found.setdefault(obj.name, obj)
-    for p in sorted((root / "objects").glob("*/object.json")):
+    for p in sorted(root.glob(RunLayout.object_record("*"))):
         obj = _read(p, ObjectAsset)
         found.setdefault(obj.name, obj)
     return [found[k] for k in sorted(found)]
@@ -100,7 +93,7 @@ def _objects(root: Path) -> list[ObjectAsset]:
 
 def _config_info(root: Path) -> dict[str, Any]:
     """Return the dataset name and k_e/k_v from the run's config.yaml (empty if absent)."""
-    path = root / "config.yaml"
+    path = root / RunLayout.CONFIG
     if not path.is_file():
         return {}
     from .config import load_config  # local: config is only needed when the run has one
@@ -186,14 +179,14 @@ def _ratio(a: float, b: float) -> float:
 # Statistics of one scene
 
 
-def _scene_dirs(root: Path) -> list[Path]:
-    """Return the run's scene folders, sorted (none when it has no scenes/ folder)."""
-    return sorted(p for p in (root / "scenes").glob("*") if p.is_dir()) if (root / "scenes").is_dir() else []
+def _scene_names(root: Path) -> list[str]:
+    """Return the names of the run's scene folders, sorted (none when it has no scenes folder)."""
+    return sorted(p.name for p in root.glob(RunLayout.scene_dir("*")) if p.is_dir())
 
 
-def _navmaps(scene_dir: Path) -> list[NavMap]:
+def _navmaps(root: Path, scene: str) -> list[NavMap]:
     """Return a scene's navigation maps by floor."""
-    return [_read(p, NavMap) for p in sorted((scene_dir / "observe").glob("navmap_*.json"), key=_floor_of)]
+    return [_read(p, NavMap) for p in sorted(root.glob(RunLayout.navmap(scene)), key=_floor_of)]
 
 
 def _area_m2(mask: np.ndarray, resolution: float) -> float:
@@ -201,13 +194,13 @@ def _area_m2(mask: np.ndarray, resolution: float) -> float:
     return float(np.count_nonzero(mask)) * float(resolution) ** 2
 
 
-def _scene_planes(scene_dir: Path, scene: SceneAsset | None,
+def _scene_planes(root: Path, name: str, scene: SceneAsset | None,
                   inst_label: dict[int, str]) -> tuple[str, list[tuple[int, str, float]]]:
     """Return where a scene's receptacle planes come from and (id, label, area m^2) of each.
 
     Perceived planes when the perceive stage wrote them, else the scene's ground-truth support surfaces.
     """
-    planes_path = scene_dir / "perceive" / "planes.json"
+    planes_path = root / RunLayout.planes(name, "perceive")
     if planes_path.is_file():
         return "perceive", [(p.id, p.label or inst_label.get(p.instance_id, UNKNOWN), float(abs(p.area)))
                             for p in _read_list(planes_path, ReceptaclePlane)]
@@ -219,11 +212,11 @@ def _scene_planes(scene_dir: Path, scene: SceneAsset | None,
     return "none", []
 
 
-def _scene_regions(scene_dir: Path) -> tuple[set[str], set[str]]:
+def _scene_regions(root: Path, scene: str) -> tuple[set[str], set[str]]:
     """Return the region labels present in a scene's region maps and the backends that labelled them."""
     labels: set[str] = set()
     backends: set[str] = set()
-    for p in sorted((scene_dir / "semantics").glob("regions_*.json"), key=_floor_of):
+    for p in sorted(root.glob(RunLayout.regions(scene)), key=_floor_of):
         rm = _read(p, RegionMap)
         present = np.unique(np.asarray(rm.label_map))
         labels.update(rm.labels[int(i)] for i in present if 0 <= int(i) < len(rm.labels))
@@ -232,37 +225,40 @@ def _scene_regions(scene_dir: Path) -> tuple[set[str], set[str]]:
     return labels, backends
 
 
-def _scene_variants(scene_dir: Path, plane_label: dict[int, str], inst_label: dict[int, str]) -> list[dict[str, Any]]:
+def _scene_variants(root: Path, scene: str, plane_label: dict[int, str],
+                    inst_label: dict[int, str]) -> list[dict[str, Any]]:
     """Return a scene's variants: name, placements, each placement's receptacle label and episodes."""
     variants: list[dict[str, Any]] = []
-    vroot = scene_dir / "variants"
-    vdirs = sorted({p.parent for p in vroot.glob("*/variant.json")} | {p.parent for p in vroot.glob("*/episodes.json")})
-    for vdir in vdirs:
-        variant = _read(vdir / "variant.json", SceneVariant) if (vdir / "variant.json").is_file() else None
-        episodes: list[Episode] = _read_list(vdir / "episodes.json", Episode)
+    names = sorted({p.parent.name for p in root.glob(RunLayout.variant_record(scene))}
+                   | {p.parent.name for p in root.glob(RunLayout.episodes(scene))})
+    for vname in names:
+        vpath, epath = root / RunLayout.variant_record(scene, vname), root / RunLayout.episodes(scene, vname)
+        variant = _read(vpath, SceneVariant) if vpath.is_file() else None
+        episodes: list[Episode] = _read_list(epath, Episode)
         placements = variant.placements if variant is not None else []
         variants.append({
-            "name": variant.name if variant is not None else vdir.name,
+            "name": variant.name if variant is not None else vname,
             "has_variant": variant is not None,
             "placements": placements,
             "receptacles": [plane_label.get(pl.plane_id) or inst_label.get(pl.receptacle_instance) or UNKNOWN for pl in placements],
             "episodes": episodes,
-            "has_episodes": (vdir / "episodes.json").is_file(),
+            "has_episodes": epath.is_file(),
         })
     return variants
 
 
-def _scene_stats(scene_dir: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+def _scene_stats(root: Path, name: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """Return one scene's statistics and the raw data the run totals need (planes, variants, regions)."""
-    scene: SceneAsset | None = _read(scene_dir / "scene.json", SceneAsset) if (scene_dir / "scene.json").is_file() else None
-    navmaps = _navmaps(scene_dir)
+    spath = root / RunLayout.scene_record(name)
+    scene: SceneAsset | None = _read(spath, SceneAsset) if spath.is_file() else None
+    navmaps = _navmaps(root, name)
     inst_label = {i.id: i.label for i in scene.instances} if scene is not None else {}
-    planes_src, planes = _scene_planes(scene_dir, scene, inst_label)
-    region_labels, region_backends = _scene_regions(scene_dir)
-    variants = _scene_variants(scene_dir, {pid: label for pid, label, _ in planes}, inst_label)
+    planes_src, planes = _scene_planes(root, name, scene, inst_label)
+    region_labels, region_backends = _scene_regions(root, name)
+    variants = _scene_variants(root, name, {pid: label for pid, label, _ in planes}, inst_label)
     per_room = _room_instances(scene)
     stats = {
-        "name": scene.name if scene is not None else scene_dir.name,
+        "name": scene.name if scene is not None else name,
         "floors": len(scene.floors) if scene is not None else len(navmaps),
         "navmaps": len(navmaps),
         "navigable_area_m2": sum(_area_m2(m.navigable, m.resolution) for m in navmaps),
@@ -486,7 +482,7 @@ def dataset_statistics(run_root: Path) -> dict:
     config; tally the raw data over all scenes; derive totals, summaries and tables; round the floats.
     """
     root = Path(run_root)
-    per_scene = [_scene_stats(d) for d in _scene_dirs(root)]
+    per_scene = [_scene_stats(root, n) for n in _scene_names(root)]
     scenes = [s for s, _ in per_scene]
     objects = _objects(root)
     cfg = _config_info(root)
@@ -626,7 +622,7 @@ def bar_chart_png(freq: dict[str, int], title: str, xlabel: str, ylabel: str) ->
     return buf.getvalue()
 
 
-def write_statistics(run_root: Path, out_rel: str = "stats") -> list[Path]:
+def write_statistics(run_root: Path, out_rel: str = RunLayout.STATS) -> list[Path]:
     """Write statistics.json, statistics.md and the category charts into <run>/<out_rel>/ and return their paths."""
     root = Path(run_root)
     stats = dataset_statistics(root)
@@ -659,13 +655,14 @@ def llm_fallbacks(run_root: Path) -> dict[str, int]:
         except (OSError, ValueError) as e:
             raise InputError(f"{path}: not a readable JSON record ({e})") from None
 
-    for sd in _scene_dirs(Path(run_root)):
-        if (sd / "perceive" / "llm.json").is_file():
-            out["perceive.receptacle_naming"] += _count(sd / "perceive" / "llm.json")
-        for rp in sorted((sd / "semantics").glob("regions_*.json")):
+    root = Path(run_root)
+    for sc in _scene_names(root):
+        if (root / RunLayout.llm_record(sc)).is_file():
+            out["perceive.receptacle_naming"] += _count(root / RunLayout.llm_record(sc))
+        for rp in sorted(root.glob(RunLayout.regions(sc))):
             out["semantics.region_proposals"] += _count(rp)
-        if (sd / "semantics" / "relevance.json").is_file():
-            out["semantics.relevance"] += _count(sd / "semantics" / "relevance.json")
+        if (root / RunLayout.relevance(sc)).is_file():
+            out["semantics.relevance"] += _count(root / RunLayout.relevance(sc))
     return out
 
 
@@ -690,8 +687,9 @@ def placement_top_pairs(run_root: Path, k: int = 3) -> dict[str, Any]:
     """
     placed, hits, rand = 0, 0, 0.0
     ceil_hits, ceil_rand = 0.0, 0.0
-    for sd in _scene_dirs(Path(run_root)):
-        planes_path, rel_path = sd / "semantics" / "planes.json", sd / "semantics" / "relevance.json"
+    root = Path(run_root)
+    for sc in _scene_names(root):
+        planes_path, rel_path = root / RunLayout.planes(sc, "semantics"), root / RunLayout.relevance(sc)
         if not (planes_path.is_file() and rel_path.is_file()):
             continue
         planes = _read_list(planes_path, ReceptaclePlane)
@@ -700,7 +698,7 @@ def placement_top_pairs(run_root: Path, k: int = 3) -> dict[str, Any]:
         available = set(pair_of.values())
         top = rel.top_pairs(sorted(available), k)
         cover = {o: sum(1 for q in pair_of.values() if q in best) / len(pair_of) for o, best in top.items()}
-        for v in _scene_variants(sd, {}, {}):
+        for v in _scene_variants(root, sc, {}, {}):
             for pl in v["placements"]:
                 if pl.status not in PLACED_STATUSES or int(pl.plane_id) not in pair_of:
                     continue

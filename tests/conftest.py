@@ -125,7 +125,7 @@ def _memory_back_after_each_module(request: pytest.FixtureRequest) -> Generator[
     their modules left behind at the same time, on a CI machine whose memory we do not choose.
     """
     yield
-    from sdovon_mj.pipeline import release_memory
+    from sdovon_mj.memory import release_memory
 
     for obj in list(vars(request.module).values()):
         if callable(getattr(obj, "cache_clear", None)) and getattr(obj, "__module__", None) == request.module.__name__:

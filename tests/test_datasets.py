@@ -17,7 +17,7 @@ from assets_convert.plugin import MeshConverter
 from assets_convert.scene import check_scene, convert_scene
 from sdovon_mj.config import RunConfig
 from sdovon_mj.errors import InputError, InputsError
-from sdovon_mj.pipeline import check_inputs
+from sdovon_mj.inputs import check_inputs
 from sdovon_mj.stages import expand_scene_inputs, name_scenes, select_scenes
 from support.datasets import write_scene_dataset
 from sdovon_mj.world import generate_apartment, write_apartment

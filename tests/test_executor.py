@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from sdovon_mj.pipeline import _worker_init, rasterizer_threads
+from sdovon_mj.executors import _worker_init, rasterizer_threads
 
 # A small room: floor, walls, furniture-sized boxes, a sphere and a capsule, seen across llvmpipe's 64-pixel tiles.
 RENDER = r'''
@@ -72,3 +72,30 @@ def test_worker_init_keeps_the_users_setting(monkeypatch):
 def test_images_do_not_depend_on_rasterizer_threads():
     """RGB, depth and segmentation are the same bytes rasterized in the rendering thread or by llvmpipe's threads."""
     assert _render_digest("0") == _render_digest(None) == _render_digest("2")
+
+
+def test_bad_input_is_not_retried(tmp_path):
+    """A bad input fails the same way every time: its task runs once (the manifest's ``attempts`` is 1) and names
+    the file, while a failure of another kind is retried up to ``retries`` times."""
+    import json
+
+    from sdovon_mj.config import load_config
+    from sdovon_mj.executors import LocalExecutor
+    from sdovon_mj.manifest import RunSummary, write_manifest
+    from sdovon_mj.pipeline import prepare_run
+    from sdovon_mj.tasks import TaskSpec
+
+    mug = tmp_path / "lib" / "mug.obj"
+    mug.parent.mkdir()
+    mug.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", encoding="utf-8")
+    cfg = load_config(None)
+    store = prepare_run(tmp_path / "run", cfg, objects=[str(mug)])
+    mug.unlink()  # the input went away after the run was prepared (a resumed run): the objects task reads it
+    ex = LocalExecutor(jobs=1, retries=2, memory_mb=0)
+    bad, other = ex.map([TaskSpec("objects", str(store.root)), TaskSpec("scene", str(store.root), "no_such_scene")])
+    assert not bad.ok and "mug.obj" in bad.error and bad.deterministic
+    assert bad.attempts == 1
+    assert not other.ok and not other.deterministic and other.attempts == 3  # 1 + retries
+    write_manifest(store, cfg, RunSummary(str(store.root), [], [bad, other], {}))
+    failures = json.loads((store.root / "manifest.json").read_text(encoding="utf-8"))["failures"]
+    assert [f["attempts"] for f in failures] == [1, 3]

@@ -10,7 +10,8 @@ import pytest
 
 from sdovon_mj.config import RunConfig, dump_yaml
 from sdovon_mj.export import ExportOptions, Exporter, RunView, export_run, exporter_units, make_exporter
-from sdovon_mj.pipeline import ExportSchedule, LocalExecutor
+from sdovon_mj.executors import LocalExecutor
+from sdovon_mj.schedule import ExportSchedule
 from support.run_folder import build_sample_run
 
 FORMATS = ("mjcf", "habitat")

@@ -148,14 +148,14 @@ def test_records_round_trip_npz_exactly(tmp_path):
 
 def test_renamed_record_keeps_its_file_tag(tmp_path):
     """A renamed record class keeps its on-disk tag: same bytes, and files written before still load."""
-    vp = R.CoverageView(floor=1, position=np.array([1.0, 2.0, 0.88]))
+    vp = R.CoverageCamera(floor=1, position=np.array([1.0, 2.0, 0.88]))
     assert vp.record_type() == "Viewpoint" and vp.to_dict()[R.TAG] == "Viewpoint"
     R.save_json([vp], tmp_path / "viewpoints.json")
     assert '"__record__": "Viewpoint"' in (tmp_path / "viewpoints.json").read_text()
     assert R.records_equal(R.load_json(tmp_path / "viewpoints.json"), [vp])
-    assert R.records_equal(R.load_json(tmp_path / "viewpoints.json", R.CoverageView), [vp])
+    assert R.records_equal(R.load_json(tmp_path / "viewpoints.json", R.CoverageCamera), [vp])
     R.save_npz([vp], tmp_path / "v.npz")
-    assert type(R.load_npz(tmp_path / "v.npz")[0]) is R.CoverageView
+    assert type(R.load_npz(tmp_path / "v.npz")[0]) is R.CoverageCamera
     with pytest.raises(R.RecordError, match="Viewpoint"):
         R.ViewPoint.from_dict(vp.to_dict())
     with pytest.raises(TypeError, match="Viewpoint"):

@@ -9,7 +9,8 @@ import trimesh
 from sdovon_mj import stages
 from sdovon_mj.records import ObjectAsset, load_json
 from sdovon_mj.config import ConvertConfig, RunConfig
-from sdovon_mj.pipeline import StageRunner, TaskResult, TaskSpec, prepare_run
+from sdovon_mj.pipeline import prepare_run
+from sdovon_mj.tasks import StageRunner, TaskResult, TaskSpec
 
 
 def test_bad_object_is_reported_and_the_library_goes_on(tmp_path):
@@ -39,7 +40,7 @@ def test_bad_object_is_reported_and_the_library_goes_on(tmp_path):
 
 def test_urdf_objects_in_a_library_folder(tmp_path):
     """A library folder's URDF is one object (generate took its link mesh as an object and refused a .urdf file)."""
-    from sdovon_mj.pipeline import check_inputs
+    from sdovon_mj.inputs import check_inputs
 
     lib = tmp_path / "lib"
     box = lib / "box" / "model.obj"

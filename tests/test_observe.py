@@ -13,7 +13,7 @@ from sdovon_mj.observe import (OffFloorError, coverage_viewpoints, find_floors, 
                                observe_scene, render_observations, uniform_viewpoints)
 from support.scenes import Box, apartment_boxes, write_box_scene
 from sdovon_mj.world.shapes import box
-from sdovon_mj.records import CoverageView, NavMap, load_json
+from sdovon_mj.records import CoverageCamera, NavMap, load_json
 from sdovon_mj.sim.model import load_scene_mesh
 
 
@@ -196,7 +196,7 @@ def test_backprojected_depth_lies_on_scene_surfaces(two_storey):
 
     scene, root, v, f, fi = two_storey
     cfg = dataclasses.replace(ObserveConfig(), width=160, height=120, yaw_steps=3, pitch_angles=(-30.0, 0.0))
-    vps = [CoverageView(floor=0, position=np.array([2.0, 4.0, 0.88])), CoverageView(floor=1, position=np.array([6.0, 2.5, 3.68]))]
+    vps = [CoverageCamera(floor=0, position=np.array([2.0, 4.0, 0.88])), CoverageCamera(floor=1, position=np.array([6.0, 2.5, 3.68]))]
     obs = list(render_observations(scene, vps, cfg, store_root=root))
     per_vp = 3 * (2 + len(cfg.camera_heights) * len(cfg.camera_height_pitches))
     assert len(obs) == 2 * per_vp and [o.view_id for o in obs] == list(range(2 * per_vp))
@@ -284,7 +284,7 @@ def test_observe_scene_writes_everything_deterministically(two_storey, tmp_path)
         assert (tmp_path / "a" / rel).read_bytes() == (tmp_path / "b" / rel).read_bytes(), rel
     obs = list(load_shards([tmp_path / "a" / p for p in s1["shards"]]))
     assert len(obs) == s1["frames"] and obs[0].K.shape == (3, 3) and obs[0].T_cam.shape == (4, 4)
-    vps = load_json(tmp_path / "a" / "observe" / "viewpoints.json", CoverageView)
+    vps = load_json(tmp_path / "a" / "observe" / "viewpoints.json", CoverageCamera)
     assert {vp.floor for vp in vps} == {0, 1}
     for k in (0, 1):
         assert (tmp_path / "a" / "observe" / f"coverage_{k}.png").read_bytes()[:4] == b"\x89PNG"

@@ -375,7 +375,7 @@ def test_zero_byte_texture_is_named_and_the_rest_of_the_library_converts(tmp_pat
 ALL_STAGES = ("inputs/objects", "objects", "inputs/scenes/apt_0000", f"{SCENE}/convert", f"{SCENE}/observe",
               f"{SCENE}/perceive", f"{SCENE}/semantics", f"{VARIANT}/place", f"{VARIANT}/episodes",
               "export/habitat.units/apt_0000", "export/habitat.units/_objects", "export/mjcf.units/apt_0000",
-              "export/habitat.stage", "export/mjcf.stage")  # export units (pipeline.ExportSchedule), then finishing
+              "export/habitat.stage", "export/mjcf.stage")  # export units (schedule.ExportSchedule), then finishing
 
 
 @pytest.mark.slow

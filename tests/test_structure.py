@@ -13,7 +13,10 @@
 from __future__ import annotations
 
 import ast
+import re
 import functools
+import io
+import tokenize
 from collections import defaultdict
 from pathlib import Path
 
@@ -248,3 +251,172 @@ def test_every_name_the_scripts_import_from_the_product_exists():
                                 if a.name != "*" and not hasattr(module, a.name)
                                 and importlib.util.find_spec(f"{node.module}.{a.name}") is None]
     assert not missing, missing
+
+
+# ----------------------------------------------------------------------------------------------
+# The run folder's layout has one home: `sdovon_mj.runview` (RunLayout, RunView)
+
+# Folders of a run that a module spells when it joins them with `/` (``root / "scenes"``).
+RUN_DIRS = {"scenes", "variants", "observe", "perceive", "semantics", "objects", "stats", "export", "inputs"}
+# A run-folder path written as text: a run folder's top-level folder followed by more of the path
+# (``scenes/{scene}``, ``objects/objects.json``, ``export/{fmt}``), or one of the run's record files by name.
+RUN_PATH = re.compile(r"(^|/)(scenes|variants|objects|inputs|export|stats)/"
+                      r"|(^|/)(scene|variant|episodes|objects|object|planes|relevance|manifest|timings|inputs|failures"
+                      r"|llm|targeted_views)\.json$|(^|/)instances\.npz$|(^|/)variant\.xml$|(^|/)config\.yaml$"
+                      r"|(^|/)(navmap|regions)_(\*|\d|$)")
+LAYOUT_HOME = "sdovon_mj/runview.py"
+# Spellings that are not run-folder paths, each with why: other layouts that share a name with a run's (the MJCF
+# bundle's, the exporters' outputs, the world writers' inputs), data outside the project. (file, text) pairs, so a
+# new run-folder path in one of these files still fails.
+NOT_RUN_PATHS = {
+    ("sdovon_mj/world/io/habitat.py", "scenes"): "the Habitat scene dataset the world writer makes",
+    ("sdovon_mj/world/io/habitat.py", "objects"): "the Habitat scene dataset the world writer makes",
+    ("sdovon_mj/world/io/habitat.py", "objects/"): "the Habitat scene dataset the world writer makes",
+    ("sdovon_mj/world/io/habitat.py", "semantics"): "the Habitat scene dataset the world writer makes",
+    ("sdovon_mj/commands/world.py", "objects"): "`sdovon-mj world`'s output folder (input files, not a run)",
+    ("sdovon_mj/commands/semantics_eval.py", "semantics"): "the shared judgement data (../shared/semantics)",
+    ("sdovon_mj/suite/bundle.py", "episodes.json"): "the MJCF bundle's layout",
+    ("sdovon_mj/suite/bundle.py", "variant.xml"): "the MJCF bundle's layout",
+    ("sdovon_mj/suite/bundle.py", "relevance.json"): "the MJCF bundle's layout",
+    ("sdovon_mj/suite/__init__.py", "episodes.json"): "the MJCF bundle's layout",
+    ("exporters/mjcf_bundle/__init__.py", "episodes.json"): "the MJCF bundle's layout",
+    ("exporters/mjcf_bundle/__init__.py", "relevance.json"): "the MJCF bundle's layout",
+    ("exporters/mjcf_bundle/__init__.py", "navmap_"): "the MJCF bundle's layout",
+    ("exporters/urdf/__init__.py", "scene.json"): "the URDF export's layout",
+    ("exporters/urdf/__init__.py", "episodes.json"): "the URDF export's layout",
+    ("exporters/usd/__init__.py", "scenes"): "the USD export's layout",
+    ("exporters/usd/__init__.py", "objects"): "the USD export's layout",
+    ("exporters/usd/__init__.py", "variants"): "the USD export's layout",
+    ("exporters/usd/__init__.py", "variants/"): "the USD export's layout",
+    ("exporters/habitat/__init__.py", "scenes"): "the Habitat dataset export's layout",
+    ("exporters/habitat/__init__.py", "/scenes/"): "the Habitat dataset export's layout",
+    ("exporters/habitat/__init__.py", "objects"): "the Habitat dataset export's layout",
+    ("exporters/habitat/__init__.py", "objects/"): "the Habitat dataset export's layout",
+}
+
+
+def _docstring_nodes(tree: ast.AST) -> set[int]:
+    """Return the ids of the docstring constants of a parsed module (module, class and function docstrings)."""
+    out = set()
+    for n in ast.walk(tree):
+        if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and n.body:
+            first = n.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+                out.add(id(first.value))
+    return out
+
+
+def run_folder_paths(source: str) -> list[tuple[int, str]]:
+    """Return (line, text) of each run-folder path a module's code spells: a string (or an f-string's literal part)
+    that `RUN_PATH` matches, or one of `RUN_DIRS` joined with ``/``. Docstrings and prose (text with spaces) are
+    not paths."""
+    tree = ast.parse(source)
+    docs = _docstring_nodes(tree)
+    joined = {id(side) for n in ast.walk(tree) if isinstance(n, ast.BinOp) and isinstance(n.op, ast.Div)
+              for side in (n.left, n.right)}
+    hits = []
+    for n in ast.walk(tree):
+        if not (isinstance(n, ast.Constant) and isinstance(n.value, str)) or id(n) in docs or " " in n.value.strip():
+            continue
+        if RUN_PATH.search(n.value) or (n.value in RUN_DIRS and id(n) in joined):
+            hits.append((n.lineno, n.value))
+    return sorted(hits)
+
+
+def test_run_folder_paths_are_composed_in_the_run_layout_only():
+    """Every path inside a run folder is composed by `sdovon_mj.runview` (RunLayout, RunView): no other module of the
+    product spells one (stages, statistics, audit, commands, exporters ask it)."""
+    bad = []
+    for base in ("sdovon_mj", "exporters"):
+        for path in sorted((ROOT / base).rglob("*.py")):
+            rel = path.relative_to(ROOT).as_posix()
+            if rel == LAYOUT_HOME:
+                continue
+            for line, text in run_folder_paths(path.read_text(encoding="utf-8")):
+                if (rel, text) not in NOT_RUN_PATHS:
+                    bad.append(f"{rel}:{line}: {text!r}")
+    assert not bad, "run-folder paths composed outside sdovon_mj/runview.py (use RunLayout / RunView):\n" + "\n".join(bad)
+
+
+def test_the_run_path_finder_finds_paths():
+    """The finder sees the ways a run-folder path gets spelt, and not prose, docstrings or other names."""
+    src = '''"""A docstring naming scenes/<scene>/scene.json."""
+a = root / "scenes" / name / "scene.json"
+b = f"scenes/{scene}/variants/{v}/variant.json"
+c = store.path(f"{d}/planes.json")
+d = sorted(p.glob("navmap_*.json"))
+e = "a sentence about scenes/ and config.yaml"
+f = navmap_image(x)
+g = "navmap_image"
+h = root / "config.yaml"
+'''
+    assert run_folder_paths(src) == [(2, "scene.json"), (2, "scenes"), (3, "/variant.json"), (3, "/variants/"),
+                                     (3, "scenes/"), (4, "/planes.json"), (5, "navmap_*.json"), (9, "config.yaml")]
+
+
+# ----------------------------------------------------------------------------------------------
+# Nothing dangling: every repository path the code's docstrings and comments name exists
+
+# Top-level folders of the repository (and the one it must never cite: research/ is outside the product).
+REPO_TOPS = ("research", "docs", "tests", "sdovon_mj", "assets_convert", "exporters", "tools", "bench", "mjcf_templates")
+REFERENCE_SCOPE = ("sdovon_mj", "assets_convert", "exporters", "mjcf_templates", "tools", "bench")
+# Text that looks like a repository path and is not one, each with why.
+NOT_REFERENCES = {"sdovon_mj/ObjectNav-v0": "the Gymnasium environment id"}
+
+
+def _reference_pattern() -> re.Pattern[str]:
+    """Return the pattern of a repository path in prose: a top-level folder and more (``docs/evaluation.md``,
+    ``tests/support``), or a module path inside the package (``world/articulated.py``). A path inside another
+    project's (``habitat-lab/habitat/tasks/nav/nav.py``) is not one: the match may not follow a name, dot or slash."""
+    subs = sorted(p.name for p in (ROOT / "sdovon_mj").iterdir() if (p / "__init__.py").exists())
+    return re.compile(r"(?<![\w./-])((?:%s)/[\w./-]*[\w/]|(?:%s)/[\w/-]*\.py)\b" % ("|".join(REPO_TOPS), "|".join(subs)))
+
+
+def _prose(source: str) -> list[tuple[int, str]]:
+    """Return (line, text) of a module's docstrings and comments."""
+    out = []
+    tree = ast.parse(source)
+    for n in ast.walk(tree):
+        if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            doc = ast.get_docstring(n, clean=False)
+            if doc:
+                out.append((n.body[0].lineno, doc))
+    out += [(t.start[0], t.string) for t in tokenize.generate_tokens(io.StringIO(source).readline)
+            if t.type == tokenize.COMMENT]
+    return out
+
+
+def dangling_references(source: str, pattern: re.Pattern[str] | None = None) -> list[tuple[int, str]]:
+    """Return (line, path) of each repository path a module's docstrings and comments name that does not exist (a
+    module path such as ``world/home.py`` is looked up inside ``sdovon_mj/``)."""
+    pattern = pattern or _reference_pattern()
+    out = []
+    for line, text in _prose(source):
+        for m in pattern.finditer(text):
+            ref = m.group(1).rstrip("/.")
+            if ref in NOT_REFERENCES:
+                continue
+            base = ROOT if ref.split("/")[0] in REPO_TOPS else ROOT / "sdovon_mj"
+            if not (base / ref).exists():
+                out.append((line, ref))
+    return out
+
+
+def test_no_dangling_repository_references():
+    """Every repository path named in the product's docstrings and comments (and the tools' and benches') exists;
+    research notes are outside the repository (their facts are in docs/background.md)."""
+    pattern = _reference_pattern()
+    bad = [f"{p.relative_to(ROOT).as_posix()}:{line}: {ref}" for d in REFERENCE_SCOPE for p in sorted((ROOT / d).rglob("*.py"))
+           for line, ref in dangling_references(p.read_text(encoding="utf-8"), pattern)]
+    assert not bad, "references to files this repository does not have:\n" + "\n".join(bad)
+
+
+def test_the_reference_check_finds_dangling_paths():
+    src = '''"""Facts in research/peers.md section 0 and docs/evaluation.md; wired in world/apartment.py, see world/home.py.
+
+The habitat-lab file ``habitat-lab/habitat/tasks/nav/nav.py`` is another project's.
+"""
+# tests/no_such_test.py and tests/test_structure.py; the id sdovon_mj/ObjectNav-v0
+x = "docs/nowhere.md"  # a string, not prose: the run-path and config checks see those
+'''
+    assert dangling_references(src) == [(1, "research/peers.md"), (1, "world/apartment.py"), (5, "tests/no_such_test.py")]

@@ -3,8 +3,8 @@ naming each parameter (maintainer check, ast-based: nothing is imported).
 
     python tools/check_docstrings.py [PATH ...]
 
-PATH is a .py file or a folder (searched recursively); with none, the checked part of the tree
-(``DEFAULT_PATHS`` less ``EXCLUDED``). Counted: module-level functions and methods of classes whose names
+PATH is a .py file or a folder (searched recursively); with none, every package of the product
+(``DEFAULT_PATHS``). Counted: module-level functions and methods of classes whose names
 do not start with ``_`` (``__init__`` included, documented in its own or its class's docstring);
 ``self`` and ``cls`` are not parameters, ``*args``/``**kwargs`` are. A parameter is named by an entry
 line ``name : type`` (or ``a, b : type``) in the section that starts with ``Parameters`` over a dashed
@@ -31,14 +31,7 @@ from typing import Iterator
 
 ROOT = Path(__file__).resolve().parent.parent
 MAX_UNDOCUMENTED = 4  # more parameters than this need a Parameters section
-DEFAULT_PATHS = (
-    "sdovon_mj/world", "sdovon_mj/stats.py", "sdovon_mj/place", "sdovon_mj/receptacles", "sdovon_mj/episodes",
-    "sdovon_mj/observe", "sdovon_mj/perceive", "sdovon_mj/sim", "sdovon_mj/semantics", "assets_convert",
-)
-EXCLUDED = (
-    "sdovon_mj/observe/cli.py",
-    "sdovon_mj/perceive/cli.py", "sdovon_mj/semantics/cli.py",
-)
+DEFAULT_PATHS = ("sdovon_mj", "assets_convert", "exporters", "mjcf_templates")  # every package of the product
 _SECTION = re.compile(r"^\s*-{3,}\s*$")
 _REF = r"`([A-Za-z_][\w.]*)`"
 _WHOLE_REF = re.compile(r"\bParameters\s+are\s+those\s+of\s+" + _REF)  # the sentence standing for a section
@@ -179,9 +172,8 @@ def check_file(path: Path) -> list[str]:
 
 
 def default_files() -> list[Path]:
-    """Return the checked files of the tree: ``DEFAULT_PATHS`` less ``EXCLUDED``."""
-    skip = {ROOT / p for p in EXCLUDED}
-    return [p for p in _expand([ROOT / p for p in DEFAULT_PATHS]) if p not in skip]
+    """Return the checked files of the tree: every .py file under ``DEFAULT_PATHS``."""
+    return _expand([ROOT / p for p in DEFAULT_PATHS])
 
 
 def _expand(paths: list[Path]) -> list[Path]:
@@ -195,7 +187,7 @@ def _expand(paths: list[Path]) -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     """Run the check; return the exit status (1 when a function lacks parameter docs)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("paths", nargs="*", type=Path, help="files or folders (default: the checked part of the tree)")
+    ap.add_argument("paths", nargs="*", type=Path, help="files or folders (default: every package of the product)")
     args = ap.parse_args(argv)
     files = _expand(args.paths) if args.paths else default_files()
     findings = [f for p in files for f in check_file(p)]

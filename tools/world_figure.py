@@ -1,6 +1,6 @@
 """Draw a default-world home of a run for the docs: a render (ceilings hidden) beside its ground floor's region map.
 
-    python tools/world_figure.py RUN_DIR [--scene house_0000] [--out docs/figures/house.png]
+    python tools/world_figure.py RUN_DIR [--scene house_0000] [--out docs/images/house.png]
 
 A maintainer script (the README's and docs/world.md's picture): reads the run's converted scene (MJCF), its
 navigable map and its region map (the semantics stage's), renders the scene with MuJoCo from above a corner, and
@@ -24,7 +24,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("run_dir")
     ap.add_argument("--scene", default=None, help="scene folder name (default: the first)")
-    ap.add_argument("--out", default="docs/figures/house.png")
+    ap.add_argument("--out", default="docs/images/house.png")
     args = ap.parse_args()
     import matplotlib
 

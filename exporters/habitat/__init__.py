@@ -1,4 +1,5 @@
-"""Habitat exporter: habitat-sim scene dataset + habitat-lab ObjectNav-v1 episodes (research/habitat_format.md section 6).
+"""Habitat exporter: habitat-sim scene dataset + habitat-lab ObjectNav-v1 episodes (docs/formats/habitat.md;
+the rules it keeps: docs/background.md, "Habitat export rules").
 
 Layout under the output folder (``<name>`` = dataset name, ``<split>`` = split)::
 
@@ -38,6 +39,7 @@ import numpy as np
 
 from sdovon_mj.errors import InputError
 from sdovon_mj.records import ArticulatedFixture, Episode, Goal, SceneAsset, SceneVariant
+from sdovon_mj.runview import RunLayout
 from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from sdovon_mj.sim.model import pose_settled
 from sdovon_mj.store import atomic_write_bytes, dumps
@@ -315,8 +317,8 @@ def _category_maps(run: RunView) -> dict[str, dict[str, int]]:
     """Return the category id maps over every variant's episodes (read as raw JSON: only the categories)."""
     cats: set[str] = set()
     for scene in run.scene_names():
-        for p in (sorted((run.root / "scenes" / scene / "variants").glob("*/episodes.json"))
-                  + sorted((run.root / "scenes" / scene / "days").glob("*/episodes.json"))):
+        for p in (sorted(run.root.glob(RunLayout.episodes(scene)))
+                  + sorted(run.root.glob(f"{RunLayout.day_dir(scene)}/episodes.json"))):
             if not (p.parent / "variant.json").is_file():  # not a variant of the run (RunView.variants)
                 continue
             text = p.read_text(encoding="utf-8")

@@ -89,7 +89,19 @@ def _placed(m: trimesh.Trimesh, data: mujoco.MjData, g: int, inv: np.ndarray, ou
 
 def geoms_mesh(model: mujoco.MjModel, data: mujoco.MjData, geoms: list[int], T_frame: np.ndarray,
                out_rotation: np.ndarray) -> trimesh.Trimesh | None:
-    """Return geoms merged into one coloured mesh in a frame (T_frame: world <- frame), then rotated by out_rotation."""
+    """Return geoms merged into one coloured mesh in a frame (T_frame: world <- frame), then rotated by out_rotation.
+
+    Parameters
+    ----------
+    model, data : mujoco.MjModel, mujoco.MjData
+        The compiled model and its state (geom poses).
+    geoms : list of int
+        The geom ids to merge.
+    T_frame : ndarray (4, 4)
+        The frame the mesh is written in (world <- frame).
+    out_rotation : ndarray (3, 3)
+        A rotation applied after (e.g. Z up to Y up).
+    """
     inv = np.linalg.inv(T_frame)
     parts = []
     for g in geoms:
@@ -106,7 +118,12 @@ def geoms_mesh(model: mujoco.MjModel, data: mujoco.MjData, geoms: list[int], T_f
 
 def geoms_scene(model: mujoco.MjModel, data: mujoco.MjData, geoms: list[int], T_frame: np.ndarray,
                 out_rotation: np.ndarray) -> trimesh.Scene | None:
-    """Return geoms as a scene of one mesh per geom in a frame (as `geoms_mesh`), textured geoms with their texture."""
+    """Return geoms as a scene of one mesh per geom in a frame (as `geoms_mesh`), textured geoms with their texture.
+
+    Parameters
+    ----------
+    model, data, geoms, T_frame, out_rotation : as in `geoms_mesh`
+    """
     from PIL import Image
     from trimesh.visual.material import PBRMaterial
 

@@ -8,6 +8,7 @@ from importlib.resources import files
 from pathlib import Path
 
 from ..config import load_config
+from ..runview import RunLayout
 
 
 def demo_config_path() -> Path:
@@ -39,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"failed: {f.spec.label}: {f.error}", file=sys.stderr)
         return 1
     pictures = show_run(out)
-    print(f"pictures: {len(pictures)} in {out / 'pictures'}")
+    print(f"pictures: {len(pictures)} in {out / RunLayout.PICTURES}")
     render = render_preview(out)
     if render:
         print(f"render: {render}")
@@ -47,8 +48,9 @@ def run(args: argparse.Namespace) -> int:
         from . import eval as eval_command
 
         eval_command.run(argparse.Namespace(
-            dataset=str(out / "export" / "mjcf"), agent=["random-astar", "semantic-astar"], episodes=args.episodes,
-            no_fn=False, fn_ablation=False, fn_mode=None, width=160, height=120, seed=0, pictures=2, out=str(out / "eval")))
+            dataset=str(out / RunLayout.export_dir("mjcf")), agent=["random-astar", "semantic-astar"],
+            episodes=args.episodes, no_fn=False, fn_ablation=False, fn_mode=None, width=160, height=120, seed=0,
+            pictures=2, out=str(out / RunLayout.EVAL)))
     print(f"done: {out.resolve()}")
     return 0
 
@@ -62,7 +64,7 @@ def render_preview(run_dir: Path) -> Path | None:
     from ..sim import GROUP_OBJECT_VISUAL, GROUP_SCENE
     from ..sim.render import SceneRenderer, top_down_camera
 
-    variants = sorted((run_dir / "scenes").glob("*/variants/*/variant.json"))
+    variants = sorted(run_dir.glob(RunLayout.variant_record("*")))
     if not variants:
         return None
     import mujoco
@@ -76,7 +78,7 @@ def render_preview(run_dir: Path) -> Path | None:
     T, hfov = top_down_camera(np.stack([lo, hi]), margin=0.2)
     with SceneRenderer(model, data, width=800, height=800, hfov=hfov, groups=(GROUP_SCENE, GROUP_OBJECT_VISUAL)) as r:
         img = r.render(T, depth=False).rgb
-    out = run_dir / "pictures" / f"{v.name}_render.png"
+    out = run_dir / RunLayout.PICTURES / f"{v.name}_render.png"
     out.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(img).save(out)
     return out

@@ -11,6 +11,7 @@ from pathlib import Path
 from .. import plugins
 from ..errors import InputError
 from ..export import export_run, make_exporter
+from ..runview import RunLayout
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,7 +47,7 @@ def _bundle_dirs(folder: Path) -> list[Path]:
 def run(args: argparse.Namespace) -> int:
     """Run the export subcommand."""
     folder = Path(args.run_dir)
-    if args.standalone and not (folder / "scenes").is_dir():  # a bundle or dataset already exported
+    if args.standalone and not (folder / RunLayout.SCENES).is_dir():  # a bundle or dataset already exported
         if args.format not in (None, "mjcf") or args.out:
             raise InputError(folder, "making a bundle self-contained takes no --format other than mjcf and no --out")
         exporter = make_exporter("mjcf")

@@ -7,6 +7,7 @@ import os
 import sys
 
 from ..config import load_config
+from ..gl import RENDER_ENV
 from ..seeds import SALT_HELP, use_secret_salt
 
 
@@ -26,10 +27,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--executor", choices=("local", "ray"), default="local", help="local process pool or Ray")
     p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
     p.add_argument("--jobs", type=int, default=1, help="parallel tasks (local workers / Ray CPUs)")
-    p.add_argument("--retries", type=int, default=1, help="retries of a failed task")
+    p.add_argument("--retries", type=int, default=1,
+                   help="retries of a failed task (not of a bad input: it fails the same way every time)")
     p.add_argument("--worker-memory", type=float, default=None, metavar="MIB",
                    help="a local worker holding more than this after a stage hands on its work to a fresh process "
-                        "(default: sdovon_mj.pipeline.WORKER_MEMORY_MB; 0: never); outputs are the same bytes")
+                        "(default: sdovon_mj.executors.WORKER_MEMORY_MB; 0: never); outputs are the same bytes")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--secret-salt-file", default=None, metavar="FILE", help=SALT_HELP)
     p.add_argument("--any-renderer", action="store_true",
@@ -48,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = load_config(args.config, args.overrides)
     use_secret_salt(getattr(args, "secret_salt_file", None))
     if args.any_renderer:  # the explicit override; workers inherit it (gl)
-        os.environ["SDOVON_RENDER"] = "any"
+        os.environ[RENDER_ENV] = "any"
     summary = generate(args.out, cfg, scenes=expand_scene_inputs(args.scenes, cfg), objects=args.objects,
                        only_scenes=args.scene, executor=args.executor,
                        jobs=args.jobs, address=args.address, retries=args.retries,
@@ -75,7 +77,9 @@ def library_warnings(run_root: str) -> list[str]:
     import json
     from pathlib import Path
 
-    path = Path(run_root) / "objects" / "failures.json"
+    from ..runview import RunLayout
+
+    path = Path(run_root) / RunLayout.OBJECT_FAILURES
     if not path.is_file():
         return []
     failures = json.loads(path.read_text(encoding="utf-8"))
@@ -87,9 +91,9 @@ def unused_input_warnings(run_root: str) -> list[str]:
     summary line counting them; nothing when every input was used."""
     from pathlib import Path
 
-    from ..runview import RunView
+    from ..runview import RunLayout, RunView
 
-    if not (Path(run_root) / "scenes").is_dir():  # the run stopped before any scene was converted
+    if not (Path(run_root) / RunLayout.SCENES).is_dir():  # the run stopped before any scene was converted
         return []
     view = RunView(run_root)
     lines = [f"scene {sc.name}: not used: {what}" for sc in view.scenes() for what in sc.unused]

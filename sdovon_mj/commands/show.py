@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..records import Episode, NavMap, ReceptaclePlane, RegionMap, SceneVariant, load_json
+from ..records import NavMap, ReceptaclePlane, RegionMap, load_json
+from ..runview import RunLayout, RunView
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -25,11 +25,9 @@ def run(args: argparse.Namespace) -> int:
     if args.stats:
         from ..stats import dataset_statistics, day_statistics, days_table, homes_table
 
-        run_dir = Path(args.run_dir)
-        if not (run_dir / "scenes").is_dir():
-            raise InputError(run_dir, "not a run folder (no scenes/ inside)")
-        print(homes_table(dataset_statistics(run_dir)))
-        days = day_statistics(run_dir)
+        view = RunView(args.run_dir)  # refuses a folder that is not a run
+        print(homes_table(dataset_statistics(view.root)))
+        days = day_statistics(view.root)
         if days:
             print()
             print(days_table(days))
@@ -69,20 +67,18 @@ def show_run(run_dir: Path, out: Path | None = None) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    run_dir = Path(run_dir)
-    if not (run_dir / "scenes").is_dir():
-        raise InputError(run_dir, "not a run folder (no scenes/ inside)")
-    out = out or run_dir / "pictures"
+    view = RunView(run_dir)  # refuses a folder that is not a run
+    out = out or view.path(RunLayout.PICTURES)
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
-    for scene_dir in sorted(p for p in (run_dir / "scenes").iterdir() if p.is_dir()):
-        navmaps = {m.floor: m for m in (load_json(p, NavMap) for p in sorted((scene_dir / "observe").glob("navmap_*.json")))}
-        regions = {r.floor: r for r in (load_json(p, RegionMap) for p in sorted((scene_dir / "semantics").glob("regions_*.json")))}
-        planes_path = scene_dir / "perceive" / "planes.json"
+    for scene in view.scene_names():
+        navmaps = {m.floor: m for m in view.navmaps(scene)}
+        regions = {r.floor: r for r in view.region_maps(scene)}
+        planes_path = view.path(RunLayout.planes(scene, "perceive"))  # as perceive found them
         planes: list[ReceptaclePlane] = load_json(planes_path, ReceptaclePlane) if planes_path.exists() else []
-        variants = [load_json(p, SceneVariant) for p in sorted((scene_dir / "variants").glob("*/variant.json"))]
+        variants = view.variants(scene)
         for floor, nm in sorted(navmaps.items()):
-            targets = [(None, [])] + [(v, _episodes(scene_dir, v)) for v in variants]
+            targets = [(None, [])] + [(v, view.episodes(v)) for v in variants]
             for v, eps in targets:
                 fig, ax = plt.subplots(figsize=(8, 8), dpi=100)
                 _base(ax, nm, regions.get(floor))
@@ -101,7 +97,7 @@ def show_run(run_dir: Path, out: Path | None = None) -> list[Path]:
                     if v is None:
                         c = pl.polygon.mean(axis=0)
                         ax.text(c[0], c[1], f"{pl.label}\n{pl.height:.2f}", fontsize=5, ha="center")
-                title = f"{scene_dir.name} floor {floor}"
+                title = f"{scene} floor {floor}"
                 if v is not None:
                     title = f"{v.name} floor {floor}: {len(v.resting)} objects, {len(eps)} episodes"
                     for p in v.placements:
@@ -120,15 +116,9 @@ def show_run(run_dir: Path, out: Path | None = None) -> list[Path]:
                 ax.set_title(title, fontsize=9)
                 ax.set_xlabel("x (m)")
                 ax.set_ylabel("y (m)")
-                name = f"{scene_dir.name}_floor{floor}.png" if v is None else f"{v.name}_floor{floor}.png"
+                name = f"{scene}_floor{floor}.png" if v is None else f"{v.name}_floor{floor}.png"
                 path = out / name
                 fig.savefig(path, bbox_inches="tight")
                 plt.close(fig)
                 written.append(path)
     return written
-
-
-def _episodes(scene_dir: Path, v: SceneVariant) -> list[Episode]:
-    """Return a variant's episodes ([] when none)."""
-    p = scene_dir / "variants" / v.name / "episodes.json"
-    return load_json(p, Episode) if p.exists() else []

@@ -54,22 +54,23 @@ class StageCommand:
     def run(self, args: argparse.Namespace) -> int:
         """Run the stage on the run folder; print what ran and what was skipped."""
         from ..pipeline import generate
+        from ..runview import RunLayout
 
         root = Path(args.run_dir)
-        existing = root / "config.yaml"
+        existing = root / RunLayout.CONFIG
         if root.exists() and not root.is_dir():
             raise InputError(root, "not a folder")
         base = args.config or (existing if existing.exists() else None)
         cfg = load_config(base, args.overrides)
         use_secret_salt(getattr(args, "secret_salt_file", None))
         scenes, objects = args.scenes, args.objects
-        if scenes is None and objects is None and not (root / "inputs.json").exists() \
+        if scenes is None and objects is None and not (root / RunLayout.INPUTS).exists() \
                 and (root / "convert_report.json").is_file():
             scenes = [str(root)]  # the folder `sdovon-mj convert --kind scene` wrote: its scene is the input
-        if (root / "inputs.json").exists() and scenes is None and objects is None:
+        if (root / RunLayout.INPUTS).exists() and scenes is None and objects is None:
             import json
 
-            inputs = json.loads((root / "inputs.json").read_text(encoding="utf-8"))
+            inputs = json.loads((root / RunLayout.INPUTS).read_text(encoding="utf-8"))
             scenes, objects = inputs["scenes"], inputs["objects"]
         from ..stages import expand_scene_inputs
 

@@ -23,12 +23,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Verify the run folder; print one line per stage (damaged ones with each bad output)."""
+    from ..runview import RunLayout
     from ..store import LOCK, Store, process_alive
 
     root = Path(args.run_dir)
     if not root.is_dir():
         raise InputError(root, "run folder not found")
-    if not (root / "config.yaml").is_file() or not (root / "inputs.json").is_file():
+    if not (root / RunLayout.CONFIG).is_file() or not (root / RunLayout.INPUTS).is_file():
         raise InputError(root, "not a run folder (no config.yaml / inputs.json inside)")
     store = Store(root)
     lock = root / LOCK
@@ -51,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f"  {line}")
         elif not args.quiet:
             print(f"ok      {key}")
-    exports = sorted(k for k in report if k.startswith("export/"))
+    exports = sorted(k for k in report if k.split("/")[0] == RunLayout.EXPORT)
     print(f"{len(report)} finished stage(s) checked ({len(exports)} export(s)): "
           + (f"{len(damaged)} damaged; rerun generate to recompute them" if damaged else "all outputs intact"))
     return 1 if damaged else 0

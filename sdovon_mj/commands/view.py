@@ -29,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Serve the viewer (until Ctrl-C) or export it."""
-    from ..viewer import data as D
+    from ..viewer import data
     from ..viewer.site import Site, export_site, make_server
 
     if not 0 <= args.port <= 65535:
@@ -37,14 +37,14 @@ def run(args: argparse.Namespace) -> int:
     if args.scene_faces is not None and args.scene_faces < 1000:
         raise InputsError([("--scene-faces", f"{args.scene_faces} is below 1000 triangles")])
     try:  # every input is read and checked here, before any page is built: a bad one is a usage error (exit 2)
-        site = Site(args.run_dir, args.eval_dirs, scene_faces=args.scene_faces or D.SCENE_FACES)
+        site = Site(args.run_dir, args.eval_dirs, scene_faces=args.scene_faces or data.SCENE_FACES)
     except InputError as e:
         raise InputsError([(e.path, e.cause)]) from None
     if site.evals is not None:
         for line in site.evals.skipped[:20]:
-            D.warn(f"skipped {line}")
+            data.warn(f"skipped {line}")
         for agent, (unmatched, total) in site.unmatched_results().items():
-            D.warn(f"{unmatched} of {total} results of agent '{agent}' name no episode of this run")
+            data.warn(f"{unmatched} of {total} results of agent '{agent}' name no episode of this run")
     if args.export:
         out = Path(args.export)
         paths = export_site(site, out)

@@ -23,8 +23,8 @@ from pathlib import Path
 
 import mujoco
 
-from ..config import load_config
-from ..records import NavMap, ReceptaclePlane, SceneVariant, load_json
+from ..records import NavMap, ReceptaclePlane, load_json
+from ..runview import RunLayout, RunView
 from ..sim.articulation import part_instance, part_joints
 from .generate import build_goals
 from .inside import part_opened, seen_fraction
@@ -92,18 +92,17 @@ def audit_inside(run_dir: str | Path) -> InsideAudit:
     The goals are rebuilt with the run's own config (`build_goals`), so every valid goal is checked, not only those
     the sampled episodes name.
     """
-    run = Path(run_dir)
-    cfg = load_config(run / "config.yaml")
+    view = RunView(run_dir)
+    run = view.root
+    cfg = view.config()
     vis = (cfg.episodes.vis_width, cfg.episodes.vis_height)  # the view points' own visibility definition
     a = InsideAudit(eta_gt=cfg.agent.eta_gt)
-    scenes: dict[Path, tuple[dict[int, ReceptaclePlane], list[NavMap]]] = {}  # read once per scene
-    for vfile in sorted(run.glob("scenes/*/variants/*/variant.json")):
-        v = load_json(vfile, SceneVariant)
-        scene_dir = vfile.parents[2]
-        if scene_dir not in scenes:
-            scenes[scene_dir] = ({p.id: p for p in load_json(scene_dir / "semantics/planes.json", ReceptaclePlane)},
-                                 [load_json(p, NavMap) for p in sorted((scene_dir / "observe").glob("navmap_*.json"))])
-        planes, navmaps = scenes[scene_dir]
+    scenes: dict[str, tuple[dict[int, ReceptaclePlane], list[NavMap]]] = {}  # read once per scene
+    for v in view.all_variants():
+        if v.scene not in scenes:
+            planes_path = view.path(RunLayout.planes(v.scene, "semantics"))
+            scenes[v.scene] = ({p.id: p for p in load_json(planes_path, ReceptaclePlane)}, view.navmaps(v.scene))
+        planes, navmaps = scenes[v.scene]
         a.placed += len(v.placements)
         for p in v.placements:
             a.resting += p.status == "resting"

@@ -23,7 +23,19 @@ _MOVES = ((-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0),
 
 def astar(mask: np.ndarray, start: tuple[int, int], goal: tuple[int, int], tolerance_cells: float = 0.0,
           max_expansions: int = 2_000_000) -> list[tuple[int, int]] | None:
-    """Return the cell path from start to the first free cell within `tolerance_cells` of goal, or None."""
+    """Return the cell path from start to the first free cell within `tolerance_cells` of goal, or None.
+
+    Parameters
+    ----------
+    mask : ndarray (H, W) bool
+        Free cells.
+    start, goal : tuple of int
+        (row, col) cells.
+    tolerance_cells : float
+        Cells from goal that count as arrived.
+    max_expansions : int
+        Expanded cells after which the search gives up (None).
+    """
     m = np.asarray(mask, dtype=bool)
     h, w = m.shape
     s, g = (int(start[0]), int(start[1])), (int(goal[0]), int(goal[1]))
@@ -143,7 +155,19 @@ def plan_cells(mask: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
 
 def plan(mask: np.ndarray, frame: GridFrame, start_xy: np.ndarray, goal_xy: np.ndarray,
          tolerance: float = 0.0) -> np.ndarray | None:
-    """Return smoothed world waypoints (K, 2) from start to within `tolerance` (m) of goal, or None."""
+    """Return smoothed world waypoints (K, 2) from start to within `tolerance` (m) of goal, or None.
+
+    Parameters
+    ----------
+    mask : ndarray (H, W) bool
+        Free cells.
+    frame : GridFrame
+        The mask's frame.
+    start_xy, goal_xy : ndarray
+        World XY (metres); a start off the mask starts from its nearest free cell.
+    tolerance : float
+        Metres from goal that count as arrived.
+    """
     s = frame.to_cell(np.asarray(start_xy, dtype=float)[None, :2])[0]
     if not frame.inside(s[None])[0] or not mask[s[0], s[1]]:
         ns = nearest_true(mask, s)

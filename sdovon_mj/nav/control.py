@@ -28,7 +28,21 @@ def _wrap(a: float) -> float:
 
 
 class Navigator:
-    """Follows A* paths on a planning mask with MOVE_FORWARD / TURN_LEFT / TURN_RIGHT."""
+    """Follows A* paths on a planning mask with MOVE_FORWARD / TURN_LEFT / TURN_RIGHT.
+
+    Parameters
+    ----------
+    nav : NavConfig
+        Forward step and turn angle.
+    mask_fn : callable
+        Returns the current planning mask (H, W) bool (it may change between replans).
+    frame : GridFrame
+        The mask's frame.
+    max_replans : int
+        Plans after a refused move before giving up.
+    on_blocked : callable, optional
+        Called with (position, yaw in degrees) when a forward move did not move.
+    """
 
     def __init__(self, nav, mask_fn: Callable[[], np.ndarray], frame: GridFrame, max_replans: int = 4,
                  on_blocked: Callable[[np.ndarray, float], None] | None = None) -> None:
@@ -144,6 +158,27 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
     the heuristic is the grid geodesic distance to the goal region in steps (weighted by `weight`,
     ties to the deeper node), so the search hugs the shortest grid path and threads doorways the
     agent's heading lattice can pass.
+
+    Parameters
+    ----------
+    pos : ndarray
+        The agent's position (world XY, metres).
+    yaw : float
+        Its heading in degrees.
+    target : ndarray
+        The goal (world XY, metres).
+    tolerance : float
+        Metres from target that count as arrived.
+    mask : ndarray (H, W) bool
+        Where the agent may stand.
+    frame : GridFrame
+        The mask's frame.
+    nav : NavConfig
+        Forward step and turn angle.
+    max_nodes : int
+        Expanded poses after which the search gives up (None).
+    weight : float
+        Weight of the heuristic (above 1: fewer poses expanded, plans possibly longer than the shortest).
     """
     step, turn = nav.forward_step, nav.turn_angle
     n_head = int(round(360.0 / turn))
@@ -224,7 +259,17 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
 
 def lattice_approach(pos: np.ndarray, yaw: float, target: np.ndarray, can_stand: Callable[[np.ndarray, np.ndarray], bool],
                      nav, radius: float = 0.05, max_nodes: int = 60000) -> list[int] | None:
-    """Return the shortest action list (forward/turn lattice) that ends within `radius` of target, or None."""
+    """Return the shortest action list (forward/turn lattice) that ends within `radius` of target, or None.
+
+    Parameters
+    ----------
+    pos, yaw, target : as in `lattice_plan`
+    can_stand : callable
+        can_stand(a, b): whether the straight move a -> b is allowed.
+    nav, max_nodes : as in `lattice_plan`
+    radius : float
+        Metres from target that count as arrived.
+    """
     step, turn = nav.forward_step, nav.turn_angle
     n_head = int(round(360.0 / turn))
     target = np.asarray(target, float)[:2]
@@ -259,7 +304,21 @@ def lattice_approach(pos: np.ndarray, yaw: float, target: np.ndarray, can_stand:
 
 
 def blocked_cells(frame: GridFrame, pos: np.ndarray, yaw: float, step: float, radius: float = 0.05) -> np.ndarray:
-    """Return the cells (N, 2) near the end of a forward move from pos along yaw that the world refused."""
+    """Return the cells (N, 2) near the end of a forward move from pos along yaw that the world refused.
+
+    Parameters
+    ----------
+    frame : GridFrame
+        The grid's frame (cells outside it are left out).
+    pos : ndarray
+        Where the move started (world XY, metres).
+    yaw : float
+        Its heading in degrees.
+    step : float
+        The forward step in metres.
+    radius : float
+        Metres around the move's end that are marked.
+    """
     a = math.radians(yaw)
     end = np.asarray(pos, float)[:2] + step * np.array([math.cos(a), math.sin(a)])
     c = frame.to_cell(end[None])[0]

@@ -46,7 +46,21 @@ class OccupancyMap:
             self.state = np.zeros(self.frame.shape, dtype=np.int8)
 
     def integrate(self, depth: np.ndarray, K: np.ndarray, T_cam: np.ndarray, depth_max: float, stride: int = 2) -> None:
-        """Add one depth frame (metres, (H, W)) seen from T_cam."""
+        """Add one depth frame seen from T_cam.
+
+        Parameters
+        ----------
+        depth : ndarray (H, W) or (H, W, 1)
+            Depth in metres.
+        K : ndarray (3, 3)
+            The camera intrinsics.
+        T_cam : ndarray (4, 4)
+            World <- OpenCV camera.
+        depth_max : float
+            The sensor's range (metres): pixels at it saw nothing, the ray up to it is free.
+        stride : int
+            Every `stride`-th pixel of each row and column is used.
+        """
         d = np.asarray(depth, dtype=np.float32)
         if d.ndim == 3:
             d = d[..., 0]

@@ -92,7 +92,21 @@ def footprint_distance(position: np.ndarray, points: np.ndarray) -> float:
 
 def lattice_cells(mask: np.ndarray, frame: GridFrame, lo: np.ndarray, hi: np.ndarray, radius: float,
                   step: float) -> np.ndarray:
-    """Return True cells (K, 2) of `mask` on a `step` lattice anchored to the grid within `radius` of box lo..hi."""
+    """Return True cells (K, 2) of `mask` on a `step` lattice anchored to the grid within `radius` of box lo..hi.
+
+    Parameters
+    ----------
+    mask : ndarray (H, W) bool
+        Cells that may be returned.
+    frame : GridFrame
+        The mask's frame.
+    lo, hi : ndarray
+        The box's corners (world XY, metres).
+    radius : float
+        Metres around the box.
+    step : float
+        The lattice's spacing in metres (rounded to whole cells).
+    """
     stride = max(1, int(round(step / frame.resolution)))
     h, w = mask.shape
     rc_lo = frame.to_cell((np.asarray(lo, float)[:2] - radius)[None])[0]
@@ -129,7 +143,23 @@ def reachable_field(traversable: np.ndarray, frame: GridFrame, position: np.ndar
 
 def infer_view_points(points: np.ndarray, traversable: np.ndarray, frame: GridFrame, position: np.ndarray,
                       radius: float = 1.0, step: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
-    """Return candidate view points (K, 2) around an object's points, nearest by path first, and path lengths (K,)."""
+    """Return candidate view points (K, 2) around an object's points, nearest by path first, and path lengths (K,).
+
+    Parameters
+    ----------
+    points : ndarray (N, 3)
+        The object's points (world, metres).
+    traversable : ndarray (H, W) bool
+        Where the agent may stand.
+    frame : GridFrame
+        The mask's frame.
+    position : ndarray
+        The agent's position (paths are measured from it; unreachable candidates are left out).
+    radius : float
+        Metres around the object's footprint.
+    step : float
+        The candidates' lattice spacing in metres.
+    """
     lo, hi = footprint(points)
     cells = lattice_cells(traversable, frame, lo, hi, radius, step)
     if len(cells) == 0:

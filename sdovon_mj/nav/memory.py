@@ -83,7 +83,21 @@ class SceneMemory:
 
 def instances_from_frames(frames: Sequence[Observation], labels: dict[int, str], depth_max: float = 5.0,
                           min_points: int = 30, voxel: float = 0.03) -> list[Instance]:
-    """Return one Instance per segmentation id seen in the frames (gt detector semantics)."""
+    """Return one Instance per segmentation id seen in the frames (gt detector semantics).
+
+    Parameters
+    ----------
+    frames : sequence of Observation
+        Frames with depth, intrinsics, pose and segmentation (frames without segmentation are passed over).
+    labels : dict of int to str
+        Segmentation id -> label (ids not in it are left out).
+    depth_max : float
+        The sensor's range in metres (pixels at it are left out).
+    min_points : int
+        Fewest points an instance keeps.
+    voxel : float
+        Voxel size in metres of the points' downsampling.
+    """
     pts: dict[int, list[np.ndarray]] = {}
     views: dict[int, list[int]] = {}
     for f in frames:
@@ -147,6 +161,19 @@ def container_planes(instances: Sequence[Instance], planes: Sequence[ReceptacleP
     agent that opens furniture still has to remember where the piece stands. Its plane is the top slab of the
     points seen (`top_plane`), annotated with its region on the agent's own region map (`semantics.annotate_planes`);
     ids follow the given planes'. Empty `labels`: none.
+
+    Parameters
+    ----------
+    instances : sequence of Instance
+        The instances the agent saw.
+    planes : sequence of ReceptaclePlane
+        The planes it found (an instance with one gets none here).
+    labels : sequence of str
+        The openable labels (fridge, cabinet, ...).
+    navmap : NavMap
+        The agent's map (the planes' floor).
+    regions : RegionMap or None
+        The agent's region map (None: no region).
     """
     from ..semantics import annotate_planes
 
@@ -165,7 +192,21 @@ def container_planes(instances: Sequence[Instance], planes: Sequence[ReceptacleP
 
 def sample_nav_points(plane: ReceptaclePlane, traversable: np.ndarray, frame: GridFrame, near: float = 0.25,
                       far: float = 1.0, spacing: float = 0.5) -> np.ndarray:
-    """Return navigation points (K, 2): traversable cells `near`..`far` m from the plane, `spacing` apart."""
+    """Return navigation points (K, 2): traversable cells `near`..`far` m from the plane, `spacing` apart.
+
+    Parameters
+    ----------
+    plane : ReceptaclePlane
+        The plane (its polygon, world XY).
+    traversable : ndarray (H, W) bool
+        Where the agent may stand.
+    frame : GridFrame
+        The mask's frame.
+    near, far : float
+        Metres from the plane's polygon.
+    spacing : float
+        Least metres between two points.
+    """
     h, w = traversable.shape
     rows, cols = np.mgrid[0:h, 0:w]
     centres = frame.to_world(np.stack([rows.ravel(), cols.ravel()], 1))
@@ -192,7 +233,29 @@ def sample_nav_points(plane: ReceptaclePlane, traversable: np.ndarray, frame: Gr
 def build_memory(scene: str, frames: Sequence[Observation], labels: dict[int, str], traversable: np.ndarray,
                  frame: GridFrame, receptacle_labels: Sequence[str], planes: Sequence[ReceptaclePlane] | None = None,
                  region_of: Callable[[np.ndarray], str] | None = None, depth_max: float = 5.0) -> SceneMemory:
-    """Return the memory of a scene from exploration frames (or injected planes) and a planning mask."""
+    """Return the memory of a scene from exploration frames (or injected planes) and a planning mask.
+
+    Parameters
+    ----------
+    scene : str
+        The scene's name.
+    frames : sequence of Observation
+        Exploration frames (instances come from their segmentation).
+    labels : dict of int to str
+        Segmentation id -> label.
+    traversable : ndarray (H, W) bool
+        Where the agent may stand.
+    frame : GridFrame
+        The mask's frame.
+    receptacle_labels : sequence of str
+        Labels whose instances give planes.
+    planes : sequence of ReceptaclePlane, optional
+        Planes given instead of those found in the frames.
+    region_of : callable, optional
+        World XY -> region label, for planes without one.
+    depth_max : float
+        The sensor's range in metres.
+    """
     instances = instances_from_frames(frames, labels, depth_max) if planes is None or frames else []
     pl = list(planes) if planes is not None else planes_from_instances(instances, receptacle_labels)
     entries = []

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..config import AgentConfig, ObserveConfig
 from ..errors import StageError
-from ..records import CoverageView, NavMap
+from ..records import CoverageCamera, NavMap
 from .navmap import clearance
 
 
@@ -127,7 +127,7 @@ def coverage_fraction(mp: np.ndarray, navmap: NavMap, cfg: ObserveConfig) -> flo
 
 
 def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int],
-            weighted: bool, agent: AgentConfig) -> tuple[list[CoverageView], np.ndarray, CoverageStats]:
+            weighted: bool, agent: AgentConfig) -> tuple[list[CoverageCamera], np.ndarray, CoverageStats]:
     """Sequential candidate sampling with rejection and M_P bookkeeping."""
     nav = np.asarray(navmap.navigable, dtype=bool)
     cells = np.argwhere(nav)
@@ -138,7 +138,7 @@ def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | li
     ok = clear[cells[:, 0], cells[:, 1]] >= cfg.min_obstacle_distance
     mp = np.zeros(nav.shape, dtype=np.float64)
     stats = CoverageStats()
-    points: list[CoverageView] = []
+    points: list[CoverageCamera] = []
     z = float(navmap.height) + float(agent.camera_height)
     stats.bound = viewpoint_bound(navmap, cfg) if weighted else 0
     min_gain = cfg.coverage_min_gain * cfg.coverage_threshold  # as a fraction of the navigable cells
@@ -159,7 +159,7 @@ def _sample(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | li
             continue
         xy = navmap.frame.to_world(cells[k])[0]
         overlay(mp, navmap, xy, cfg)
-        points.append(CoverageView(floor=int(navmap.floor), position=np.array([xy[0], xy[1], z], dtype=np.float64)))
+        points.append(CoverageCamera(floor=int(navmap.floor), position=np.array([xy[0], xy[1], z], dtype=np.float64)))
         stats.accepted += 1
         stats.coverage = coverage_fraction(mp, navmap, cfg)
         stats.history.append(stats.coverage)
@@ -184,12 +184,12 @@ def _stalled(history: list[float], patience: int, min_gain: float) -> bool:
 
 
 def coverage_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0,
-                        agent: AgentConfig = AgentConfig()) -> tuple[list[CoverageView], np.ndarray, CoverageStats]:
+                        agent: AgentConfig = AgentConfig()) -> tuple[list[CoverageCamera], np.ndarray, CoverageStats]:
     """Return viewpoints sampled by the paper's Gaussian coverage filter, the final M_P, and stats."""
     return _sample(navmap, cfg, seed, weighted=True, agent=agent)
 
 
 def uniform_viewpoints(navmap: NavMap, cfg: ObserveConfig, seed: int | tuple[int, ...] | list[int] = 0,
-                       agent: AgentConfig = AgentConfig()) -> tuple[list[CoverageView], np.ndarray, CoverageStats]:
+                       agent: AgentConfig = AgentConfig()) -> tuple[list[CoverageCamera], np.ndarray, CoverageStats]:
     """Return viewpoints drawn uniformly over navigable cells until the same coverage (baseline)."""
     return _sample(navmap, cfg, seed, weighted=False, agent=agent)

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..config import AgentConfig, ObserveConfig
 from ..errors import InputError
-from ..records import CoverageView, Observation, SceneAsset
+from ..records import CoverageCamera, Observation, SceneAsset
 
 import mujoco
 
@@ -107,7 +107,7 @@ def observation_at(renderer: SceneRenderer, T: np.ndarray, cfg: ObserveConfig, s
                        viewpoint=int(viewpoint), yaw=float(yaw), pitch=float(pitch))
 
 
-def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoints: list[CoverageView],
+def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoints: list[CoverageCamera],
                         cfg: ObserveConfig, store_root: str | Path | None = None, rgb: bool = True,
                         depth: bool = True, segmentation: bool = True, start_view_id: int = 0,
                         renderer: SceneRenderer | None = None, agent: AgentConfig = AgentConfig()) -> Iterator[Observation]:
@@ -117,7 +117,7 @@ def render_observations(scene: SceneAsset | str | Path | mujoco.MjModel, viewpoi
     ----------
     scene : SceneAsset or str or Path or mujoco.MjModel
         The scene (asset, MJCF path or compiled model); unused when `renderer` is given.
-    viewpoints : list of CoverageView
+    viewpoints : list of CoverageCamera
         View points (world metres) to render from.
     cfg : ObserveConfig
         Yaws, pitches, image size and depth range.

@@ -2,7 +2,7 @@
 
 Outputs under ``<out_root>/<out_rel_dir>/`` (paths in the summary are relative to out_root):
 ``floors.json`` (Floor list), ``navmap_<i>.json`` (NavMap) + ``navmap_<i>.png``,
-``coverage_<i>.png`` (M_P over the navmap with the viewpoints), ``viewpoints.json`` (CoverageView
+``coverage_<i>.png`` (M_P over the navmap with the viewpoints), ``viewpoints.json`` (CoverageCamera
 list, all floors), ``obs_<k>.npz`` shards (Observation records with K and T_cam) and
 ``summary.json``..
 """
@@ -18,7 +18,8 @@ import numpy as np
 from .. import hints
 from ..config import AgentConfig, ObserveConfig
 from ..errors import InputError, StageError
-from ..records import CoverageView, NavMap, SceneAsset, dumps, save_json
+from ..records import CoverageCamera, NavMap, SceneAsset, dumps, save_json
+from ..runview import RunLayout
 from ..sim.model import load_scene_mesh
 from ..store import atomic_write_text
 from .coverage import coverage_viewpoints
@@ -122,13 +123,13 @@ def observe_scene(scene: SceneAsset, store_root: str | Path, out_rel_dir: str | 
         return outputs[-1]
 
     save_json(floors, root / _p("floors.json"))
-    viewpoints: list[CoverageView] = []
+    viewpoints: list[CoverageCamera] = []
     per_floor = []
     log = []
     for nm in maps:
         vps, mp, stats = coverage_viewpoints(nm, cfg, seed=[int(seed), int(cfg.seed), int(nm.floor)], agent=agent)
-        save_json(nm, root / _p(f"navmap_{nm.floor}.json"))
-        save_png(navmap_image(nm), root / _p(f"navmap_{nm.floor}.png"))
+        save_json(nm, root / _p(RunLayout.navmap_file(nm.floor)))
+        save_png(navmap_image(nm), root / _p(RunLayout.navmap_file(nm.floor, ".png")))
         pts = np.array([vp.position for vp in vps]) if vps else None
         save_png(navmap_image(nm, coverage=mp, points=pts), root / _p(f"coverage_{nm.floor}.png"))
         res2 = nm.resolution ** 2

@@ -4,7 +4,7 @@ The overall similarity of a new instance i and a fused instance j is
 
     phi(i, j) = k_sem * phi_label(i, j) + k_geo * phi_overlap(i, j)
 
-where, following the weights' names (see research/peers.md section 0: the paper's text pairs the
+where, following the weights' names (see docs/choices.md: the paper's text pairs the
 names the other way round),
 
 - ``k_sem`` multiplies the **label** term: the cosine similarity of the all-MiniLM-L6-v2 sentence

@@ -1,6 +1,6 @@
 """Settle placed objects with MuJoCo physics and classify where each came to rest.
 
-Settings (research/mjcf_and_dmcontrol.md section 5, measured there: 9 objects settle in 0.85 s of
+Settings (docs/background.md, "Physics settling", measured there: 9 objects settle in 0.85 s of
 sim time, 0.04-0.09 s wall): timestep `PlaceConfig.timestep` (2 ms), `implicitfast` integrator,
 Newton solver, pyramidal friction cone, multiccd on (without it a standing can never settles), and
 support geoms with torsional + rolling friction (condim 6) so round objects stop rolling.

@@ -14,6 +14,7 @@ import numpy as np
 from ..config import PlaceConfig
 from ..geometry import points_in_polygon
 from ..records import ObjectAsset, Placement, ReceptaclePlane, Relevance, SceneAsset, SceneVariant, save_json
+from ..runview import RunLayout
 from ..seeds import variant_seed
 from .compose import compose, write_mjcf
 from .sample import object_radius, plane_headrooms, resample_pose, sample_placements
@@ -42,9 +43,9 @@ class VariantStats:
 
 
 def variant_paths(scene_name: str, index: int) -> tuple[str, str]:
-    """Return the store-relative paths of a variant's composed MJCF and its record."""
-    name = f"{scene_name}_v{index:03d}"
-    return f"scenes/{scene_name}/variants/{name}/variant.xml", f"scenes/{scene_name}/variants/{name}/variant.json"
+    """Return the store-relative paths of a variant's composed MJCF and its record (the run layout's)."""
+    name = RunLayout.variant_name(scene_name, index)
+    return RunLayout.variant_mjcf(scene_name, name), RunLayout.variant_record(scene_name, name)
 
 
 def run_variant(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],

@@ -13,7 +13,7 @@ import json
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from . import validate as V
+from . import validate
 
 RECEPTACLES = "receptacles"
 REGION_PROPOSALS = "region_proposals"
@@ -52,7 +52,7 @@ class Prompt:
 
     def check(self, text: str | None, payload: dict[str, Any]) -> tuple[Any, list[str]]:
         """Return (validated result, notes) for a reply text; raise validate.ReplyError."""
-        value, salvaged = V.parse_reply(text, self.key)
+        value, salvaged = validate.parse_reply(text, self.key)
         result, notes = self.check_fn(value, payload)
         if salvaged:
             notes = ["salvaged the required key from a reply that is not valid JSON", *notes]
@@ -90,16 +90,16 @@ def _scores_schema(cand_key: str) -> Callable[[dict[str, Any]], dict[str, Any]]:
 
 
 def _check_receptacles(value: Any, payload: dict[str, Any]) -> tuple[Any, list[str]]:
-    return V.validate_names(value, "receptacles", allowed=list(payload["objects"]), min_items=0)
+    return validate.validate_names(value, "receptacles", allowed=list(payload["objects"]), min_items=0)
 
 
 def _check_regions(value: Any, payload: dict[str, Any]) -> tuple[Any, list[str]]:
-    return V.validate_names(value, "regions", allowed=None, min_items=1)
+    return validate.validate_names(value, "regions", allowed=None, min_items=1)
 
 
 def _check_scores(cand_key: str) -> Callable[[Any, dict[str, Any]], tuple[Any, list[str]]]:
     def fn(value: Any, payload: dict[str, Any]) -> tuple[Any, list[str]]:
-        return V.validate_scores(value, list(payload[cand_key]), "relevances")
+        return validate.validate_scores(value, list(payload[cand_key]), "relevances")
     return fn
 
 

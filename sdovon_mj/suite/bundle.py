@@ -34,6 +34,7 @@ from typing import Any
 
 from ..errors import InputError
 from ..records import Episode, NavMap, RecordError, RegionMap, Relevance, SceneAsset, load_json, load_npz
+from ..runview import RunLayout
 from .goals import unpack_episodes
 
 EPISODES = "episodes.json"
@@ -107,11 +108,11 @@ def find_bundles(root: str | Path) -> list[Path]:
     root = Path(root)
     if not root.is_dir():
         raise InputError(root, "dataset folder not found")
-    if (root / "config.yaml").is_file() and (root / "scenes").is_dir():  # a run folder: its MJCF export
-        if not (root / "export" / "mjcf").is_dir():
+    if RunLayout.is_run(root):  # a run folder: its MJCF export
+        if not (root / RunLayout.export_dir("mjcf")).is_dir():
             raise InputError(root, "is a run folder without an MJCF export (export/mjcf): run "
                                    f"`sdovon-mj export {root} --format mjcf --out DIR` and evaluate DIR")
-        root = root / "export" / "mjcf"
+        root = root / RunLayout.export_dir("mjcf")
     if (root / EPISODES).exists():
         return [root]
     found = sorted(p.parent for p in root.rglob(EPISODES))

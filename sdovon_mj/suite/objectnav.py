@@ -1,6 +1,6 @@
 """The dm_control ObjectNav task: a kinematic cylinder agent in an MJCF episode bundle.
 
-Design (research/mjcf_and_dmcontrol.md section 4):
+Design (docs/background.md, "The dm_control ObjectNav task"):
 - The bundle's MJCF is loaded with MjSpec and gets a mocap body ``agent`` (a cylinder of
   ``AgentConfig.radius`` x ``height``, geom group 5, no contacts) carrying the camera ``agent/camera``
   at ``camera_height``, so
@@ -43,7 +43,7 @@ from dm_control.mujoco import wrapper as dm_wrapper
 from dm_control.rl import control
 from dm_env import specs
 
-from .. import metrics as M
+from .. import metrics
 from ..actions import ACTION_NAMES, CLOSE, LOOK_DOWN, LOOK_UP, MOVE_FORWARD, OPEN, STOP, TURN_LEFT, TURN_RIGHT
 from ..config import AgentConfig, EpisodeConfig, NavConfig
 from ..errors import InputError
@@ -159,7 +159,27 @@ class AgentState:
 
 
 class ObjectNavTask(control.Task):
-    """ObjectNav on one bundle: discrete actions, RGB-D(+seg), GPS+compass, object goal; habitat metrics."""
+    """ObjectNav on one bundle: discrete actions, RGB-D(+seg), GPS+compass, object goal; habitat metrics.
+
+    Parameters
+    ----------
+    bundle : Bundle
+        The episode bundle (at least one episode).
+    nav : NavConfig
+        Action sizes, step budget, success distance.
+    semantic : bool
+        Whether observations hold the ``semantic`` image (instance ids).
+    episode_order : str
+        ``sequential`` (each reset the next episode) or ``random`` (drawn with `random`).
+    random : int or Generator, optional
+        Seed or generator of the random episode order.
+    categories : list of str, optional
+        The goal vocabulary (default: the bundle's categories).
+    pose_observations : bool
+        Whether observations hold the agent's position, heading and pitch.
+    agent : AgentConfig
+        The agent's body and camera.
+    """
 
     def __init__(self, bundle: Bundle, nav: NavConfig = NavConfig(), semantic: bool = False,
                  episode_order: str = "sequential", random: int | np.random.Generator | None = None,
@@ -571,13 +591,13 @@ class ObjectNavTask(control.Task):
             return 1.0
         return None
 
-    def metrics(self) -> M.EpisodeMetrics:
+    def metrics(self) -> metrics.EpisodeMetrics:
         """Return the episode's habitat metrics so far (final after the last step)."""
-        p = M.path_length(np.array(self.trajectory))
-        s = M.success(self.stop_called, self.distance, self.nav.success_distance)
+        p = metrics.path_length(np.array(self.trajectory))
+        s = metrics.success(self.stop_called, self.distance, self.nav.success_distance)
         if s and self.goal_seen is False:  # a part hid the goal (see `needs_sight`)
             s = 0.0
-        return M.EpisodeMetrics(success=s, spl=M.spl(s, self.shortest, p), soft_spl=M.soft_spl(self.distance, self.shortest, p),
+        return metrics.EpisodeMetrics(success=s, spl=metrics.spl(s, self.shortest, p), soft_spl=metrics.soft_spl(self.distance, self.shortest, p),
                                 distance_to_goal=float(self.distance), shortest=float(self.shortest), path_length=p,
                                 steps=self.steps, stop_called=self.stop_called)
 

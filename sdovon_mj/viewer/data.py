@@ -30,7 +30,7 @@ from ..errors import InputError
 from ..store import json_safe
 from ..geometry import quat_yaw
 from ..records import Episode, ObjectAsset, SceneAsset, SceneVariant
-from ..runview import RunView
+from ..runview import RunLayout, RunView
 from ..sim import GROUP_CEILING, GROUP_OBJECT_VISUAL as GROUP_OBJECT, GROUP_SCENE
 from .geometry import Triangles, cluster_decimate, model_triangles
 
@@ -193,7 +193,7 @@ def index_payload(view: RunView, evals: Evaluations | None = None, title: str = 
         scenes.append({"name": name, "floors": [{"index": f.index, "height": f.height} for f in s.floors],
                        "variants": variants})
     if not title:  # the run's name from its config, and its folder
-        name = view.config().name if (view.root / "config.yaml").is_file() else ""
+        name = view.config().name if view.path(RunLayout.CONFIG).is_file() else ""
         title = f"{name} ({view.root.name})" if name and name != view.root.name else view.root.name
     return {"format": FORMAT, "title": title, "run": str(view.root), "scenes": scenes,
             "categories": palette(sorted(categories)), "regions": palette(sorted(regions), 0.45, 0.9, 0.1),

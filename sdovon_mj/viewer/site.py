@@ -17,7 +17,7 @@ from typing import Any, Callable
 from ..errors import InputError
 from ..runview import RunView
 from ..store import atomic_write_bytes
-from . import data as D
+from . import data
 
 STATIC_FILES = ("index.html", "viewer.css", "viewer.js", "three.min.js", "THREE_LICENSE.txt")
 CONTENT_TYPES = {".html": "text/html; charset=utf-8", ".css": "text/css; charset=utf-8",
@@ -45,16 +45,16 @@ class Site:
     """
 
     def __init__(self, run_dir: str | Path, eval_dirs: list[str | Path] | None = None,
-                 scene_faces: int = D.SCENE_FACES, object_faces: int = D.OBJECT_FACES) -> None:
+                 scene_faces: int = data.SCENE_FACES, object_faces: int = data.OBJECT_FACES) -> None:
         self.view = RunView(run_dir)
-        self.evals = D.read_evaluations(list(eval_dirs)) if eval_dirs else None
+        self.evals = data.read_evaluations(list(eval_dirs)) if eval_dirs else None
         self.scene_faces, self.object_faces = int(scene_faces), int(object_faces)
         self._scenes = self.view.scene_names()
         if not self._scenes:
             raise InputError(self.view.root, "run folder holds no converted scene (scenes/<scene>/scene.json)")
         self._variants = {s: self.view.variants(s) for s in self._scenes}
-        self._models = D.SceneModels(self.view)
-        self._objects: dict[str, D.Triangles] = {}
+        self._models = data.SceneModels(self.view)
+        self._objects: dict[str, data.Triangles] = {}
         self._built: dict[str, bytes] = {}
         self._lock = threading.Lock()
 
@@ -85,21 +85,21 @@ class Site:
     def payload(self, key: str) -> dict[str, Any]:
         """Return the payload of a data key (KeyError for an unknown one)."""
         if key == "index":
-            return D.index_payload(self.view, self.evals)
+            return data.index_payload(self.view, self.evals)
         kind, _, rest = key.partition("_")
         idx = [int(x) for x in rest.split("_")] if rest and all(x.isdigit() for x in rest.split("_")) else []
         if kind == "scene" and len(idx) == 1 and idx[0] < len(self._scenes):
-            return D.scene_payload(self.view, self._scenes[idx[0]], self._models, self.scene_faces)
+            return data.scene_payload(self.view, self._scenes[idx[0]], self._models, self.scene_faces)
         if kind == "variant" and len(idx) == 2 and idx[0] < len(self._scenes) and idx[1] < len(self._variants[self._scenes[idx[0]]]):
             v = self._variants[self._scenes[idx[0]]][idx[1]]
-            return D.variant_payload(self.view, v, self.evals, self._models, self._objects, self.object_faces)
+            return data.variant_payload(self.view, v, self.evals, self._models, self._objects, self.object_faces)
         raise KeyError(key)
 
     def data_file(self, key: str) -> bytes:
         """Return the bytes of ``data/<key>.js`` (built on first use)."""
         with self._lock:
             if key not in self._built:
-                self._built[key] = f'SDOVON_DATA("{key}",{D.to_json(self.payload(key))});\n'.encode("ascii")
+                self._built[key] = f'SDOVON_DATA("{key}",{data.to_json(self.payload(key))});\n'.encode("ascii")
             return self._built[key]
 
     def get(self, name: str) -> bytes:

@@ -6,8 +6,8 @@ primitives (collision = visual); handles are OBJ meshes (visual only, so the con
 own). Doors are revolute joints at their hinge edge (opening outwards, towards +y, ``0 .. DOOR_OPEN`` rad), drawers
 prismatic joints along +y (``0 .. DRAWER_PULL`` x depth), interior shelves fixed links. Each builder returns an
 `ArticulatedModel` naming its interior support surfaces and the joint that closes each (None: open to the room).
-Builders are seeded by the `rng` they are given: the same draws give the same bytes. Not wired into the default
-apartments yet (``world/apartment.py``).
+Builders are seeded by the `rng` they are given: the same draws give the same bytes. With ``world.articulated`` the
+homes place them (`world.artplace`: the layout proxies the room programs place, and the URDF writer).
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import shapes as S
+from . import shapes
 from .articulated import BUILDERS, draw_size
 from .files import dumps_json, num
 from .furniture import Model
@@ -43,7 +43,7 @@ def proxy(kind: str, rng: np.random.Generator, lift: float = 0.0) -> Model:
     seed = int(rng.integers(0, 2**31 - 1))
     w, d, h = draw_size(np.random.default_rng(seed), kind)
     m = Model(LABELS[kind], "receptacle", [], w, d, h + lift)
-    m.add(S.box((-w / 2, 0.0, lift), (w / 2, d, lift + h)), (0, 0, 0))  # bounds only: never meshed
+    m.add(shapes.box((-w / 2, 0.0, lift), (w / 2, d, lift + h)), (0, 0, 0))  # bounds only: never meshed
     m.articulated = (kind, seed, float(lift))  # type: ignore[attr-defined]
     return m
 

@@ -11,10 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import shapes as S
+from . import shapes
 from .model import MATERIALS, InstanceSpec, SurfaceSpec, WorldMesh
 
-MeshPart = tuple[S.Mesh, tuple[int, ...], str]  # a mesh (world metres, Z up), its RGB(A) colour and material
+MeshPart = tuple[shapes.Mesh, tuple[int, ...], str]  # a mesh (world metres, Z up), its RGB(A) colour and material
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class MeshBuilder:
         self.mat: list[np.ndarray] = []
         self.n = 0
 
-    def add(self, mesh: S.Mesh, instance: int, rgba: tuple[int, ...], material: str) -> None:
+    def add(self, mesh: shapes.Mesh, instance: int, rgba: tuple[int, ...], material: str) -> None:
         """Append a part."""
         v, f = mesh
         m = len(f)

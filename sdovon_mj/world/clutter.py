@@ -30,10 +30,10 @@ from typing import Callable
 
 import numpy as np
 
-from . import furniture as FU
-from . import layout as LA
-from . import placement as PL
-from . import shapes as S
+from . import furniture
+from . import layout
+from . import placement
+from . import shapes
 from .artplace import is_proxy
 from .furniture import METALS, WOODS, Model, jitter, pick, u
 from .layout import SKIRTING, WALL_T
@@ -52,14 +52,14 @@ def _boxy(label: str, size: tuple[float, float, float], rgb: tuple[int, ...], ma
     """Return a one-box prop of size (w, d, h) whose bottom is at `z0`."""
     w, d, h = size
     m = Model(label, kind, [], w, d, z0 + h, z_min=z0)
-    m.add(S.box((-0.5 * w, 0.0, z0), (0.5 * w, d, z0 + h)), rgb, material)
+    m.add(shapes.box((-0.5 * w, 0.0, z0), (0.5 * w, d, z0 + h)), rgb, material)
     return m
 
 
 def _round(label: str, r: float, h: float, rgb: tuple[int, ...], material: str = "plain", z0: float = 0.0) -> Model:
     """Return a cylindrical prop of radius r and height h standing on `z0` (its back touching y = 0)."""
     m = Model(label, "furniture", [], 2 * r, 2 * r, z0 + h, z_min=z0)
-    m.add(S.cylinder(r, z0, z0 + h, 14, (0.0, r)), rgb, material)
+    m.add(shapes.cylinder(r, z0, z0 + h, 14, (0.0, r)), rgb, material)
     return m
 
 
@@ -67,8 +67,8 @@ def ceiling_light(rng: np.random.Generator, wall_h: float) -> Model:
     """A flush ceiling light: a disc hanging 6-25 cm under the ceiling (centred on the origin)."""
     r, drop = u(rng, 0.15, 0.3), u(rng, 0.06, 0.25)
     m = Model("ceiling light", "furniture", [], 2 * r, 2 * r, wall_h, z_min=wall_h - drop)
-    m.add(S.cylinder(0.02, wall_h - drop + 0.04, wall_h, 8, (0.0, 0.0)), METALS[0], "metal")
-    m.add(S.cylinder(r, wall_h - drop, wall_h - drop + 0.05, 20, (0.0, 0.0)), (246, 244, 236), "plain")
+    m.add(shapes.cylinder(0.02, wall_h - drop + 0.04, wall_h, 8, (0.0, 0.0)), METALS[0], "metal")
+    m.add(shapes.cylinder(r, wall_h - drop, wall_h - drop + 0.05, 20, (0.0, 0.0)), (246, 244, 236), "plain")
     return m
 
 
@@ -84,34 +84,34 @@ def radiator(rng: np.random.Generator, width: float) -> Model:
     h = u(rng, 0.5, 0.6)
     m.height = 0.1 + h
     c = (238, 238, 236)
-    m.add(S.box((-0.5 * width, 0.03, 0.1), (0.5 * width, 0.1, 0.1 + h)), c, "metal")
+    m.add(shapes.box((-0.5 * width, 0.03, 0.1), (0.5 * width, 0.1, 0.1 + h)), c, "metal")
     for x in (-0.5 * width + 0.05, 0.5 * width - 0.07):
-        m.add(S.box((x, 0.0, 0.05), (x + 0.02, 0.03, 0.1 + h - 0.05)), c, "metal")
+        m.add(shapes.box((x, 0.0, 0.05), (x + 0.02, 0.03, 0.1 + h - 0.05)), c, "metal")
     return m
 
 
 def door_leaf(width: float, height: float, rgb: tuple[int, ...]) -> Model:
     """A door leaf (4 cm thick) in its own frame: hinge edge at x = 0, the leaf along +y (open), floor at z = 0."""
     m = Model("door", "furniture", [], 0.04, width, height)
-    m.add(S.box((-0.02, 0.0, 0.01), (0.02, width, height)), rgb, "wood")
-    m.add(S.box((0.02, width - 0.1, 0.95), (0.05, width - 0.06, 1.0)), METALS[0], "metal")
-    m.add(S.box((-0.05, width - 0.1, 0.95), (-0.02, width - 0.06, 1.0)), METALS[0], "metal")
+    m.add(shapes.box((-0.02, 0.0, 0.01), (0.02, width, height)), rgb, "wood")
+    m.add(shapes.box((0.02, width - 0.1, 0.95), (0.05, width - 0.06, 1.0)), METALS[0], "metal")
+    m.add(shapes.box((-0.05, width - 0.1, 0.95), (-0.02, width - 0.06, 1.0)), METALS[0], "metal")
     return m
 
 
 def _wall_prop(label: str, rng: np.random.Generator) -> Model:
     """Return a thing hung on a wall (bottom 1.0-1.7 m)."""
     if label == "picture":
-        return FU.picture(rng)
+        return furniture.picture(rng)
     if label == "mirror":
         w, h, z0 = u(rng, 0.4, 0.8), u(rng, 0.5, 0.9), u(rng, 1.05, 1.3)
         m = _boxy("mirror", (w, 0.03, h), pick(rng, WOODS + ((230, 230, 230),)), "wood", z0=z0)
-        m.add(S.box((-0.5 * w + 0.03, 0.03, z0 + 0.03), (0.5 * w - 0.03, 0.035, z0 + h - 0.03)), (200, 212, 220), "metal")
+        m.add(shapes.box((-0.5 * w + 0.03, 0.03, z0 + 0.03), (0.5 * w - 0.03, 0.035, z0 + h - 0.03)), (200, 212, 220), "metal")
         return m
     if label == "clock":
         r, z0 = u(rng, 0.12, 0.2), u(rng, 1.6, 1.8)
         m = Model("clock", "furniture", [], 2 * r, 0.05, z0 + 2 * r, z_min=z0)
-        face = S.transform(S.cylinder(r, 0.0, 0.05, 20), rot=S.rot_x(-0.5 * np.pi), shift=(0.0, 0.0, z0 + r))
+        face = shapes.transform(shapes.cylinder(r, 0.0, 0.05, 20), rot=shapes.rot_x(-0.5 * np.pi), shift=(0.0, 0.0, z0 + r))
         m.add(face, pick(rng, ((240, 240, 236), (30, 30, 32)) + WOODS[:2]), "plain")
         return m
     if label == "light":
@@ -120,9 +120,9 @@ def _wall_prop(label: str, rng: np.random.Generator) -> Model:
     if label == "towel rack":
         w, z0 = u(rng, 0.45, 0.7), u(rng, 1.0, 1.2)
         m = Model("towel rack", "furniture", [], w, 0.1, z0 + 0.04, z_min=z0)
-        m.add(S.box((-0.5 * w, 0.07, z0), (0.5 * w, 0.1, z0 + 0.03)), METALS[0], "metal")
+        m.add(shapes.box((-0.5 * w, 0.07, z0), (0.5 * w, 0.1, z0 + 0.03)), METALS[0], "metal")
         for x in (-0.5 * w, 0.5 * w - 0.03):
-            m.add(S.box((x, 0.0, z0), (x + 0.03, 0.07, z0 + 0.04)), METALS[0], "metal")
+            m.add(shapes.box((x, 0.0, z0), (x + 0.03, 0.07, z0 + 0.04)), METALS[0], "metal")
         return m
     if label == "toilet paper":
         z0 = u(rng, 0.65, 0.75)
@@ -137,10 +137,10 @@ def _floor_prop(label: str, rng: np.random.Generator) -> Model:
     if label == "plant":
         r, h = u(rng, 0.14, 0.22), u(rng, 0.6, 1.4)
         m = Model("plant", "furniture", [], 2 * r + 0.1, 2 * r + 0.1, h)
-        m.add(S.cylinder(r, 0.0, 0.35, 14, (0.0, r + 0.05)), pick(rng, ((180, 90, 60), (230, 230, 226), (60, 60, 64))), "ceramic")
-        m.add(S.icosphere((0.0, r + 0.05, 0.35 + 0.5 * (h - 0.35)), min(r + 0.05, 0.5 * (h - 0.35)), 1),
+        m.add(shapes.cylinder(r, 0.0, 0.35, 14, (0.0, r + 0.05)), pick(rng, ((180, 90, 60), (230, 230, 226), (60, 60, 64))), "ceramic")
+        m.add(shapes.icosphere((0.0, r + 0.05, 0.35 + 0.5 * (h - 0.35)), min(r + 0.05, 0.5 * (h - 0.35)), 1),
               pick(rng, LEAVES), "plain")
-        m.add(S.box((-0.02, r + 0.03, 0.35), (0.02, r + 0.07, h - 0.1)), (90, 70, 40), "wood")
+        m.add(shapes.box((-0.02, r + 0.03, 0.35), (0.02, r + 0.07, h - 0.1)), (90, 70, 40), "wood")
         return m
     if label == "trash can":
         return _round("trash can", u(rng, 0.12, 0.17), u(rng, 0.3, 0.45), pick(rng, PLASTIC + METALS), "plain")
@@ -149,22 +149,22 @@ def _floor_prop(label: str, rng: np.random.Generator) -> Model:
     if label == "box":
         return _boxy("box", (u(rng, 0.3, 0.6), u(rng, 0.3, 0.45), u(rng, 0.25, 0.45)), pick(rng, CARDBOARD), "plain")
     if label == "umbrella stand":
-        return FU.umbrella_stand(rng)
+        return furniture.umbrella_stand(rng)
     if label == "shoe rack":
-        return FU.shoe_rack(rng)
+        return furniture.shoe_rack(rng)
     if label == "coat rack":
-        return FU.coat_rack(rng)
+        return furniture.coat_rack(rng)
     if label == "armchair":
-        return FU.armchair(rng)
+        return furniture.armchair(rng)
     if label == "speaker":
         return _boxy("speaker", (u(rng, 0.2, 0.28), 0.24, u(rng, 0.8, 1.0)), (36, 36, 38), "plain")
     if label in SMALL:  # a small thing on the floor (a bag, a box of toys): back against y = 0
         m = small_prop(label, rng, 0.0)
-        m.parts = [FU.Part(p.vertices + np.array([0.0, 0.5 * m.depth, 0.0]), p.faces, p.rgba, p.material) for p in m.parts]
+        m.parts = [furniture.Part(p.vertices + np.array([0.0, 0.5 * m.depth, 0.0]), p.faces, p.rgba, p.material) for p in m.parts]
         return m
     if label in ("rug", "bath mat"):
         w, d = (u(rng, 0.5, 0.8), u(rng, 0.4, 0.55)) if label == "bath mat" else (u(rng, 0.8, 1.8), u(rng, 0.6, 1.2))
-        m = FU.rug(rng, w, d)
+        m = furniture.rug(rng, w, d)
         m.label = label
         return m
     raise ValueError(label)
@@ -215,9 +215,9 @@ def small_prop(label: str, rng: np.random.Generator, z0: float) -> Model:
     rgb = pick(rng, palette)
     m = Model(label, "furniture", [], w, d, z0 + h, z_min=z0)
     if shape == "round":
-        m.add(S.transform(S.cylinder(0.5, 0.0, 1.0, 14), scale=(w, d, h), shift=(0.0, 0.0, z0)), rgb, "plain")
+        m.add(shapes.transform(shapes.cylinder(0.5, 0.0, 1.0, 14), scale=(w, d, h), shift=(0.0, 0.0, z0)), rgb, "plain")
     else:
-        m.add(S.box((-0.5 * w, -0.5 * d, z0), (0.5 * w, 0.5 * d, z0 + h)), rgb, "plain")
+        m.add(shapes.box((-0.5 * w, -0.5 * d, z0), (0.5 * w, 0.5 * d, z0 + h)), rgb, "plain")
     return m
 
 
@@ -303,11 +303,11 @@ CEILING_M2 = 12.0  # one ceiling light per this floor area (at least one)
 def _blocks(m: Model) -> bool:
     """Whether a model blocks walking (see `placement`: bottom low, top above a rug; a plate flush with the wall,
     3 cm or thinner, does not)."""
-    b = PL.item_box(m, 0.0, 0.0, 0)
-    return bool(b[4] < PL.NAV_IGNORE_ABOVE and b[5] > PL.FLAT and min(b[2] - b[0], b[3] - b[1]) > 0.03)
+    b = placement.item_box(m, 0.0, 0.0, 0)
+    return bool(b[4] < placement.NAV_IGNORE_ABOVE and b[5] > placement.FLAT and min(b[2] - b[0], b[3] - b[1]) > 0.03)
 
 
-def _try(state: PL.RoomState, items: list[PL.Placed], nav: Callable[[], bool], clear: np.ndarray | None = None) -> bool:
+def _try(state: placement.RoomState, items: list[placement.Placed], nav: Callable[[], bool], clear: np.ndarray | None = None) -> bool:
     """Commit the items when they fit and (if they block walking) the room stays walkable; else take them back."""
     if not state.fits(items, clear):
         return False
@@ -319,14 +319,14 @@ def _try(state: PL.RoomState, items: list[PL.Placed], nav: Callable[[], bool], c
     return True
 
 
-def _door_leaves(state: PL.RoomState, room: LA.PlanRoom, doors: list[LA.PlanDoor], rooms: dict[int, LA.PlanRoom],
+def _door_leaves(state: placement.RoomState, room: layout.PlanRoom, doors: list[layout.PlanDoor], rooms: dict[int, layout.PlanRoom],
                  rng: np.random.Generator, nav: Callable[[], bool]) -> None:
     """Hang a leaf in each doorway that opens into this room: doors open into rooms, not into hallways or stairwells;
     between two rooms the one with the higher id takes it. Hinged at one jamb, open 90 degrees along the keep-out."""
     halls = ("hallway", "stairwell")
     rgb = jitter((236, 232, 222), rng, 4) if rng.random() < 0.6 else pick(rng, WOODS[:4])
     t = 0.5 * WALL_T
-    for d, side in LA.room_doors(room, doors):
+    for d, side in layout.room_doors(room, doors):
         other = rooms[d.room_b if d.room_a == room.id else d.room_a]
         if room.type in halls and other.type in halls:
             continue
@@ -348,7 +348,7 @@ def _door_leaves(state: PL.RoomState, room: LA.PlanRoom, doors: list[LA.PlanDoor
             state.keepouts = keep
 
 
-def _ceiling_lights(state: PL.RoomState, room: LA.PlanRoom, wall_h: float, rng: np.random.Generator) -> None:
+def _ceiling_lights(state: placement.RoomState, room: layout.PlanRoom, wall_h: float, rng: np.random.Generator) -> None:
     """Hang ceiling lights along the room's long axis, about one per `CEILING_M2`."""
     ix = state.interior
     w, d = ix[2] - ix[0], ix[3] - ix[1]
@@ -365,11 +365,11 @@ def _ceiling_lights(state: PL.RoomState, room: LA.PlanRoom, wall_h: float, rng: 
             state.keepouts = keep
 
 
-def _window_things(state: PL.RoomState, room: LA.PlanRoom, windows: dict[str, list[tuple]], rng: np.random.Generator,
+def _window_things(state: placement.RoomState, room: layout.PlanRoom, windows: dict[str, list[tuple]], rng: np.random.Generator,
                    nav: Callable[[], bool]) -> None:
     """Curtains beside the windows (two panels each) and radiators under them."""
     ix = state.interior
-    rgb = pick(rng, FU.FABRICS + FU.LINENS)
+    rgb = pick(rng, furniture.FABRICS + furniture.LINENS)
     p_rad = WINDOW_RADIATOR.get(room.type, 0.7)
     for side in ("S", "E", "N", "W"):
         for c, hw, sill, top in windows.get(side, []):
@@ -391,13 +391,13 @@ SMOKE = ("bedroom", "hallway", "living room", "stairwell", "kitchen")  # rooms w
 PLATE = (244, 244, 240)
 
 
-def _fixtures(state: PL.RoomState, room: LA.PlanRoom, doors: list[LA.PlanDoor], wall_h: float,
+def _fixtures(state: placement.RoomState, room: layout.PlanRoom, doors: list[layout.PlanDoor], wall_h: float,
               rng: np.random.Generator) -> None:
     """The fixtures a scan labels too: a light switch beside each doorway, outlets along the walls (one per 3.6 m of
     wall, the US code's spacing; one per 4 m of hallway, one in a closet or stairwell), a vent and, in living and
     sleeping rooms, kitchens and halls, a smoke detector. Plates flush with the wall (1.2 cm) block nothing."""
     ix = state.interior
-    for d, side in LA.room_doors(room, doors):
+    for d, side in layout.room_doors(room, doors):
         sw = _boxy("light switch", (0.08, 0.012, 0.12), PLATE, "plain", z0=u(rng, 1.05, 1.15))
         yaw = {"S": 0, "N": 180, "W": 270, "E": 90}[side]
         at = {"S": ix[1], "N": ix[3], "W": ix[0], "E": ix[2]}[side]
@@ -416,12 +416,12 @@ def _fixtures(state: PL.RoomState, room: LA.PlanRoom, doors: list[LA.PlanDoor], 
         n = max(1, int(round(perimeter / 3.6)))
     for _ in range(n):
         plate = _boxy("outlet", (0.08, 0.012, 0.12), PLATE, "plain", z0=u(rng, 0.25, 0.35))
-        PL.place_wall(state, PL.Group([(plate, 0.0, 0.0, 0)]), rng, corner=False)
+        placement.place_wall(state, placement.Group([(plate, 0.0, 0.0, 0)]), rng, corner=False)
     things = [Model("vent", "furniture", [], 0.3, 0.2, wall_h, z_min=wall_h - 0.02)]
-    things[0].add(S.box((-0.15, -0.1, wall_h - 0.02), (0.15, 0.1, wall_h)), PLATE, "metal")
+    things[0].add(shapes.box((-0.15, -0.1, wall_h - 0.02), (0.15, 0.1, wall_h)), PLATE, "metal")
     if room.type in SMOKE:
         det = Model("smoke detector", "furniture", [], 0.12, 0.12, wall_h, z_min=wall_h - 0.04)
-        det.add(S.cylinder(0.06, wall_h - 0.04, wall_h, 12), PLATE, "plain")
+        det.add(shapes.cylinder(0.06, wall_h - 0.04, wall_h, 12), PLATE, "plain")
         things.append(det)
     keep, state.keepouts = state.keepouts, []  # on the ceiling, above the doorways
     try:
@@ -436,7 +436,7 @@ def _fixtures(state: PL.RoomState, room: LA.PlanRoom, doors: list[LA.PlanDoor], 
         state.keepouts = keep
 
 
-def _surfaces(state: PL.RoomState, labels: tuple[str, ...]) -> tuple[list[tuple[float, np.ndarray, float]], list[Model]]:
+def _surfaces(state: placement.RoomState, labels: tuple[str, ...]) -> tuple[list[tuple[float, np.ndarray, float]], list[Model]]:
     """Return (height, world rectangle x0 y0 x1 y1, headroom) of the support surfaces of the placed receptacles
     with these labels (headroom: up to the next surface above on the same piece, or 0.4 m), and each one's piece."""
     out, hosts = [], []
@@ -447,13 +447,13 @@ def _surfaces(state: PL.RoomState, labels: tuple[str, ...]) -> tuple[list[tuple[
         for h, poly in m.supports:
             above = [x for x in hs if x > h + 1e-6]
             room_above = (above[0] - h) if above else 0.4
-            p = np.asarray(poly) @ PL.rot90(yaw).T + np.array([ox, oy])
+            p = np.asarray(poly) @ placement.rot90(yaw).T + np.array([ox, oy])
             out.append((float(h), np.concatenate([p.min(0), p.max(0)]), float(room_above)))
             hosts.append(m)
     return out, hosts
 
 
-def _on_surface(state: PL.RoomState, item: Item, rng: np.random.Generator, used: dict[int, list[np.ndarray]]) -> bool:
+def _on_surface(state: placement.RoomState, item: Item, rng: np.random.Generator, used: dict[int, list[np.ndarray]]) -> bool:
     """Stand a small thing on one of the surfaces it may go on (clear of the others there, a third of its area)."""
     surfaces, host = _surfaces(state, item.on)
     if not surfaces:
@@ -470,11 +470,11 @@ def _on_surface(state: PL.RoomState, item: Item, rng: np.random.Generator, used:
         x = float(np.round(rng.uniform(r[0] + 0.02 + 0.5 * m.width, r[2] - 0.02 - 0.5 * m.width), 3))
         y = float(np.round(rng.uniform(r[1] + 0.02 + 0.5 * m.depth, r[3] - 0.02 - 0.5 * m.depth), 3))
         box = np.array([x - 0.5 * m.width, y - 0.5 * m.depth, x + 0.5 * m.width, y + 0.5 * m.depth, h, m.height])
-        if any(PL.overlap2(box, b, 0.02) for b in taken):
+        if any(placement.overlap2(box, b, 0.02) for b in taken):
             continue
         # nothing else in the way above the surface (a wall shelf over a counter, the shelf board above)
-        if any(PL.overlap2(box, o, 0.0) and o[4] < box[5] - 1e-6 and box[4] + 1e-3 < o[5]
-               for o in (PL.item_box(*pl) for pl in state.placed if pl[0] is not host[k])):
+        if any(placement.overlap2(box, o, 0.0) and o[4] < box[5] - 1e-6 and box[4] + 1e-3 < o[5]
+               for o in (placement.item_box(*pl) for pl in state.placed if pl[0] is not host[k])):
             continue
         taken.append(box)
         state.placed.append((m, x, y, 0))  # on its receptacle: no new floor body
@@ -482,7 +482,7 @@ def _on_surface(state: PL.RoomState, item: Item, rng: np.random.Generator, used:
     return False
 
 
-def dress(state: PL.RoomState, room: LA.PlanRoom, doors: list[LA.PlanDoor], rooms: dict[int, LA.PlanRoom],
+def dress(state: placement.RoomState, room: layout.PlanRoom, doors: list[layout.PlanDoor], rooms: dict[int, layout.PlanRoom],
           windows: dict[str, list[tuple]], wall_h: float, rng: np.random.Generator, nav: Callable[[], bool],
           density: float = 1.0) -> None:
     """Add the room's clutter (`KITS`) to its furnished placement state, in the order of the module docstring.
@@ -527,16 +527,16 @@ def dress(state: PL.RoomState, room: LA.PlanRoom, doors: list[LA.PlanDoor], room
                     continue
                 narrow = min(state.interior[2] - state.interior[0], state.interior[3] - state.interior[1]) < 2.0
                 if mode == _F and narrow:  # a runner along a hallway
-                    m = FU.rug(rng, u(rng, 1.4, 3.0), u(rng, 0.5, 0.7))
+                    m = furniture.rug(rng, u(rng, 1.4, 3.0), u(rng, 0.5, 0.7))
                     m.label = item.label
                 else:
                     m = _wall_prop(item.label, rng) if mode == _H else _floor_prop(item.label, rng)
-                g = PL.Group([(m, 0.0, 0.0, 0)], 0.3 if mode in (_W, _C) and item.label == "armchair" else 0.0)
+                g = placement.Group([(m, 0.0, 0.0, 0)], 0.3 if mode in (_W, _C) and item.label == "armchair" else 0.0)
                 if mode == _F:
-                    PL.place_centre(state, g, rng, margin=0.1 if narrow else 0.3)
+                    placement.place_centre(state, g, rng, margin=0.1 if narrow else 0.3)
                     continue
                 n_b, n_p, n_c = len(state.bodies), len(state.placed), len(state.clear)
-                if PL.place_wall(state, g, rng, corner=(mode == _C)) and _blocks(m) and not nav():
+                if placement.place_wall(state, g, rng, corner=(mode == _C)) and _blocks(m) and not nav():
                     del state.bodies[n_b:], state.placed[n_p:], state.clear[n_c:]
 
 

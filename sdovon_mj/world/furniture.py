@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import shapes as S
+from . import shapes
 
 RECEPTACLE_LABELS: tuple[str, ...] = (
     "table", "desk", "dresser", "bookshelf", "shelf", "bed", "sofa", "counter", "nightstand", "coffee table",
@@ -53,7 +53,7 @@ class Model:
     z_min: float = 0.0
     supports: list[tuple[float, np.ndarray]] = field(default_factory=list)
 
-    def add(self, mesh: S.Mesh, rgba: tuple[int, ...], material: str = "plain") -> None:
+    def add(self, mesh: shapes.Mesh, rgba: tuple[int, ...], material: str = "plain") -> None:
         """Append a part with colour `rgba` (RGB or RGBA, 0-255)."""
         c = tuple(int(x) for x in rgba)
         if len(c) == 3:
@@ -88,9 +88,9 @@ def _legs(m: Model, x0: float, y0: float, x1: float, y1: float, z1: float, size:
     for x in (x0, x1 - size):
         for y in (y0, y1 - size):
             if round_:
-                m.add(S.cylinder(0.5 * size, 0.0, z1, 10, (x + 0.5 * size, y + 0.5 * size)), rgba, material)
+                m.add(shapes.cylinder(0.5 * size, 0.0, z1, 10, (x + 0.5 * size, y + 0.5 * size)), rgba, material)
             else:
-                m.add(S.box((x, y, 0.0), (x + size, y + size, z1)), rgba, material)
+                m.add(shapes.box((x, y, 0.0), (x + size, y + size, z1)), rgba, material)
 
 
 def _drawer_fronts(m: Model, x0: float, x1: float, z0: float, z1: float, y_front: float, rows: int, cols: int,
@@ -103,14 +103,14 @@ def _drawer_fronts(m: Model, x0: float, x1: float, z0: float, z1: float, y_front
         for c in range(cols):
             a, b = x0 + c * w + gap, x0 + (c + 1) * w - gap
             lo, hi = z0 + r * h + gap, z0 + (r + 1) * h - gap
-            m.add(S.box((a, y_front, lo), (b, y_front + 0.015, hi)), rgba, material)
+            m.add(shapes.box((a, y_front, lo), (b, y_front + 0.015, hi)), rgba, material)
             mx, mz = 0.5 * (a + b), 0.5 * (lo + hi)
             if round_knobs:
-                kn = S.transform(S.cylinder(0.012, 0.0, 0.013, 10), rot=S.rot_x(-0.5 * np.pi), shift=(mx, y_front + 0.015, mz))
+                kn = shapes.transform(shapes.cylinder(0.012, 0.0, 0.013, 10), rot=shapes.rot_x(-0.5 * np.pi), shift=(mx, y_front + 0.015, mz))
                 m.add(kn, knob, "metal")
             else:
                 kw = min(0.06, 0.25 * (b - a))
-                m.add(S.box((mx - kw, y_front + 0.015, mz - 0.008), (mx + kw, y_front + 0.028, mz + 0.008)), knob, "metal")
+                m.add(shapes.box((mx - kw, y_front + 0.015, mz - 0.008), (mx + kw, y_front + 0.028, mz + 0.008)), knob, "metal")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -128,9 +128,9 @@ def table(rng: np.random.Generator, width: float | None = None, depth: float | N
         r = 0.5 * dia
         m = Model("table", "receptacle", [], dia, dia, h)
         seg = 32
-        m.add(S.cylinder(r, h - t, h, seg, (0.0, r)), wood, "wood")
-        m.add(S.cylinder(0.045, 0.03, h - t, 12, (0.0, r)), legc, "wood")
-        m.add(S.cylinder(0.26, 0.0, 0.03, 24, (0.0, r)), legc, "wood")
+        m.add(shapes.cylinder(r, h - t, h, seg, (0.0, r)), wood, "wood")
+        m.add(shapes.cylinder(0.045, 0.03, h - t, 12, (0.0, r)), legc, "wood")
+        m.add(shapes.cylinder(0.26, 0.0, 0.03, 24, (0.0, r)), legc, "wood")
         ang = 2.0 * np.pi * np.arange(seg) / seg
         m.supports.append((h, np.stack([r * np.cos(ang), r + r * np.sin(ang)], 1)))
         return m
@@ -138,16 +138,16 @@ def table(rng: np.random.Generator, width: float | None = None, depth: float | N
     d = depth if depth is not None else u(rng, 0.7, 0.9)
     m = Model("table", "receptacle", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.box((x0, 0.0, h - t), (x1, d, h)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, h - t), (x1, d, h)), wood, "wood")
     ls = u(rng, 0.045, 0.06, 0.005)
     ins = u(rng, 0.03, 0.06)
     _legs(m, x0 + ins, ins, x1 - ins, d - ins, h - t, ls, legc, round_=rng.random() < 0.3)
     ah = 0.08
     a = 0.01
-    m.add(S.box((x0 + ins + ls, ins + a, h - t - ah), (x1 - ins - ls, ins + a + 0.02, h - t)), wood, "wood")
-    m.add(S.box((x0 + ins + ls, d - ins - a - 0.02, h - t - ah), (x1 - ins - ls, d - ins - a, h - t)), wood, "wood")
-    m.add(S.box((x0 + ins + a, ins + ls, h - t - ah), (x0 + ins + a + 0.02, d - ins - ls, h - t)), wood, "wood")
-    m.add(S.box((x1 - ins - a - 0.02, ins + ls, h - t - ah), (x1 - ins - a, d - ins - ls, h - t)), wood, "wood")
+    m.add(shapes.box((x0 + ins + ls, ins + a, h - t - ah), (x1 - ins - ls, ins + a + 0.02, h - t)), wood, "wood")
+    m.add(shapes.box((x0 + ins + ls, d - ins - a - 0.02, h - t - ah), (x1 - ins - ls, d - ins - a, h - t)), wood, "wood")
+    m.add(shapes.box((x0 + ins + a, ins + ls, h - t - ah), (x0 + ins + a + 0.02, d - ins - ls, h - t)), wood, "wood")
+    m.add(shapes.box((x1 - ins - a - 0.02, ins + ls, h - t - ah), (x1 - ins - a, d - ins - ls, h - t)), wood, "wood")
     m.supports.append((h, rect(x0, 0.0, x1, d)))
     return m
 
@@ -161,22 +161,22 @@ def desk(rng: np.random.Generator, width: float | None = None) -> tuple[Model, f
     wood = pick(rng, WOODS)
     m = Model("desk", "receptacle", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.box((x0, 0.0, h - t), (x1, d, h)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, h - t), (x1, d, h)), wood, "wood")
     knee = 0.0
     if rng.random() < 0.6:
         pw = 0.4
         left = rng.random() < 0.5
         px0, px1 = (x0, x0 + pw) if left else (x1 - pw, x1)
-        m.add(S.box((px0 + 0.01, 0.01, 0.0), (px1 - 0.01, d - 0.03, h - t)), wood, "wood")
+        m.add(shapes.box((px0 + 0.01, 0.01, 0.0), (px1 - 0.01, d - 0.03, h - t)), wood, "wood")
         _drawer_fronts(m, px0 + 0.01, px1 - 0.01, 0.04, h - t - 0.01, d - 0.03, 3, 1, jitter(wood, rng, 8), pick(rng, METALS))
         # the other end: a full-depth side panel
         sx0, sx1 = (x1 - 0.03, x1) if left else (x0, x0 + 0.03)
-        m.add(S.box((sx0, 0.02, 0.0), (sx1, d - 0.02, h - t)), wood, "wood")
+        m.add(shapes.box((sx0, 0.02, 0.0), (sx1, d - 0.02, h - t)), wood, "wood")
         knee = 0.5 * ((px1 if left else sx1) + (sx0 if left else px0))
     else:
         legc = pick(rng, METALS)
         _legs(m, x0 + 0.03, 0.03, x1 - 0.03, d - 0.03, h - t, 0.045, legc, "metal")
-    m.add(S.box((x0 + 0.06, 0.02, 0.38), (x1 - 0.06, 0.035, h - t)), jitter(wood, rng, 6), "wood")
+    m.add(shapes.box((x0 + 0.06, 0.02, 0.38), (x1 - 0.06, 0.035, h - t)), jitter(wood, rng, 6), "wood")
     m.supports.append((h, rect(x0, 0.0, x1, d)))
     return m, knee
 
@@ -190,12 +190,12 @@ def coffee_table(rng: np.random.Generator) -> Model:
     wood = pick(rng, WOODS)
     m = Model("coffee table", "receptacle", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.box((x0, 0.0, h - t), (x1, d, h)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, h - t), (x1, d, h)), wood, "wood")
     ls = 0.05
     _legs(m, x0 + 0.03, 0.03, x1 - 0.03, d - 0.03, h - t, ls, jitter(wood, rng, 12))
     if rng.random() < 0.5:
         zs = u(rng, 0.1, 0.13)
-        m.add(S.box((x0 + 0.03 + ls, 0.03, zs - 0.02), (x1 - 0.03 - ls, d - 0.03, zs)), wood, "wood")
+        m.add(shapes.box((x0 + 0.03 + ls, 0.03, zs - 0.02), (x1 - 0.03 - ls, d - 0.03, zs)), wood, "wood")
         m.supports.append((zs, rect(x0 + 0.03 + ls, 0.03, x1 - 0.03 - ls, d - 0.03)))
     m.supports.insert(0, (h, rect(x0, 0.0, x1, d)))
     return m
@@ -211,8 +211,8 @@ def nightstand(rng: np.random.Generator, wood: tuple | None = None) -> Model:
     x0, x1 = -0.5 * w, 0.5 * w
     legh = 0.08
     _legs(m, x0 + 0.02, 0.02, x1 - 0.02, d - 0.05, legh, 0.035, jitter(wood, rng, 10))
-    m.add(S.box((x0 + 0.01, 0.0, legh), (x1 - 0.01, d - 0.045, h - 0.025)), wood, "wood")
-    m.add(S.box((x0, 0.0, h - 0.025), (x1, d, h)), wood, "wood")
+    m.add(shapes.box((x0 + 0.01, 0.0, legh), (x1 - 0.01, d - 0.045, h - 0.025)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, h - 0.025), (x1, d, h)), wood, "wood")
     _drawer_fronts(m, x0 + 0.015, x1 - 0.015, legh + 0.01, h - 0.03, d - 0.045, int(rng.integers(1, 3)), 1,
                    jitter(wood, rng, 8), pick(rng, METALS), round_knobs=rng.random() < 0.5)
     m.supports.append((h, rect(x0, 0.0, x1, d)))
@@ -232,9 +232,9 @@ def dresser(rng: np.random.Generator, width: float | None = None) -> Model:
         _legs(m, x0 + 0.03, 0.03, x1 - 0.03, d - 0.06, base, 0.04, jitter(wood, rng, 10))
     else:
         base = 0.07
-        m.add(S.box((x0 + 0.02, 0.02, 0.0), (x1 - 0.02, d - 0.08, base)), jitter(wood, rng, 10), "wood")
-    m.add(S.box((x0 + 0.01, 0.0, base), (x1 - 0.01, d - 0.045, h - 0.03)), wood, "wood")
-    m.add(S.box((x0, 0.0, h - 0.03), (x1, d, h)), wood, "wood")
+        m.add(shapes.box((x0 + 0.02, 0.02, 0.0), (x1 - 0.02, d - 0.08, base)), jitter(wood, rng, 10), "wood")
+    m.add(shapes.box((x0 + 0.01, 0.0, base), (x1 - 0.01, d - 0.045, h - 0.03)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, h - 0.03), (x1, d, h)), wood, "wood")
     rows = int(rng.integers(3, 5))
     cols = 2 if w > 1.0 else 1
     _drawer_fronts(m, x0 + 0.015, x1 - 0.015, base + 0.01, h - 0.035, d - 0.045, rows, cols, jitter(wood, rng, 8),
@@ -253,16 +253,16 @@ def bookshelf(rng: np.random.Generator, height_max: float = 2.0) -> Model:
     wood = pick(rng, WOODS)
     m = Model("bookshelf", "receptacle", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.box((x0, 0.0, 0.0), (x0 + t, d, h)), wood, "wood")
-    m.add(S.box((x1 - t, 0.0, 0.0), (x1, d, h)), wood, "wood")
-    m.add(S.box((x0 + t, 0.0, 0.0), (x1 - t, back, h - bt)), jitter(wood, rng, 12), "wood")
-    m.add(S.box((x0 + t, d - 0.03, 0.0), (x1 - t, d - 0.01, 0.06)), wood, "wood")
-    m.add(S.box((x0 + t, back, h - bt), (x1 - t, d, h)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, 0.0), (x0 + t, d, h)), wood, "wood")
+    m.add(shapes.box((x1 - t, 0.0, 0.0), (x1, d, h)), wood, "wood")
+    m.add(shapes.box((x0 + t, 0.0, 0.0), (x1 - t, back, h - bt)), jitter(wood, rng, 12), "wood")
+    m.add(shapes.box((x0 + t, d - 0.03, 0.0), (x1 - t, d - 0.01, 0.06)), wood, "wood")
+    m.add(shapes.box((x0 + t, back, h - bt), (x1 - t, d, h)), wood, "wood")
     b0 = 0.08
     step = (h - bt - b0) / levels
     for i in range(levels):
         top = b0 + i * step
-        m.add(S.box((x0 + t, back, top - bt), (x1 - t, d, top)), wood, "wood")
+        m.add(shapes.box((x0 + t, back, top - bt), (x1 - t, d, top)), wood, "wood")
         m.supports.append((float(top), rect(x0 + t, back, x1 - t, d)))
     return m
 
@@ -289,19 +289,19 @@ def wall_shelf(rng: np.random.Generator) -> Model:
     m = Model("shelf", "receptacle", [], w, d, zmax, z_min=zmin)
     if panels:
         pt = 0.018
-        m.add(S.box((x0, 0.0, zmin), (x0 + pt, d, zmax)), wood, "wood")
-        m.add(S.box((x1 - pt, 0.0, zmin), (x1 - 0.0, d, zmax)), wood, "wood")
+        m.add(shapes.box((x0, 0.0, zmin), (x0 + pt, d, zmax)), wood, "wood")
+        m.add(shapes.box((x1 - pt, 0.0, zmin), (x1 - 0.0, d, zmax)), wood, "wood")
         for top in tops:
-            m.add(S.box((x0 + pt, 0.0, top - t), (x1 - pt, d, top)), wood, "wood")
+            m.add(shapes.box((x0 + pt, 0.0, top - t), (x1 - pt, d, top)), wood, "wood")
             m.supports.append((top, rect(x0 + pt, 0.0, x1 - pt, d)))
     else:
         metal = pick(rng, METALS)
         for top in tops:
-            m.add(S.box((x0, 0.0, top - t), (x1, d, top)), wood, "wood")
+            m.add(shapes.box((x0, 0.0, top - t), (x1, d, top)), wood, "wood")
             m.supports.append((top, rect(x0, 0.0, x1, d)))
             for bx in (x0 + 0.1, x1 - 0.12):
-                m.add(S.box((bx, 0.0, top - t - 0.12), (bx + 0.02, d - 0.04, top - t)), metal, "metal")
-                m.add(S.box((bx, 0.0, top - t - 0.14), (bx + 0.02, 0.02, top - t - 0.12)), metal, "metal")
+                m.add(shapes.box((bx, 0.0, top - t - 0.12), (bx + 0.02, d - 0.04, top - t)), metal, "metal")
+                m.add(shapes.box((bx, 0.0, top - t - 0.14), (bx + 0.02, 0.02, top - t - 0.12)), metal, "metal")
     return m
 
 
@@ -320,17 +320,17 @@ def bed(rng: np.random.Generator, double: bool = True) -> Model:
     m = Model("bed", "receptacle", [], w, d, max(hb_h, mtop + 0.16))
     x0, x1 = -0.5 * w, 0.5 * w
     if rng.random() < 0.5:
-        m.add(S.chamfer_box((x0, 0.0, 0.0), (x1, head, hb_h), 0.02), pick(rng, FABRICS), "fabric")
+        m.add(shapes.chamfer_box((x0, 0.0, 0.0), (x1, head, hb_h), 0.02), pick(rng, FABRICS), "fabric")
     else:
-        m.add(S.box((x0, 0.0, 0.0), (x1, head, hb_h)), wood, "wood")
+        m.add(shapes.box((x0, 0.0, 0.0), (x1, head, hb_h)), wood, "wood")
     _legs(m, x0, head, x1, d, 0.12, 0.06, jitter(wood, rng, 8))
-    m.add(S.box((x0, head, 0.12), (x0 + rail, d, mz0 + 0.04)), wood, "wood")
-    m.add(S.box((x1 - rail, head, 0.12), (x1, d, mz0 + 0.04)), wood, "wood")
-    m.add(S.box((x0 + rail, d - rail, 0.12), (x1 - rail, d, mz0 + 0.04 if rng.random() < 0.5 else mtop - 0.1)), wood, "wood")
-    m.add(S.box((x0 + rail, head, mz0 - 0.03), (x1 - rail, d - rail, mz0)), jitter(wood, rng, 15), "wood")
+    m.add(shapes.box((x0, head, 0.12), (x0 + rail, d, mz0 + 0.04)), wood, "wood")
+    m.add(shapes.box((x1 - rail, head, 0.12), (x1, d, mz0 + 0.04)), wood, "wood")
+    m.add(shapes.box((x0 + rail, d - rail, 0.12), (x1 - rail, d, mz0 + 0.04 if rng.random() < 0.5 else mtop - 0.1)), wood, "wood")
+    m.add(shapes.box((x0 + rail, head, mz0 - 0.03), (x1 - rail, d - rail, mz0)), jitter(wood, rng, 15), "wood")
     bev = 0.03
     mx0, mx1, my0, my1 = x0 + rail + 0.005, x1 - rail - 0.005, head + 0.005, d - rail - 0.005
-    m.add(S.rounded_box((mx0, my0, mz0), (mx1, my1, mtop), bev, 3), (238, 238, 234), "fabric")
+    m.add(shapes.rounded_box((mx0, my0, mz0), (mx1, my1, mtop), bev, 3), (238, 238, 234), "fabric")
     linen = pick(rng, LINENS)
     npil = 2 if double else 1
     pw = min(0.6, (mx1 - mx0 - 0.06) / npil)
@@ -339,14 +339,14 @@ def bed(rng: np.random.Generator, double: bool = True) -> Model:
     py0 = my0 + 0.04
     for k in range(npil):
         cx = mx0 + 0.03 + (k + 0.5) * (mx1 - mx0 - 0.06) / npil
-        m.add(S.superellipsoid((cx - 0.5 * pw, py0, mtop - 0.015), (cx + 0.5 * pw, py0 + pd, mtop - 0.015 + ph), 0.35, 0.25,
+        m.add(shapes.superellipsoid((cx - 0.5 * pw, py0, mtop - 0.015), (cx + 0.5 * pw, py0 + pd, mtop - 0.015 + ph), 0.35, 0.25,
                                10, 24), linen, "fabric")
     free_y0 = py0 + pd + 0.03
     if rng.random() < 0.5:
         dz = mtop + 0.04
         dy0 = free_y0 + 0.08
         dx0, dx1 = mx0 - 0.01, mx1 + 0.01
-        m.add(S.rounded_box((dx0, dy0, mtop - 0.14), (dx1, my1, dz), bev, 3), pick(rng, LINENS + FABRICS), "fabric")
+        m.add(shapes.rounded_box((dx0, dy0, mtop - 0.14), (dx1, my1, dz), bev, 3), pick(rng, LINENS + FABRICS), "fabric")
         m.supports.append((dz, rect(dx0 + bev + 0.005, dy0 + bev + 0.005, dx1 - bev - 0.005, my1 - bev - 0.005)))
     else:
         m.supports.append((mtop, rect(mx0 + bev + 0.005, free_y0, mx1 - bev - 0.005, my1 - bev - 0.005)))
@@ -367,10 +367,10 @@ def sofa(rng: np.random.Generator, width: float | None = None) -> Model:
     m = Model("sofa", "receptacle", [], w, d, back_h)
     x0, x1 = -0.5 * w, 0.5 * w
     _legs(m, x0 + 0.03, 0.03, x1 - 0.03, d - 0.03, 0.1, 0.04, pick(rng, WOODS[:4] + METALS[:2]))
-    m.add(S.box((x0 + arm_w, 0.0, 0.1), (x1 - arm_w, d, base)), jitter(fab, rng, 6), "fabric")
-    m.add(S.chamfer_box((x0, 0.0, 0.1), (x0 + arm_w, d, arm_h), 0.03), fab, "fabric")
-    m.add(S.chamfer_box((x1 - arm_w, 0.0, 0.1), (x1, d, arm_h), 0.03), fab, "fabric")
-    m.add(S.chamfer_box((x0 + arm_w, 0.0, base), (x1 - arm_w, back_d, back_h), 0.03), fab, "fabric")
+    m.add(shapes.box((x0 + arm_w, 0.0, 0.1), (x1 - arm_w, d, base)), jitter(fab, rng, 6), "fabric")
+    m.add(shapes.chamfer_box((x0, 0.0, 0.1), (x0 + arm_w, d, arm_h), 0.03), fab, "fabric")
+    m.add(shapes.chamfer_box((x1 - arm_w, 0.0, 0.1), (x1, d, arm_h), 0.03), fab, "fabric")
+    m.add(shapes.chamfer_box((x0 + arm_w, 0.0, base), (x1 - arm_w, back_d, back_h), 0.03), fab, "fabric")
     inner = (x1 - arm_w) - (x0 + arm_w)
     n = 2 if inner < 1.5 else 3
     cw = inner / n
@@ -380,8 +380,8 @@ def sofa(rng: np.random.Generator, width: float | None = None) -> Model:
     for k in range(n):
         cx0 = x0 + arm_w + k * cw + 0.003
         cx1 = cx0 + cw - 0.006
-        m.add(S.rounded_box((cx0, back_d, base), (cx1, d - 0.01, seat), bev, 3), cush, "fabric")
-        m.add(S.rounded_box((cx0, back_d, seat), (cx1, back_d + bcd, back_h - 0.04), 0.05, 3), cush, "fabric")
+        m.add(shapes.rounded_box((cx0, back_d, base), (cx1, d - 0.01, seat), bev, 3), cush, "fabric")
+        m.add(shapes.rounded_box((cx0, back_d, seat), (cx1, back_d + bcd, back_h - 0.04), 0.05, 3), cush, "fabric")
         m.supports.append((seat, rect(cx0 + bev + 0.005, back_d + bcd + 0.02, cx1 - bev - 0.005, d - 0.01 - bev - 0.005)))
     return m
 
@@ -430,12 +430,12 @@ def counter(rng: np.random.Generator, width: float, height: float = 0.9, depth: 
     m = Model("counter", "receptacle", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
     plinth = 0.1
-    m.add(S.box((x0 + 0.01, 0.0, 0.0), (x1 - 0.01, d - 0.08, plinth)), (40, 40, 40), "plain")
+    m.add(shapes.box((x0 + 0.01, 0.0, 0.0), (x1 - 0.01, d - 0.08, plinth)), (40, 40, 40), "plain")
     pt = 0.018
-    m.add(S.box((x0, 0.0, plinth), (x0 + pt, d - 0.04, h - tt)), body, "wood")
-    m.add(S.box((x1 - pt, 0.0, plinth), (x1, d - 0.04, h - tt)), body, "wood")
-    m.add(S.box((x0 + pt, 0.0, plinth), (x1 - pt, 0.01, h - tt)), body, "wood")
-    m.add(S.box((x0 + pt, 0.01, plinth), (x1 - pt, d - 0.04, plinth + pt)), body, "wood")
+    m.add(shapes.box((x0, 0.0, plinth), (x0 + pt, d - 0.04, h - tt)), body, "wood")
+    m.add(shapes.box((x1 - pt, 0.0, plinth), (x1, d - 0.04, h - tt)), body, "wood")
+    m.add(shapes.box((x0 + pt, 0.0, plinth), (x1 - pt, 0.01, h - tt)), body, "wood")
+    m.add(shapes.box((x0 + pt, 0.01, plinth), (x1 - pt, d - 0.04, plinth + pt)), body, "wood")
     ndoor = max(1, int(round(w / 0.5)))
     _drawer_fronts(m, x0, x1, plinth, h - tt - 0.003, d - 0.04, 1, ndoor, jitter(body, rng, 5), pick(rng, METALS))
     extras: list[Model] = []
@@ -453,48 +453,48 @@ def counter(rng: np.random.Generator, width: float, height: float = 0.9, depth: 
         sx0, sx1 = c - 0.5 * sw, c + 0.5 * sw
         hy0, hy1 = 0.09, d - 0.08
         # the top with a hole for the basin
-        m.add(S.box((x0, 0.0, h - tt), (sx0, d, h)), topc, "plain")
-        m.add(S.box((sx1, 0.0, h - tt), (x1, d, h)), topc, "plain")
-        m.add(S.box((sx0, 0.0, h - tt), (sx1, hy0, h)), topc, "plain")
-        m.add(S.box((sx0, hy1, h - tt), (sx1, d, h)), topc, "plain")
+        m.add(shapes.box((x0, 0.0, h - tt), (sx0, d, h)), topc, "plain")
+        m.add(shapes.box((sx1, 0.0, h - tt), (x1, d, h)), topc, "plain")
+        m.add(shapes.box((sx0, 0.0, h - tt), (sx1, hy0, h)), topc, "plain")
+        m.add(shapes.box((sx0, hy1, h - tt), (sx1, d, h)), topc, "plain")
         blocked.append((sx0, sx1))
         sm = Model("sink", "furniture", [], sw, d, h + 0.3)
         bz = h - 0.2
-        sm.add(S.box((sx0, hy0, bz), (sx1, hy1, bz + 0.01)), metal, "metal")
-        sm.add(S.box((sx0, hy0, bz), (sx0 + 0.008, hy1, h - 0.001)), metal, "metal")
-        sm.add(S.box((sx1 - 0.008, hy0, bz), (sx1, hy1, h - 0.001)), metal, "metal")
-        sm.add(S.box((sx0 + 0.008, hy0, bz), (sx1 - 0.008, hy0 + 0.008, h - 0.001)), metal, "metal")
-        sm.add(S.box((sx0 + 0.008, hy1 - 0.008, bz), (sx1 - 0.008, hy1, h - 0.001)), metal, "metal")
-        sm.add(S.cylinder(0.018, h, h + 0.3, 16, (c, 0.045)), metal, "metal")
-        sm.add(S.sweep(np.array([[c, 0.045, h + 0.29], [c, 0.06, h + 0.31], [c, 0.12, h + 0.32], [c, 0.2, h + 0.3],
+        sm.add(shapes.box((sx0, hy0, bz), (sx1, hy1, bz + 0.01)), metal, "metal")
+        sm.add(shapes.box((sx0, hy0, bz), (sx0 + 0.008, hy1, h - 0.001)), metal, "metal")
+        sm.add(shapes.box((sx1 - 0.008, hy0, bz), (sx1, hy1, h - 0.001)), metal, "metal")
+        sm.add(shapes.box((sx0 + 0.008, hy0, bz), (sx1 - 0.008, hy0 + 0.008, h - 0.001)), metal, "metal")
+        sm.add(shapes.box((sx0 + 0.008, hy1 - 0.008, bz), (sx1 - 0.008, hy1, h - 0.001)), metal, "metal")
+        sm.add(shapes.cylinder(0.018, h, h + 0.3, 16, (c, 0.045)), metal, "metal")
+        sm.add(shapes.sweep(np.array([[c, 0.045, h + 0.29], [c, 0.06, h + 0.31], [c, 0.12, h + 0.32], [c, 0.2, h + 0.3],
                                  [c, 0.23, h + 0.25]]), 0.011, 10), metal, "metal")
         extras.append(sm)
     elif sink == "vessel":
-        m.add(S.box((x0, 0.0, h - tt), (x1, d, h)), topc, "plain")
+        m.add(shapes.box((x0, 0.0, h - tt), (x1, d, h)), topc, "plain")
         r = u(rng, 0.17, 0.2)
         c = side * (0.5 * w - r - 0.05)
         cy = 0.5 * d + 0.03
         sm = Model("sink", "furniture", [], 2 * r, d, h + 0.3)
         prof = [(0.0, h), (0.6 * r, h), (r, h + 0.12), (r - 0.01, h + 0.125), (r - 0.012, h + 0.12),
                 (0.58 * r, h + 0.02), (0.0, h + 0.02)]
-        sm.add(S.transform(S.revolve(prof, 32), shift=(c, cy, 0.0)), CERAMIC, "ceramic")
-        sm.add(S.cylinder(0.016, h, h + 0.28, 16, (c, 0.04)), metal, "metal")
-        sm.add(S.sweep(np.array([[c, 0.04, h + 0.27], [c, 0.06, h + 0.29], [c, cy - 0.08, h + 0.29], [c, cy - 0.05, h + 0.26]]),
+        sm.add(shapes.transform(shapes.revolve(prof, 32), shift=(c, cy, 0.0)), CERAMIC, "ceramic")
+        sm.add(shapes.cylinder(0.016, h, h + 0.28, 16, (c, 0.04)), metal, "metal")
+        sm.add(shapes.sweep(np.array([[c, 0.04, h + 0.27], [c, 0.06, h + 0.29], [c, cy - 0.08, h + 0.29], [c, cy - 0.05, h + 0.26]]),
                        0.01, 10), metal, "metal")
         extras.append(sm)
         blocked.append((c - r - 0.03, c + r + 0.03))
     else:
-        m.add(S.box((x0, 0.0, h - tt), (x1, d, h)), topc, "plain")
+        m.add(shapes.box((x0, 0.0, h - tt), (x1, d, h)), topc, "plain")
     if hob:
         hw, hd = 0.58, 0.5
         lo, hi = 0.05 + 0.5 * hw, 0.5 * w - 0.3 - 0.5 * hw
         hc = -side * rng.uniform(min(lo, hi), hi)
         st = Model("stove", "furniture", [], hw, hd, h + 0.01)
         y0h = 0.5 * (d - hd)
-        st.add(S.box((hc - 0.5 * hw, y0h, h), (hc + 0.5 * hw, y0h + hd, h + 0.006)), (24, 24, 26), "metal")
+        st.add(shapes.box((hc - 0.5 * hw, y0h, h), (hc + 0.5 * hw, y0h + hd, h + 0.006)), (24, 24, 26), "metal")
         for bx, by, br in ((-0.14, 0.13, 0.09), (0.14, 0.13, 0.07), (-0.14, -0.11, 0.07), (0.14, -0.11, 0.09)):
-            ring = S.revolve([(br - 0.012, h + 0.006), (br, h + 0.006), (br, h + 0.008), (br - 0.012, h + 0.008)], 24, closed=True)
-            st.add(S.transform(ring, shift=(hc + bx, y0h + 0.5 * hd + by, 0.0)), (90, 90, 94), "metal")
+            ring = shapes.revolve([(br - 0.012, h + 0.006), (br, h + 0.006), (br, h + 0.008), (br - 0.012, h + 0.008)], 24, closed=True)
+            st.add(shapes.transform(ring, shift=(hc + bx, y0h + 0.5 * hd + by, 0.0)), (90, 90, 94), "metal")
         extras.append(st)
         blocked.append((hc - 0.5 * hw - 0.02, hc + 0.5 * hw + 0.02))
     for a, b in _free_intervals(x0, x1, blocked):
@@ -508,11 +508,11 @@ def floor_lamp(rng: np.random.Generator) -> Model:
     r = u(rng, 0.17, 0.23)
     m = Model("floor lamp", "furniture", [], 2 * r, 2 * r, h)
     metal = pick(rng, METALS)
-    m.add(S.cylinder(0.14, 0.0, 0.03, 24, (0.0, r)), metal, "metal")
-    m.add(S.cylinder(0.012, 0.03, h - 0.2, 10, (0.0, r)), metal, "metal")
-    shade = S.revolve([(0.7 * r, h - 0.28), (r, h - 0.28), (0.62 * r, h), (0.6 * r, h), (0.98 * r, h - 0.27),
+    m.add(shapes.cylinder(0.14, 0.0, 0.03, 24, (0.0, r)), metal, "metal")
+    m.add(shapes.cylinder(0.012, 0.03, h - 0.2, 10, (0.0, r)), metal, "metal")
+    shade = shapes.revolve([(0.7 * r, h - 0.28), (r, h - 0.28), (0.62 * r, h), (0.6 * r, h), (0.98 * r, h - 0.27),
                        (0.69 * r, h - 0.27)], 28, closed=True)
-    m.add(S.transform(shade, shift=(0.0, r, 0.0)), pick(rng, LINENS), "fabric")
+    m.add(shapes.transform(shade, shift=(0.0, r, 0.0)), pick(rng, LINENS), "fabric")
     return m
 
 
@@ -532,12 +532,12 @@ def chair(rng: np.random.Generator, wood: tuple | None = None) -> Model:
     ls = 0.035
     _legs(m, x0, 0.0, x1, d, seat - 0.03, ls, jitter(wood, rng, 6))
     if rng.random() < 0.4:
-        m.add(S.chamfer_box((x0, 0.0, seat - 0.05), (x1, d, seat), 0.012), pick(rng, FABRICS), "fabric")
+        m.add(shapes.chamfer_box((x0, 0.0, seat - 0.05), (x1, d, seat), 0.012), pick(rng, FABRICS), "fabric")
     else:
-        m.add(S.box((x0, 0.0, seat - 0.03), (x1, d, seat)), wood, "wood")
-    m.add(S.box((x0, 0.0, seat), (x0 + ls, ls, bh)), wood, "wood")
-    m.add(S.box((x1 - ls, 0.0, seat), (x1, ls, bh)), wood, "wood")
-    m.add(S.box((x0 + ls, 0.005, bh - 0.22), (x1 - ls, 0.03, bh - 0.02)), wood, "wood")
+        m.add(shapes.box((x0, 0.0, seat - 0.03), (x1, d, seat)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, seat), (x0 + ls, ls, bh)), wood, "wood")
+    m.add(shapes.box((x1 - ls, 0.0, seat), (x1, ls, bh)), wood, "wood")
+    m.add(shapes.box((x0 + ls, 0.005, bh - 0.22), (x1 - ls, 0.03, bh - 0.02)), wood, "wood")
     return m
 
 
@@ -549,17 +549,17 @@ def wardrobe(rng: np.random.Generator, height_max: float = 2.2, small: bool = Fa
     wood = pick(rng, WOODS)
     m = Model("wardrobe", "furniture", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.box((x0 + 0.02, 0.0, 0.0), (x1 - 0.02, d - 0.06, 0.08)), jitter(wood, rng, 10), "wood")
-    m.add(S.box((x0, 0.0, 0.08), (x1, d - 0.035, h - 0.03)), wood, "wood")
-    m.add(S.box((x0, 0.0, h - 0.03), (x1, d - 0.02, h)), jitter(wood, rng, 6), "wood")
+    m.add(shapes.box((x0 + 0.02, 0.0, 0.0), (x1 - 0.02, d - 0.06, 0.08)), jitter(wood, rng, 10), "wood")
+    m.add(shapes.box((x0, 0.0, 0.08), (x1, d - 0.035, h - 0.03)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, h - 0.03), (x1, d - 0.02, h)), jitter(wood, rng, 6), "wood")
     n = 2 if w < 1.2 else 3
     dw = w / n
     metal = pick(rng, METALS)
     for k in range(n):
         a, b = x0 + k * dw + 0.003, x0 + (k + 1) * dw - 0.003
-        m.add(S.box((a, d - 0.035, 0.085), (b, d - 0.018, h - 0.035)), jitter(wood, rng, 4), "wood")
+        m.add(shapes.box((a, d - 0.035, 0.085), (b, d - 0.018, h - 0.035)), jitter(wood, rng, 4), "wood")
         hx = b - 0.05 if k % 2 == 0 else a + 0.03
-        m.add(S.box((hx, d - 0.018, 0.9), (hx + 0.02, d, 1.2)), metal, "metal")
+        m.add(shapes.box((hx, d - 0.018, 0.9), (hx + 0.02, d, 1.2)), metal, "metal")
     return m
 
 
@@ -571,14 +571,14 @@ def fridge(rng: np.random.Generator) -> Model:
     c = pick(rng, APPLIANCES)
     m = Model("fridge", "furniture", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.chamfer_box((x0, 0.0, 0.0), (x1, d - 0.06, h), 0.01), c, "metal")
+    m.add(shapes.chamfer_box((x0, 0.0, 0.0), (x1, d - 0.06, h), 0.01), c, "metal")
     split = u(rng, 0.55, 0.7) * h
-    m.add(S.chamfer_box((x0, d - 0.06, 0.02), (x1, d - 0.02, split - 0.005), 0.008), jitter(c, rng, 4), "metal")
-    m.add(S.chamfer_box((x0, d - 0.06, split + 0.005), (x1, d - 0.02, h - 0.01), 0.008), jitter(c, rng, 4), "metal")
+    m.add(shapes.chamfer_box((x0, d - 0.06, 0.02), (x1, d - 0.02, split - 0.005), 0.008), jitter(c, rng, 4), "metal")
+    m.add(shapes.chamfer_box((x0, d - 0.06, split + 0.005), (x1, d - 0.02, h - 0.01), 0.008), jitter(c, rng, 4), "metal")
     hc = (150, 150, 155) if c[0] > 100 else (200, 200, 205)
     hx = x1 - 0.07
-    m.add(S.box((hx, d - 0.02, split - 0.45), (hx + 0.025, d, split - 0.05)), hc, "metal")
-    m.add(S.box((hx, d - 0.02, split + 0.05), (hx + 0.025, d, min(h - 0.05, split + 0.4))), hc, "metal")
+    m.add(shapes.box((hx, d - 0.02, split - 0.45), (hx + 0.025, d, split - 0.05)), hc, "metal")
+    m.add(shapes.box((hx, d - 0.02, split + 0.05), (hx + 0.025, d, min(h - 0.05, split + 0.4))), hc, "metal")
     return m
 
 
@@ -587,16 +587,16 @@ def toilet(rng: np.random.Generator) -> Model:
     m = Model("toilet", "furniture", [], 0.42, 0.72, 0.8)
     tank_h = u(rng, 0.74, 0.82)
     m.height = tank_h
-    m.add(S.chamfer_box((-0.2, 0.0, 0.42), (0.2, 0.18, tank_h), 0.02), CERAMIC, "ceramic")
-    ped = S.transform(S.revolve([(0.0, 0.0), (1.0, 0.0), (0.8, 0.3), (0.0, 0.3)], 20), scale=(0.12, 0.17, 1.0),
+    m.add(shapes.chamfer_box((-0.2, 0.0, 0.42), (0.2, 0.18, tank_h), 0.02), CERAMIC, "ceramic")
+    ped = shapes.transform(shapes.revolve([(0.0, 0.0), (1.0, 0.0), (0.8, 0.3), (0.0, 0.3)], 20), scale=(0.12, 0.17, 1.0),
                       shift=(0.0, 0.36, 0.0))
     m.add(ped, CERAMIC, "ceramic")
-    m.add(S.superellipsoid((-0.18, 0.15, 0.22), (0.18, 0.7, 0.4), 0.6, 0.8, 8, 20), CERAMIC, "ceramic")
-    ring = S.revolve([(0.7, 0.0), (1.0, 0.0), (1.0, 1.0), (0.7, 1.0)], 24, closed=True)
+    m.add(shapes.superellipsoid((-0.18, 0.15, 0.22), (0.18, 0.7, 0.4), 0.6, 0.8, 8, 20), CERAMIC, "ceramic")
+    ring = shapes.revolve([(0.7, 0.0), (1.0, 0.0), (1.0, 1.0), (0.7, 1.0)], 24, closed=True)
     seatc = CERAMIC if rng.random() < 0.7 else pick(rng, WOODS)
-    m.add(S.transform(ring, scale=(0.18, 0.26, 0.02), shift=(0.0, 0.44, 0.4)), seatc, "plain")
-    lid = S.cylinder(1.0, 0.0, 1.0, 24)
-    m.add(S.transform(lid, scale=(0.175, 0.255, 0.015), shift=(0.0, 0.44, 0.42)), seatc, "plain")
+    m.add(shapes.transform(ring, scale=(0.18, 0.26, 0.02), shift=(0.0, 0.44, 0.4)), seatc, "plain")
+    lid = shapes.cylinder(1.0, 0.0, 1.0, 24)
+    m.add(shapes.transform(lid, scale=(0.175, 0.255, 0.015), shift=(0.0, 0.44, 0.42)), seatc, "plain")
     return m
 
 
@@ -608,14 +608,14 @@ def bathtub(rng: np.random.Generator) -> Model:
     m = Model("bathtub", "furniture", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
     t = 0.07
-    m.add(S.box((x0, 0.0, 0.0), (x1, d, 0.12)), CERAMIC, "ceramic")
-    m.add(S.box((x0, 0.0, 0.12), (x1, t, h)), CERAMIC, "ceramic")
-    m.add(S.box((x0, d - t, 0.12), (x1, d, h)), CERAMIC, "ceramic")
-    m.add(S.box((x0, t, 0.12), (x0 + 0.12, d - t, h)), CERAMIC, "ceramic")
-    m.add(S.box((x1 - 0.12, t, 0.12), (x1, d - t, h)), CERAMIC, "ceramic")
+    m.add(shapes.box((x0, 0.0, 0.0), (x1, d, 0.12)), CERAMIC, "ceramic")
+    m.add(shapes.box((x0, 0.0, 0.12), (x1, t, h)), CERAMIC, "ceramic")
+    m.add(shapes.box((x0, d - t, 0.12), (x1, d, h)), CERAMIC, "ceramic")
+    m.add(shapes.box((x0, t, 0.12), (x0 + 0.12, d - t, h)), CERAMIC, "ceramic")
+    m.add(shapes.box((x1 - 0.12, t, 0.12), (x1, d - t, h)), CERAMIC, "ceramic")
     metal = METALS[0]
-    m.add(S.cylinder(0.02, h, h + 0.15, 12, (x1 - 0.06, 0.5 * d)), metal, "metal")
-    m.add(S.box((x1 - 0.2, 0.5 * d - 0.012, h + 0.13), (x1 - 0.06, 0.5 * d + 0.012, h + 0.15)), metal, "metal")
+    m.add(shapes.cylinder(0.02, h, h + 0.15, 12, (x1 - 0.06, 0.5 * d)), metal, "metal")
+    m.add(shapes.box((x1 - 0.2, 0.5 * d - 0.012, h + 0.13), (x1 - 0.06, 0.5 * d + 0.012, h + 0.15)), metal, "metal")
     m.height = h + 0.15
     return m
 
@@ -629,7 +629,7 @@ def tv_stand(rng: np.random.Generator) -> tuple[Model, Model]:
     m = Model("tv stand", "furniture", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
     _legs(m, x0 + 0.03, 0.03, x1 - 0.03, d - 0.06, 0.08, 0.04, jitter(wood, rng, 10))
-    m.add(S.box((x0, 0.0, 0.08), (x1, d - 0.02, h)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, 0.08), (x1, d - 0.02, h)), wood, "wood")
     _drawer_fronts(m, x0 + 0.01, x1 - 0.01, 0.09, h - 0.01, d - 0.035, 1, 3 if w > 1.5 else 2, jitter(wood, rng, 8),
                    pick(rng, METALS))
     tw = min(u(rng, 0.9, 1.3), w - 0.1)
@@ -637,9 +637,9 @@ def tv_stand(rng: np.random.Generator) -> tuple[Model, Model]:
     tv = Model("tv", "furniture", [], tw, 0.25, h + 0.08 + th)
     black = (28, 28, 30)
     cy = 0.5 * d - 0.05
-    tv.add(S.box((-0.18, cy - 0.1, h), (0.18, cy + 0.1, h + 0.015)), black, "metal")
-    tv.add(S.box((-0.03, cy - 0.015, h + 0.015), (0.03, cy + 0.015, h + 0.1)), black, "metal")
-    tv.add(S.box((-0.5 * tw, cy - 0.045, h + 0.08), (0.5 * tw, cy - 0.015, h + 0.08 + th)), black, "metal")
+    tv.add(shapes.box((-0.18, cy - 0.1, h), (0.18, cy + 0.1, h + 0.015)), black, "metal")
+    tv.add(shapes.box((-0.03, cy - 0.015, h + 0.015), (0.03, cy + 0.015, h + 0.1)), black, "metal")
+    tv.add(shapes.box((-0.5 * tw, cy - 0.045, h + 0.08), (0.5 * tw, cy - 0.015, h + 0.08 + th)), black, "metal")
     return m, tv
 
 
@@ -651,16 +651,16 @@ def picture(rng: np.random.Generator) -> Model:
     m = Model("picture", "furniture", [], w, d, z0 + h, z_min=z0)
     frame = pick(rng, WOODS + ((240, 240, 240), (30, 30, 30), (200, 170, 90)))
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.box((x0, 0.0, z0), (x1, d, z0 + f)), frame, "wood")
-    m.add(S.box((x0, 0.0, z0 + h - f), (x1, d, z0 + h)), frame, "wood")
-    m.add(S.box((x0, 0.0, z0 + f), (x0 + f, d, z0 + h - f)), frame, "wood")
-    m.add(S.box((x1 - f, 0.0, z0 + f), (x1, d, z0 + h - f)), frame, "wood")
+    m.add(shapes.box((x0, 0.0, z0), (x1, d, z0 + f)), frame, "wood")
+    m.add(shapes.box((x0, 0.0, z0 + h - f), (x1, d, z0 + h)), frame, "wood")
+    m.add(shapes.box((x0, 0.0, z0 + f), (x0 + f, d, z0 + h - f)), frame, "wood")
+    m.add(shapes.box((x1 - f, 0.0, z0 + f), (x1, d, z0 + h - f)), frame, "wood")
     # the canvas: a few colour fields, slightly recessed
     n = int(rng.integers(1, 4))
     cuts = np.sort(rng.uniform(0.2, 0.8, n - 1)) if n > 1 else np.array([])
     edges = np.concatenate([[x0 + f], x0 + f + cuts * (w - 2 * f), [x1 - f]])
     for a, b in zip(edges[:-1], edges[1:]):
-        m.add(S.box((a, 0.0, z0 + f), (b, d - 0.008, z0 + h - f)), pick(rng, FABRICS + LINENS + WOODS[:3]), "plain")
+        m.add(shapes.box((a, 0.0, z0 + f), (b, d - 0.008, z0 + h - f)), pick(rng, FABRICS + LINENS + WOODS[:3]), "plain")
     return m
 
 
@@ -668,8 +668,8 @@ def rug(rng: np.random.Generator, width: float, depth: float) -> Model:
     """A flat rug (8 mm) with a border; walkable, never a receptacle."""
     m = Model("rug", "furniture", [], width, depth, 0.008)
     base = pick(rng, FABRICS + LINENS)
-    m.add(S.rounded_box((-0.5 * width, 0.0, 0.0), (0.5 * width, depth, 0.006), 0.003, 3), jitter(base, rng, 25), "fabric")
-    m.add(S.rounded_box((-0.5 * width + 0.08, 0.08, 0.0), (0.5 * width - 0.08, depth - 0.08, 0.008), 0.003, 3), base, "fabric")
+    m.add(shapes.rounded_box((-0.5 * width, 0.0, 0.0), (0.5 * width, depth, 0.006), 0.003, 3), jitter(base, rng, 25), "fabric")
+    m.add(shapes.rounded_box((-0.5 * width + 0.08, 0.08, 0.0), (0.5 * width - 0.08, depth - 0.08, 0.008), 0.003, 3), base, "fabric")
     return m
 
 
@@ -683,10 +683,10 @@ def bench(rng: np.random.Generator) -> Model:
     wood = pick(rng, WOODS)
     m = Model("bench", "receptacle", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.box((x0, 0.0, 0.0), (x0 + 0.03, d, h - 0.03)), wood, "wood")
-    m.add(S.box((x1 - 0.03, 0.0, 0.0), (x1, d, h - 0.03)), wood, "wood")
-    m.add(S.box((x0 + 0.03, 0.02, 0.1), (x1 - 0.03, d - 0.02, 0.12)), jitter(wood, rng, 8), "wood")
-    m.add(S.box((x0, 0.0, h - 0.03), (x1, d, h)), wood, "wood")
+    m.add(shapes.box((x0, 0.0, 0.0), (x0 + 0.03, d, h - 0.03)), wood, "wood")
+    m.add(shapes.box((x1 - 0.03, 0.0, 0.0), (x1, d, h - 0.03)), wood, "wood")
+    m.add(shapes.box((x0 + 0.03, 0.02, 0.1), (x1 - 0.03, d - 0.02, 0.12)), jitter(wood, rng, 8), "wood")
+    m.add(shapes.box((x0, 0.0, h - 0.03), (x1, d, h)), wood, "wood")
     m.supports.append((h, rect(x0, 0.0, x1, d)))
     return m
 
@@ -696,10 +696,10 @@ def coat_rack(rng: np.random.Generator) -> Model:
     h, r = u(rng, 1.7, 1.85), 0.2
     m = Model("coat rack", "furniture", [], 2 * r, 2 * r, h)
     c = pick(rng, WOODS + METALS)
-    m.add(S.cylinder(0.18, 0.0, 0.03, 16, (0.0, r)), c, "wood")
-    m.add(S.cylinder(0.018, 0.03, h, 10, (0.0, r)), c, "wood")
+    m.add(shapes.cylinder(0.18, 0.0, 0.03, 16, (0.0, r)), c, "wood")
+    m.add(shapes.cylinder(0.018, 0.03, h, 10, (0.0, r)), c, "wood")
     for dx, dy in ((0.12, 0.0), (-0.12, 0.0), (0.0, 0.12), (0.0, -0.12)):
-        m.add(S.box((min(0.0, dx) - 0.01, r + min(0.0, dy) - 0.01, h - 0.12), (max(0.0, dx) + 0.01, r + max(0.0, dy) + 0.01,
+        m.add(shapes.box((min(0.0, dx) - 0.01, r + min(0.0, dy) - 0.01, h - 0.12), (max(0.0, dx) + 0.01, r + max(0.0, dy) + 0.01,
                                                                                h - 0.1)), c, "wood")
     return m
 
@@ -710,12 +710,12 @@ def shoe_rack(rng: np.random.Generator) -> Model:
     c = pick(rng, WOODS + METALS)
     m = Model("shoe rack", "furniture", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.box((x0, 0.0, 0.0), (x0 + 0.02, d, h)), c, "wood")
-    m.add(S.box((x1 - 0.02, 0.0, 0.0), (x1, d, h)), c, "wood")
+    m.add(shapes.box((x0, 0.0, 0.0), (x0 + 0.02, d, h)), c, "wood")
+    m.add(shapes.box((x1 - 0.02, 0.0, 0.0), (x1, d, h)), c, "wood")
     levels = 3 if h > 0.52 else 2
     for k in range(levels):
         z = 0.05 + k * (h - 0.07) / (levels - 1)
-        m.add(S.box((x0 + 0.02, 0.0, z), (x1 - 0.02, d, z + 0.02)), jitter(c, rng, 6), "wood")
+        m.add(shapes.box((x0 + 0.02, 0.0, z), (x1 - 0.02, d, z + 0.02)), jitter(c, rng, 6), "wood")
     return m
 
 
@@ -723,7 +723,7 @@ def umbrella_stand(rng: np.random.Generator) -> Model:
     """A cylindrical umbrella stand (~0.5 m)."""
     r, h = u(rng, 0.1, 0.14), u(rng, 0.45, 0.55)
     m = Model("umbrella stand", "furniture", [], 2 * r, 2 * r, h)
-    m.add(S.cylinder(r, 0.0, h, 16, (0.0, r)), pick(rng, METALS + ((140, 40, 40), (40, 60, 90))), "metal")
+    m.add(shapes.cylinder(r, 0.0, h, 16, (0.0, r)), pick(rng, METALS + ((140, 40, 40), (40, 60, 90))), "metal")
     return m
 
 
@@ -732,10 +732,10 @@ def _appliance(rng: np.random.Generator, label: str) -> Model:
     h = u(rng, 0.84, 0.88)
     c = pick(rng, APPLIANCES[:2])
     m = Model(label, "furniture", [], 0.6, 0.6, h)
-    m.add(S.chamfer_box((-0.3, 0.0, 0.0), (0.3, 0.58, h), 0.01), c, "metal")
-    door = S.transform(S.cylinder(0.2, 0.0, 0.02, 24), rot=S.rot_x(-0.5 * np.pi), shift=(0.0, 0.58, 0.4))
+    m.add(shapes.chamfer_box((-0.3, 0.0, 0.0), (0.3, 0.58, h), 0.01), c, "metal")
+    door = shapes.transform(shapes.cylinder(0.2, 0.0, 0.02, 24), rot=shapes.rot_x(-0.5 * np.pi), shift=(0.0, 0.58, 0.4))
     m.add(door, (90, 96, 104) if label == "washing machine" else jitter(c, rng, 8), "plain")
-    m.add(S.box((-0.28, 0.58, h - 0.12), (0.28, 0.6, h - 0.02)), jitter(c, rng, 6), "metal")
+    m.add(shapes.box((-0.28, 0.58, h - 0.12), (0.28, 0.6, h - 0.02)), jitter(c, rng, 6), "metal")
     return m
 
 
@@ -753,8 +753,8 @@ def ironing_board(rng: np.random.Generator) -> Model:
     """A folded ironing board standing against the wall (1.2-1.4 m, 4 cm thick)."""
     h, w = u(rng, 1.2, 1.4), u(rng, 0.34, 0.4)
     m = Model("ironing board", "furniture", [], w, 0.06, h)
-    m.add(S.box((-0.5 * w, 0.0, 0.0), (0.5 * w, 0.04, h)), pick(rng, FABRICS + LINENS), "fabric")
-    m.add(S.box((-0.04, 0.04, 0.05), (0.04, 0.06, h - 0.1)), METALS[0], "metal")
+    m.add(shapes.box((-0.5 * w, 0.0, 0.0), (0.5 * w, 0.04, h)), pick(rng, FABRICS + LINENS), "fabric")
+    m.add(shapes.box((-0.04, 0.04, 0.05), (0.04, 0.06, h - 0.1)), METALS[0], "metal")
     return m
 
 
@@ -772,8 +772,8 @@ def workbench(rng: np.random.Generator) -> Model:
     m = Model("table", "receptacle", [], w, d, h)
     x0, x1 = -0.5 * w, 0.5 * w
     _legs(m, x0, 0.0, x1, d, h - 0.05, 0.07, jitter(wood, rng, 10))
-    m.add(S.box((x0 + 0.07, 0.05, 0.15), (x1 - 0.07, d - 0.05, 0.17)), jitter(wood, rng, 10), "wood")
-    m.add(S.box((x0, 0.0, h - 0.05), (x1, d, h)), wood, "wood")
+    m.add(shapes.box((x0 + 0.07, 0.05, 0.15), (x1 - 0.07, d - 0.05, 0.17)), jitter(wood, rng, 10), "wood")
+    m.add(shapes.box((x0, 0.0, h - 0.05), (x1, d, h)), wood, "wood")
     m.supports.append((h, rect(x0, 0.0, x1, d)))
     return m
 
@@ -783,7 +783,7 @@ def tool_cabinet(rng: np.random.Generator) -> Model:
     w, d, h = u(rng, 0.6, 0.9), u(rng, 0.45, 0.5), u(rng, 0.9, 1.1)
     c = pick(rng, ((170, 40, 40), (60, 60, 64), (40, 70, 120)))
     m = Model("cabinet", "furniture", [], w, d, h)
-    m.add(S.box((-0.5 * w, 0.0, 0.0), (0.5 * w, d - 0.015, h)), c, "metal")
+    m.add(shapes.box((-0.5 * w, 0.0, 0.0), (0.5 * w, d - 0.015, h)), c, "metal")
     _drawer_fronts(m, -0.5 * w + 0.02, 0.5 * w - 0.02, 0.05, h - 0.03, d - 0.015, 5, 1, jitter(c, rng, 10), METALS[0], "metal")
     return m
 
@@ -794,10 +794,10 @@ def armchair(rng: np.random.Generator) -> Model:
     fab = pick(rng, FABRICS)
     m = Model("armchair", "furniture", [], w, d, 0.85)
     x0, x1 = -0.5 * w, 0.5 * w
-    m.add(S.rounded_box((x0, 0.0, 0.08), (x1, d, 0.4), 0.02, 2), fab, "fabric")
-    m.add(S.rounded_box((x0 + 0.12, 0.2, 0.4), (x1 - 0.12, d - 0.02, 0.48), 0.02, 2), jitter(fab, rng, 8), "fabric")
-    m.add(S.rounded_box((x0, 0.0, 0.4), (x1, 0.2, 0.85), 0.03, 2), fab, "fabric")
+    m.add(shapes.rounded_box((x0, 0.0, 0.08), (x1, d, 0.4), 0.02, 2), fab, "fabric")
+    m.add(shapes.rounded_box((x0 + 0.12, 0.2, 0.4), (x1 - 0.12, d - 0.02, 0.48), 0.02, 2), jitter(fab, rng, 8), "fabric")
+    m.add(shapes.rounded_box((x0, 0.0, 0.4), (x1, 0.2, 0.85), 0.03, 2), fab, "fabric")
     for a in (x0, x1 - 0.12):
-        m.add(S.rounded_box((a, 0.2, 0.4), (a + 0.12, d, 0.62), 0.02, 2), fab, "fabric")
+        m.add(shapes.rounded_box((a, 0.2, 0.4), (a + 0.12, d, 0.62), 0.02, 2), fab, "fabric")
     _legs(m, x0 + 0.04, 0.04, x1 - 0.04, d - 0.04, 0.08, 0.04, pick(rng, WOODS))
     return m

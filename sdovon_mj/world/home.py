@@ -18,54 +18,54 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import clutter as CL
-from . import furniture as FU
-from . import layout as LA
-from . import placement as PL
-from . import programs as PR
-from . import stairs as SR
-from . import structure as ST
+from . import clutter
+from . import furniture
+from . import layout
+from . import placement
+from . import programs
+from . import stairs
+from . import structure
 from .assembly import Piece, assemble
 from .layout import STOREY_HEIGHT
 from .model import Apartment, ArticulatedInstance, RoomSpec, Storey
 from .presets import Preset, preset
 
 
-def _room(seed: int, r: LA.PlanRoom, plan: LA.Plan, pre: Preset, ceilings: bool, art: bool) -> tuple[list[Piece], list[str]]:
+def _room(seed: int, r: layout.PlanRoom, plan: layout.Plan, pre: Preset, ceilings: bool, art: bool) -> tuple[list[Piece], list[str]]:
     """Build one room (its own seeded generators): floor, ceiling, four walls, windows, furniture, clutter, stairs."""
     rng = np.random.default_rng([int(seed), 1, r.id])
     storey = [o for o in plan.rooms if o.floor == r.floor]
     storey_doors = [d for d in plan.doors if d.floor == r.floor]
     z0 = r.floor * STOREY_HEIGHT
-    site = ST.Site(r, r.floor, z0, plan.wall_h, ST.exterior_sides(r, storey),
-                   tuple(SR.opening(f) for f in plan.flights if f.arrives == r.id),
-                   tuple(SR.opening(f) for f in plan.flights if f.room == r.id))
-    finish = ST.room_finish(r, site.ext, site.wall_h, rng)
+    site = structure.Site(r, r.floor, z0, plan.wall_h, structure.exterior_sides(r, storey),
+                   tuple(stairs.opening(f) for f in plan.flights if f.arrives == r.id),
+                   tuple(stairs.opening(f) for f in plan.flights if f.room == r.id))
+    finish = structure.room_finish(r, site.ext, site.wall_h, rng)
 
     def program(rtype: str, iw: float, idp: float, rng_: np.random.Generator, height_max: float) -> list:
-        return PR.program(rtype, iw, idp, rng_, height_max, art)
+        return programs.program(rtype, iw, idp, rng_, height_max, art)
 
     dress = None
     if pre.clutter > 0:
         crng = np.random.default_rng([int(seed), 3, r.id])
         rooms = {o.id: o for o in plan.rooms}
 
-        def dress(state: PL.RoomState, nav: object) -> None:
-            CL.dress(state, r, storey_doors, rooms, finish.windows, site.wall_h, crng, nav, pre.clutter)  # type: ignore[arg-type]
+        def dress(state: placement.RoomState, nav: object) -> None:
+            clutter.dress(state, r, storey_doors, rooms, finish.windows, site.wall_h, crng, nav, pre.clutter)  # type: ignore[arg-type]
 
-    fixed = tuple(b for f in plan.flights for b in SR.keep_clear(f, r.id, site.wall_h))
-    placed, notes = PL.furnish(r, storey_doors, rng, site.wall_h, finish.windows, program, fixed, dress)
-    doors = LA.room_doors(r, storey_doors)
-    pieces = [ST.floor_slab(site, finish)]
-    pieces += [ST.ceiling(site)] if ceilings else []
-    pieces += [ST.wall(site, side, ST.wall_openings(side, doors, finish.windows, site.z0), finish) for side in ST.WALL_SIDES]
-    pieces += [ST.window(site, side, w, finish.frame_rgb) for side, wl in finish.windows.items() for w in wl]
-    pieces += PL.furniture_pieces(r, placed, site.floor, site.z0)
+    fixed = tuple(b for f in plan.flights for b in stairs.keep_clear(f, r.id, site.wall_h))
+    placed, notes = placement.furnish(r, storey_doors, rng, site.wall_h, finish.windows, program, fixed, dress)
+    doors = layout.room_doors(r, storey_doors)
+    pieces = [structure.floor_slab(site, finish)]
+    pieces += [structure.ceiling(site)] if ceilings else []
+    pieces += [structure.wall(site, side, structure.wall_openings(side, doors, finish.windows, site.z0), finish) for side in structure.WALL_SIDES]
+    pieces += [structure.window(site, side, w, finish.frame_rgb) for side, wl in finish.windows.items() for w in wl]
+    pieces += placement.furniture_pieces(r, placed, site.floor, site.z0)
     for f in plan.flights:
         if r.id in (f.room, f.arrives):
             srng = np.random.default_rng([int(seed), 4, f.floor])
-            wood = FU.pick(srng, FU.WOODS)
-            pieces.append(SR.flight_piece(f, z0, wood) if r.id == f.room else SR.railing_piece(f, r, z0, wood))
+            wood = furniture.pick(srng, furniture.WOODS)
+            pieces.append(stairs.flight_piece(f, z0, wood) if r.id == f.room else stairs.railing_piece(f, r, z0, wood))
     return pieces, notes
 
 
@@ -102,16 +102,16 @@ def generate_home(seed: int, preset_name: str = "apartment", floors: int | None 
             room_pieces, room_notes = _room(seed, r, plan, pre, ceilings, articulated)
             pieces += room_pieces
             notes += room_notes
-        colour = ST.door_frame_colour(seed, fl)
-        pieces += [ST.door_frame(d, fl * STOREY_HEIGHT, colour) for d in plan.doors if d.floor == fl]
+        colour = structure.door_frame_colour(seed, fl)
+        pieces += [structure.door_frame(d, fl * STOREY_HEIGHT, colour) for d in plan.doors if d.floor == fl]
     instances, mesh = assemble(pieces)
     return Apartment(
         seed=int(seed),
         floors=tuple(Storey(k, k * STOREY_HEIGHT) for k in range(plan.storeys)),
         wall_height=float(plan.wall_h),
-        rooms=tuple(RoomSpec(r.id, r.type, r.floor, FU.rect(r.x0, r.y0, r.x1, r.y1)) for r in plan.rooms),
+        rooms=tuple(RoomSpec(r.id, r.type, r.floor, furniture.rect(r.x0, r.y0, r.x1, r.y1)) for r in plan.rooms),
         instances=instances,
-        doors=tuple(ST.door_record(d, d.floor * STOREY_HEIGHT) for d in plan.doors),
+        doors=tuple(structure.door_record(d, d.floor * STOREY_HEIGHT) for d in plan.doors),
         mesh=mesh,
         ceilings=ceilings,
         notes=tuple(notes),

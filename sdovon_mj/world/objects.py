@@ -18,14 +18,14 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from . import shapes as S
+from . import shapes
 
 if TYPE_CHECKING:
     import trimesh
 
 LICENSE = "CC0-1.0 (procedural, sdovon-mj)"
 
-Part = tuple[S.Mesh, tuple[int, int, int], str]  # mesh, RGB colour, part name
+Part = tuple[shapes.Mesh, tuple[int, int, int], str]  # mesh, RGB colour, part name
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,7 @@ class HouseholdObject:
     @property
     def faces(self) -> np.ndarray:
         """Return all faces (M, 3) indexing `vertices`."""
-        return S.concat([p[0] for p in self.parts])[1]
+        return shapes.concat([p[0] for p in self.parts])[1]
 
     @property
     def dims(self) -> np.ndarray:
@@ -67,7 +67,7 @@ class HouseholdObject:
         """Return the object as one trimesh.Trimesh with face colours."""
         import trimesh
 
-        v, f = S.concat([p[0] for p in self.parts])
+        v, f = shapes.concat([p[0] for p in self.parts])
         colors = np.concatenate([np.tile(np.array(p[1] + (255,), dtype=np.uint8), (len(p[0][1]), 1)) for p in self.parts])
         return trimesh.Trimesh(v, f, face_colors=colors, process=False)
 
@@ -92,13 +92,13 @@ DARK = ((35, 35, 38), (60, 60, 64), (90, 90, 96), (180, 180, 185))
 WOOD = ((150, 110, 70), (110, 75, 45), (190, 150, 105))
 
 
-def _shell(outer: list[tuple[float, float]], wall: float, bottom: float, seg: int = 32) -> S.Mesh:
+def _shell(outer: list[tuple[float, float]], wall: float, bottom: float, seg: int = 32) -> shapes.Mesh:
     """Revolve a thin-walled open vessel: `outer` (r, z) from the base rim up to the lip; base closed."""
     outer = [(float(r), float(z)) for r, z in outer]
     inner = [(max(r - wall, 0.002), max(z, bottom)) for r, z in outer[::-1]]
     lip = outer[-1]
     prof = [(0.0, 0.0)] + outer + [(lip[0] - 0.5 * wall, lip[1] + 0.002)] + inner[:-1] + [(inner[-1][0], bottom), (0.0, bottom)]
-    return S.revolve(prof, seg)
+    return shapes.revolve(prof, seg)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -112,7 +112,7 @@ def _mug(rng: np.random.Generator) -> list[Part]:
     mid = r * (1.06 if style == 2 else 1.0)
     body = _shell([(rb - 0.003, 0.0), (rb, 0.004), (mid, 0.5 * h), (r, h)], 0.004, 0.007)
     major, minor = _u(rng, 0.024, 0.03), _u(rng, 0.0045, 0.006)
-    handle = S.torus_arc((r - 0.002, 0.0, 0.5 * h), major, minor, -np.radians(95), np.radians(95), "xz", 14, 10)
+    handle = shapes.torus_arc((r - 0.002, 0.0, 0.5 * h), major, minor, -np.radians(95), np.radians(95), "xz", 14, 10)
     col = _c(rng, CERAMICS)
     return [(body, col, "body"), (handle, col, "handle")]
 
@@ -137,7 +137,7 @@ def _bowl(rng: np.random.Generator) -> list[Part]:
 def _plate(rng: np.random.Generator) -> list[Part]:
     r, h = _u(rng, 0.09, 0.14), _u(rng, 0.016, 0.025)
     prof = [(0.0, 0.0), (0.55 * r, 0.0), (0.6 * r, 0.006), (r, h), (r - 0.004, h + 0.001), (0.62 * r, 0.009), (0.0, 0.009)]
-    return [(S.revolve(prof, 48), _c(rng, CERAMICS), "body")]
+    return [(shapes.revolve(prof, 48), _c(rng, CERAMICS), "body")]
 
 
 def _book(rng: np.random.Generator) -> list[Part]:
@@ -147,10 +147,10 @@ def _book(rng: np.random.Generator) -> list[Part]:
     c = 0.002
     cover = _c(rng, FABRIC + PLASTICS + DARK, 14)
     parts = [
-        (S.rounded_box((0, 0, 0), (l, w, c), 0.0008, 2), cover, "back"),
-        (S.rounded_box((0, 0, t - c), (l, w, t), 0.0008, 2), cover, "front"),
-        (S.rounded_box((0.0003, 0, 0.5 * c), (l - 0.0003, c, t - 0.5 * c), 0.0007, 2), cover, "spine"),
-        (S.rounded_box((0.004, 0.7 * c, 0.7 * c), (l - 0.004, w - 0.004, t - 0.7 * c), 0.001, 2), (236, 230, 210), "pages"),
+        (shapes.rounded_box((0, 0, 0), (l, w, c), 0.0008, 2), cover, "back"),
+        (shapes.rounded_box((0, 0, t - c), (l, w, t), 0.0008, 2), cover, "front"),
+        (shapes.rounded_box((0.0003, 0, 0.5 * c), (l - 0.0003, c, t - 0.5 * c), 0.0007, 2), cover, "spine"),
+        (shapes.rounded_box((0.004, 0.7 * c, 0.7 * c), (l - 0.004, w - 0.004, t - 0.7 * c), 0.001, 2), (236, 230, 210), "pages"),
     ]
     return parts
 
@@ -161,9 +161,9 @@ def _bottle(rng: np.random.Generator) -> list[Part]:
     sh = h * _u(rng, 0.55, 0.7)
     prof = [(0.0, 0.0), (r - 0.004, 0.0), (r, 0.005), (r, sh), (0.55 * r + 0.45 * neck, sh + 0.35 * (h - sh) * 0.5),
             (neck, sh + 0.55 * (h - sh)), (neck, h - 0.02), (0.0, h - 0.02)]
-    body = S.revolve(prof, 32)
-    cap = S.cylinder(neck + 0.002, h - 0.022, h, 20)
-    label = S.cylinder(r + 0.0008, 0.3 * sh, 0.8 * sh, 32)
+    body = shapes.revolve(prof, 32)
+    cap = shapes.cylinder(neck + 0.002, h - 0.022, h, 20)
+    label = shapes.cylinder(r + 0.0008, 0.3 * sh, 0.8 * sh, 32)
     return [(body, _c(rng, GLASS + PLASTICS), "body"), (cap, _c(rng, PLASTICS + METAL), "cap"),
             (label, _c(rng, FABRIC), "label")]
 
@@ -172,43 +172,43 @@ def _can(rng: np.random.Generator) -> list[Part]:
     r, h = _u(rng, 0.026, 0.033), _u(rng, 0.1, 0.123)
     prof = [(0.0, 0.003), (r - 0.006, 0.0), (r - 0.003, 0.0), (r, 0.008), (r, h - 0.01), (r - 0.004, h - 0.002),
             (r - 0.003, h), (r - 0.005, h), (r - 0.006, h - 0.004), (0.0, h - 0.004)]
-    return [(S.revolve(prof, 36), _c(rng, PLASTICS + METAL, 12), "body")]
+    return [(shapes.revolve(prof, 36), _c(rng, PLASTICS + METAL, 12), "body")]
 
 
 def _cereal_box(rng: np.random.Generator) -> list[Part]:
     w, d, h = _u(rng, 0.19, 0.3), _u(rng, 0.05, 0.09), _u(rng, 0.25, 0.35)
-    return [(S.rounded_box((0, 0, 0), (w, d, h), 0.003, 4), _c(rng, PLASTICS + FABRIC, 15), "box")]
+    return [(shapes.rounded_box((0, 0, 0), (w, d, h), 0.003, 4), _c(rng, PLASTICS + FABRIC, 15), "box")]
 
 
 def _laptop(rng: np.random.Generator) -> list[Part]:
     w, d = _u(rng, 0.3, 0.38), _u(rng, 0.21, 0.26)
     tb, tl = _u(rng, 0.012, 0.018), _u(rng, 0.005, 0.008)
     shell = _c(rng, DARK + METAL)
-    parts: list[Part] = [(S.rounded_box((0, 0, 0), (w, d, tb), 0.004, 3), shell, "base"),
-                         (S.box((0.02, 0.06, tb - 0.0005), (w - 0.02, d - 0.02, tb + 0.001)), (20, 20, 22), "keys")]
+    parts: list[Part] = [(shapes.rounded_box((0, 0, 0), (w, d, tb), 0.004, 3), shell, "base"),
+                         (shapes.box((0.02, 0.06, tb - 0.0005), (w - 0.02, d - 0.02, tb + 0.001)), (20, 20, 22), "keys")]
     if rng.random() < 0.34:  # closed
-        parts.append((S.rounded_box((0, 0, tb + 0.0015), (w, d, tb + 0.0015 + tl), 0.003, 3), shell, "lid"))
+        parts.append((shapes.rounded_box((0, 0, tb + 0.0015), (w, d, tb + 0.0015 + tl), 0.003, 3), shell, "lid"))
         return parts
     ang = np.radians(_u(rng, 100.0, 115.0))
-    lid = S.rounded_box((0, 0, 0), (w, tl, d), 0.003, 3)
-    screen = S.box((0.015, tl - 0.0005, 0.015), (w - 0.015, tl + 0.001, d - 0.015))
-    rot = S.rot_x(-(ang - 0.5 * np.pi))
+    lid = shapes.rounded_box((0, 0, 0), (w, tl, d), 0.003, 3)
+    screen = shapes.box((0.015, tl - 0.0005, 0.015), (w - 0.015, tl + 0.001, d - 0.015))
+    rot = shapes.rot_x(-(ang - 0.5 * np.pi))
     hinge = (0.0, d - tl, tb)
-    parts.append((S.transform(lid, rot=rot, shift=hinge), shell, "lid"))
-    parts.append((S.transform(S.transform(screen, shift=(0, -tl, 0)), rot=rot, shift=hinge), (15, 20, 30), "screen"))
+    parts.append((shapes.transform(lid, rot=rot, shift=hinge), shell, "lid"))
+    parts.append((shapes.transform(shapes.transform(screen, shift=(0, -tl, 0)), rot=rot, shift=hinge), (15, 20, 30), "screen"))
     return parts
 
 
 def _remote(rng: np.random.Generator) -> list[Part]:
     l, w, t = _u(rng, 0.14, 0.22), _u(rng, 0.038, 0.055), _u(rng, 0.016, 0.026)
     body = _c(rng, DARK)
-    parts: list[Part] = [(S.rounded_box((0, 0, 0), (l, w, t), 0.006, 3), body, "body")]
+    parts: list[Part] = [(shapes.rounded_box((0, 0, 0), (l, w, t), 0.006, 3), body, "body")]
     rows = int(rng.integers(3, 6))
     for i in range(rows):
         for j in range(3):
             x = l * (0.25 + 0.6 * i / max(rows - 1, 1))
             y = w * (0.25 + 0.25 * j)
-            parts.append((S.cylinder(0.0035, t - 0.001, t + 0.002, 8, (x, y)), (200, 200, 200) if (i + j) % 3 else (200, 40, 40),
+            parts.append((shapes.cylinder(0.0035, t - 0.001, t + 0.002, 8, (x, y)), (200, 200, 200) if (i + j) % 3 else (200, 40, 40),
                           "button"))
     return parts
 
@@ -220,14 +220,14 @@ def _pillow(rng: np.random.Generator) -> list[Part]:
     else:
         l, w = _u(rng, 0.45, 0.6), _u(rng, 0.3, 0.42)
     h = _u(rng, 0.1, 0.16)
-    return [(S.superellipsoid((0, 0, 0), (l, w, h), 0.35, 0.22, 12, 28), _c(rng, FABRIC), "cover")]
+    return [(shapes.superellipsoid((0, 0, 0), (l, w, h), 0.35, 0.22, 12, 28), _c(rng, FABRIC), "cover")]
 
 
 def _stuffed_toy(rng: np.random.Generator) -> list[Part]:
     s = _u(rng, 0.7, 1.25)
     fur = _c(rng, ((150, 100, 60), (230, 220, 200), (200, 160, 110), (120, 120, 125), (230, 170, 190)))
     kind = int(rng.integers(3))
-    ell = lambda c, r: S.ellipsoid(tuple(np.array(c) * s), tuple(np.array(r) * s), 8, 14)  # noqa: E731
+    ell = lambda c, r: shapes.ellipsoid(tuple(np.array(c) * s), tuple(np.array(r) * s), 8, 14)  # noqa: E731
     parts: list[Part] = [
         (ell((0, 0, 0.07), (0.06, 0.05, 0.07)), fur, "body"),
         (ell((0, 0, 0.165), (0.048, 0.045, 0.045)), fur, "head"),
@@ -261,7 +261,7 @@ def _vase(rng: np.random.Generator) -> list[Part]:
 def _potted_plant(rng: np.random.Generator) -> list[Part]:
     pr, ph = _u(rng, 0.055, 0.1), _u(rng, 0.08, 0.16)
     pot = _shell([(0.75 * pr, 0.0), (pr, ph)], 0.006, 0.012, 28)
-    soil = S.cylinder(pr - 0.008, ph - 0.025, ph - 0.012, 24)
+    soil = shapes.cylinder(pr - 0.008, ph - 0.025, ph - 0.012, 24)
     green = _c(rng, ((60, 130, 60), (40, 100, 50), (90, 150, 70)), 12)
     parts: list[Part] = [(pot, _c(rng, ((180, 90, 60), (230, 230, 225), (60, 60, 64), (200, 170, 130))), "pot"),
                          (soil, (70, 50, 35), "soil")]
@@ -272,21 +272,21 @@ def _potted_plant(rng: np.random.Generator) -> list[Part]:
             a = 2 * np.pi * k / n + rng.uniform(-0.2, 0.2)
             tilt = rng.uniform(0.5, 1.1)
             ln = _u(rng, 0.1, 0.2)
-            leaf = S.ellipsoid((0, 0, 0), (0.5 * ln, 0.018, 0.004), 6, 10)
-            leaf = S.transform(leaf, rot=S.rot_z(a) @ S.rot_y(-tilt), shift=(0.0, 0.0, 0.0))
-            tip = S.rot_z(a) @ S.rot_y(-tilt) @ np.array([0.5 * ln, 0, 0])
-            parts.append((S.transform(leaf, shift=(tip[0], tip[1], ph - 0.015 + tip[2])), green, f"leaf{k}"))
+            leaf = shapes.ellipsoid((0, 0, 0), (0.5 * ln, 0.018, 0.004), 6, 10)
+            leaf = shapes.transform(leaf, rot=shapes.rot_z(a) @ shapes.rot_y(-tilt), shift=(0.0, 0.0, 0.0))
+            tip = shapes.rot_z(a) @ shapes.rot_y(-tilt) @ np.array([0.5 * ln, 0, 0])
+            parts.append((shapes.transform(leaf, shift=(tip[0], tip[1], ph - 0.015 + tip[2])), green, f"leaf{k}"))
     elif kind == 1:  # bush of spheres
         for k in range(int(rng.integers(4, 7))):
             rr = _u(rng, 0.04, 0.07)
             off = rng.uniform(-0.5, 0.5, 2) * pr
-            parts.append((S.icosphere((off[0], off[1], ph + rr * rng.uniform(0.3, 1.4)), rr, 1), green, f"bush{k}"))
+            parts.append((shapes.icosphere((off[0], off[1], ph + rr * rng.uniform(0.3, 1.4)), rr, 1), green, f"bush{k}"))
     else:  # cactus
         hh = _u(rng, 0.12, 0.3)
-        parts.append((S.revolve([(0, ph - 0.02), (0.025, ph - 0.02), (0.03, ph + 0.5 * hh), (0.02, ph + hh), (0, ph + hh + 0.01)], 14),
+        parts.append((shapes.revolve([(0, ph - 0.02), (0.025, ph - 0.02), (0.03, ph + 0.5 * hh), (0.02, ph + hh), (0, ph + hh + 0.01)], 14),
                       green, "cactus"))
         arm = np.array([[0.02, 0, ph + 0.4 * hh], [0.05, 0, ph + 0.42 * hh], [0.06, 0, ph + 0.55 * hh], [0.06, 0, ph + 0.7 * hh]])
-        parts.append((S.sweep(arm, 0.012, 10), green, "arm"))
+        parts.append((shapes.sweep(arm, 0.012, 10), green, "arm"))
     return parts
 
 
@@ -297,13 +297,13 @@ def _lamp(rng: np.random.Generator) -> list[Part]:
     base_c = _c(rng, CERAMICS + METAL + WOOD)
     parts: list[Part] = []
     if rng.random() < 0.5:
-        parts.append((S.revolve([(0, 0), (br, 0), (br, 0.02), (0.5 * br, 0.03), (0, 0.03)], 28), base_c, "base"))
+        parts.append((shapes.revolve([(0, 0), (br, 0), (br, 0.02), (0.5 * br, 0.03), (0, 0.03)], 28), base_c, "base"))
     else:  # ceramic body base
-        parts.append((S.revolve([(0, 0), (0.7 * br, 0), (br * 1.2, 0.35 * (h - 0.2)), (0.4 * br, h - 0.25), (0, h - 0.25)], 28),
+        parts.append((shapes.revolve([(0, 0), (0.7 * br, 0), (br * 1.2, 0.35 * (h - 0.2)), (0.4 * br, h - 0.25), (0, h - 0.25)], 28),
                       base_c, "base"))
-    parts.append((S.cylinder(0.006, 0.02, h - 0.14, 10), (180, 180, 185), "stem"))
+    parts.append((shapes.cylinder(0.006, 0.02, h - 0.14, 10), (180, 180, 185), "stem"))
     sh = 0.18 if h > 0.4 else 0.14
-    shade = S.revolve([(0.6 * sr, h - sh), (sr, h - sh), (0.62 * sr, h), (0.6 * sr, h), (0.98 * sr, h - sh + 0.003),
+    shade = shapes.revolve([(0.6 * sr, h - sh), (sr, h - sh), (0.62 * sr, h), (0.6 * sr, h), (0.98 * sr, h - sh + 0.003),
                        (0.585 * sr, h - sh + 0.003)], 32, closed=True)
     parts.append((shade, _c(rng, ((240, 235, 220), (220, 200, 170), (200, 200, 200), (120, 150, 170))), "shade"))
     return parts
@@ -313,13 +313,13 @@ def _shoe(rng: np.random.Generator) -> list[Part]:
     l, w = _u(rng, 0.24, 0.31), _u(rng, 0.085, 0.11)
     h = _u(rng, 0.07, 0.13)
     sole_t = 0.02
-    sole = S.rounded_box((0, 0, 0), (l, w, sole_t), 0.008, 3)
+    sole = shapes.rounded_box((0, 0, 0), (l, w, sole_t), 0.008, 3)
     a = np.linspace(0, 2 * np.pi, 16, endpoint=False)
     ring = lambda cx, cy, rx, ry, z: np.stack([cx + rx * np.cos(a), cy + ry * np.sin(a), np.full_like(a, z)], 1)  # noqa: E731
     pts = np.concatenate([ring(0.5 * l, 0.5 * w, 0.48 * l, 0.46 * w, sole_t - 0.002),
                           ring(0.58 * l, 0.5 * w, 0.3 * l, 0.38 * w, 0.55 * h),
                           ring(0.28 * l, 0.5 * w, 0.16 * l, 0.35 * w, h)])
-    upper = S.hull(pts)
+    upper = shapes.hull(pts)
     return [(sole, _c(rng, ((240, 240, 240), (40, 40, 40), (150, 110, 70))), "sole"),
             (upper, _c(rng, FABRIC + DARK), "upper")]
 
@@ -329,20 +329,20 @@ def _toothbrush(rng: np.random.Generator) -> list[Part]:
     t = np.linspace(0, 1, 12)
     path = np.stack([t * (l - 0.03), np.zeros_like(t), 0.007 + 0.004 * np.sin(np.pi * t)], 1)
     radii = 0.0055 + 0.0015 * np.sin(np.pi * t)
-    handle = S.sweep(path, radii, 10, aspect=0.75)
-    head = S.rounded_box((l - 0.035, -0.0055, 0.003), (l, 0.0055, 0.011), 0.003, 3)
-    bristle = S.rounded_box((l - 0.03, -0.005, 0.011), (l - 0.004, 0.005, 0.022), 0.001, 2)
+    handle = shapes.sweep(path, radii, 10, aspect=0.75)
+    head = shapes.rounded_box((l - 0.035, -0.0055, 0.003), (l, 0.0055, 0.011), 0.003, 3)
+    bristle = shapes.rounded_box((l - 0.03, -0.005, 0.011), (l - 0.004, 0.005, 0.022), 0.001, 2)
     col = _c(rng, PLASTICS)
     return [(handle, col, "handle"), (head, col, "head"), (bristle, (240, 240, 245), "bristles")]
 
 
 def _soap_dispenser(rng: np.random.Generator) -> list[Part]:
     r, h = _u(rng, 0.03, 0.042), _u(rng, 0.11, 0.15)
-    body = S.revolve([(0, 0), (r - 0.004, 0), (r, 0.006), (r, 0.8 * h), (0.45 * r, h), (0, h)], 32)
-    collar = S.cylinder(0.013, h - 0.002, h + 0.015, 16)
-    stem = S.cylinder(0.005, h + 0.015, h + 0.04, 10)
-    head = S.rounded_box((-0.012, -0.01, h + 0.04), (0.012, 0.01, h + 0.055), 0.003, 2)
-    nozzle = S.sweep(np.array([[0.0, 0, h + 0.048], [0.02, 0, h + 0.048], [0.035, 0, h + 0.045], [0.045, 0, h + 0.038]]),
+    body = shapes.revolve([(0, 0), (r - 0.004, 0), (r, 0.006), (r, 0.8 * h), (0.45 * r, h), (0, h)], 32)
+    collar = shapes.cylinder(0.013, h - 0.002, h + 0.015, 16)
+    stem = shapes.cylinder(0.005, h + 0.015, h + 0.04, 10)
+    head = shapes.rounded_box((-0.012, -0.01, h + 0.04), (0.012, 0.01, h + 0.055), 0.003, 2)
+    nozzle = shapes.sweep(np.array([[0.0, 0, h + 0.048], [0.02, 0, h + 0.048], [0.035, 0, h + 0.045], [0.045, 0, h + 0.038]]),
                      0.0035, 8)
     pump = _c(rng, METAL + DARK + ((245, 245, 245),))
     return [(body, _c(rng, GLASS + PLASTICS + CERAMICS), "bottle"), (collar, pump, "collar"), (stem, pump, "stem"),
@@ -357,17 +357,17 @@ def _towel(rng: np.random.Generator) -> list[Part]:
     parts: list[Part] = []
     for k in range(layers):
         dx = rng.uniform(-0.004, 0.004)
-        parts.append((S.rounded_box((dx, 0, k * lt), (l + dx, w, (k + 1) * lt + 0.001), 0.5 * lt, 3), col, f"fold{k}"))
+        parts.append((shapes.rounded_box((dx, 0, k * lt), (l + dx, w, (k + 1) * lt + 0.001), 0.5 * lt, 3), col, f"fold{k}"))
     return parts
 
 
 def _spoon(rng: np.random.Generator) -> list[Part]:
     l = _u(rng, 0.14, 0.2)
     bw = _u(rng, 0.03, 0.045)
-    bowl = S.ellipsoid((0.5 * bw * 1.4, 0, 0.0045), (0.7 * bw, 0.5 * bw, 0.0045), 6, 16)
+    bowl = shapes.ellipsoid((0.5 * bw * 1.4, 0, 0.0045), (0.7 * bw, 0.5 * bw, 0.0045), 6, 16)
     t = np.linspace(0, 1, 10)
     path = np.stack([1.2 * bw + t * (l - 1.3 * bw), np.zeros_like(t), 0.004 + 0.012 * t ** 2], 1)
-    handle = S.sweep(path, 0.0035 + 0.002 * t, 8, aspect=0.4)
+    handle = shapes.sweep(path, 0.0035 + 0.002 * t, 8, aspect=0.4)
     col = _c(rng, METAL + PLASTICS[:2] + WOOD)
     return [(bowl, col, "bowl"), (handle, col, "handle")]
 
@@ -377,10 +377,10 @@ def _knife(rng: np.random.Generator) -> list[Part]:
     hl = _u(rng, 0.09, 0.12)
     th = 0.0025
     hw = min(0.018, bw)
-    blade = S.hull(np.array([[0, 0, 0.0045], [0, bw, 0.0045], [bl, 0.2 * bw, 0.0045], [bl - 0.03, bw, 0.0045],
+    blade = shapes.hull(np.array([[0, 0, 0.0045], [0, bw, 0.0045], [bl, 0.2 * bw, 0.0045], [bl - 0.03, bw, 0.0045],
                              [0, 0, 0.0045 + th], [0, bw, 0.0045 + th], [bl, 0.2 * bw, 0.0045 + th], [bl - 0.03, bw, 0.0045 + th]]))
-    blade = S.transform(blade, shift=(hl - 0.005, 0.5 * hw - 0.5 * bw + 0.0, 0.0))
-    handle = S.rounded_box((0, 0, 0), (hl, hw, 0.012), 0.004, 4)
+    blade = shapes.transform(blade, shift=(hl - 0.005, 0.5 * hw - 0.5 * bw + 0.0, 0.0))
+    handle = shapes.rounded_box((0, 0, 0), (hl, hw, 0.012), 0.004, 4)
     return [(blade, (205, 205, 210), "blade"), (handle, _c(rng, DARK + WOOD), "handle")]
 
 
@@ -389,8 +389,8 @@ def _apple(rng: np.random.Generator) -> list[Part]:
     h = r * _u(rng, 1.7, 2.0)
     a = np.linspace(0.15, np.pi - 0.12, 11)
     prof = [(0.0, 0.06 * h)] + [(r * np.sin(t) * (1.0 + 0.08 * np.sin(2 * t)), 0.5 * h * (1 - np.cos(t))) for t in a] + [(0.0, 0.9 * h)]
-    body = S.revolve(prof, 28)
-    stem = S.sweep(np.array([[0, 0, 0.86 * h], [0.001, 0, 0.95 * h], [0.004, 0, 1.05 * h]]), 0.0018, 6)
+    body = shapes.revolve(prof, 28)
+    stem = shapes.sweep(np.array([[0, 0, 0.86 * h], [0.001, 0, 0.95 * h], [0.004, 0, 1.05 * h]]), 0.0018, 6)
     col = _c(rng, ((190, 30, 30), (120, 180, 60), (220, 180, 50), (170, 40, 50)), 12)
     return [(body, col, "body"), (stem, (90, 60, 30), "stem")]
 
@@ -403,8 +403,8 @@ def _banana(rng: np.random.Generator) -> list[Part]:
     path = np.stack([rad * np.sin(t), rad * (1 - np.cos(t)), np.zeros_like(t)], 1)
     s = np.linspace(0, 1, 16)
     radii = _u(rng, 0.016, 0.02) * np.clip(np.sin(np.pi * s) ** 0.5, 0.25, 1.0)
-    body = S.sweep(path, radii, 6)
-    stem = S.sweep(np.array([path[-1], path[-1] + np.array([0.012, 0.004, 0.0]), path[-1] + np.array([0.022, 0.01, 0.0])]),
+    body = shapes.sweep(path, radii, 6)
+    stem = shapes.sweep(np.array([path[-1], path[-1] + np.array([0.012, 0.004, 0.0]), path[-1] + np.array([0.022, 0.01, 0.0])]),
                    0.004, 6)
     col = _c(rng, ((235, 205, 60), (200, 210, 70), (230, 190, 50)))
     return [(body, col, "peel"), (stem, (90, 80, 40), "stem")]
@@ -414,7 +414,7 @@ def _keyboard(rng: np.random.Generator) -> list[Part]:
     l, w, t = _u(rng, 0.36, 0.45), _u(rng, 0.12, 0.155), _u(rng, 0.014, 0.02)
     body = _c(rng, DARK + ((235, 235, 235),))
     key = (30, 30, 32) if body[0] > 128 else (225, 225, 225)
-    parts: list[Part] = [(S.rounded_box((0, 0, 0), (l, w, t), 0.005, 3), body, "base")]
+    parts: list[Part] = [(shapes.rounded_box((0, 0, 0), (l, w, t), 0.005, 3), body, "base")]
     rows, cols = 5, int(rng.integers(13, 16))
     kx = (l - 0.02) / cols
     ky = (w - 0.02) / rows
@@ -423,35 +423,35 @@ def _keyboard(rng: np.random.Generator) -> list[Part]:
             if i == 0 and 3 <= j < cols - 4:
                 continue
             x0, y0 = 0.01 + j * kx, 0.01 + i * ky
-            parts.append((S.box((x0 + 0.001, y0 + 0.001, t - 0.001), (x0 + kx - 0.001, y0 + ky - 0.001, t + 0.006)), key, "key"))
+            parts.append((shapes.box((x0 + 0.001, y0 + 0.001, t - 0.001), (x0 + kx - 0.001, y0 + ky - 0.001, t + 0.006)), key, "key"))
     x0 = 0.01 + 3 * kx
-    parts.append((S.box((x0 + 0.001, 0.011, t - 0.001), (0.01 + (cols - 4) * kx - 0.001, 0.01 + ky - 0.001, t + 0.006)), key, "space"))
+    parts.append((shapes.box((x0 + 0.001, 0.011, t - 0.001), (0.01 + (cols - 4) * kx - 0.001, 0.01 + ky - 0.001, t + 0.006)), key, "space"))
     return parts
 
 
 def _phone(rng: np.random.Generator) -> list[Part]:
     l, w, t = _u(rng, 0.135, 0.165), _u(rng, 0.066, 0.078), _u(rng, 0.007, 0.0095)
     body = _c(rng, DARK + METAL + ((200, 60, 60),))
-    return [(S.rounded_box((0, 0, 0), (l, w, t), 0.0032, 4), body, "body"),
-            (S.box((0.006, 0.004, t - 0.0003), (l - 0.006, w - 0.004, t + 0.0004)), (12, 14, 20), "screen")]
+    return [(shapes.rounded_box((0, 0, 0), (l, w, t), 0.0032, 4), body, "body"),
+            (shapes.box((0.006, 0.004, t - 0.0003), (l - 0.006, w - 0.004, t + 0.0004)), (12, 14, 20), "screen")]
 
 
 def _alarm_clock(rng: np.random.Generator) -> list[Part]:
     col = _c(rng, PLASTICS + METAL)
     if rng.random() < 0.5:  # twin-bell: a drum standing on its rim
         r, d = _u(rng, 0.045, 0.06), _u(rng, 0.04, 0.055)
-        drum = S.transform(S.cylinder(r, -0.5 * d, 0.5 * d, 32), rot=S.rot_x(0.5 * np.pi), shift=(0, 0, r + 0.012))
-        face = S.transform(S.cylinder(0.85 * r, 0.0, 0.002, 32), rot=S.rot_x(-0.5 * np.pi), shift=(0, 0.5 * d, r + 0.012))
-        bells = [S.revolve([(0, 0), (0.022, 0), (0.02, 0.012), (0.01, 0.02), (0, 0.021)], 16) for _ in range(2)]
+        drum = shapes.transform(shapes.cylinder(r, -0.5 * d, 0.5 * d, 32), rot=shapes.rot_x(0.5 * np.pi), shift=(0, 0, r + 0.012))
+        face = shapes.transform(shapes.cylinder(0.85 * r, 0.0, 0.002, 32), rot=shapes.rot_x(-0.5 * np.pi), shift=(0, 0.5 * d, r + 0.012))
+        bells = [shapes.revolve([(0, 0), (0.022, 0), (0.02, 0.012), (0.01, 0.02), (0, 0.021)], 16) for _ in range(2)]
         parts: list[Part] = [(drum, col, "body"), (face, (245, 245, 240), "face")]
         for k, sgn in enumerate((-1, 1)):
-            b = S.transform(bells[k], rot=S.rot_y(sgn * 0.6), shift=(sgn * 0.6 * r, 0, 2 * r + 0.004))
+            b = shapes.transform(bells[k], rot=shapes.rot_y(sgn * 0.6), shift=(sgn * 0.6 * r, 0, 2 * r + 0.004))
             parts.append((b, col, f"bell{k}"))
-            parts.append((S.cylinder(0.004, 0.0, r * 0.4 + 0.012, 8, (sgn * 0.55 * r, 0)), col, f"foot{k}"))
+            parts.append((shapes.cylinder(0.004, 0.0, r * 0.4 + 0.012, 8, (sgn * 0.55 * r, 0)), col, f"foot{k}"))
         return parts
     w, d, h = _u(rng, 0.09, 0.14), _u(rng, 0.05, 0.075), _u(rng, 0.07, 0.1)
-    return [(S.rounded_box((0, 0, 0), (w, d, h), 0.01, 4), col, "body"),
-            (S.box((0.1 * w, d - 0.0005, 0.25 * h), (0.9 * w, d + 0.002, 0.8 * h)), (20, 20, 24), "display")]
+    return [(shapes.rounded_box((0, 0, 0), (w, d, h), 0.01, 4), col, "body"),
+            (shapes.box((0.1 * w, d - 0.0005, 0.25 * h), (0.9 * w, d + 0.002, 0.8 * h)), (20, 20, 24), "display")]
 
 
 def _candle(rng: np.random.Generator) -> list[Part]:
@@ -460,11 +460,11 @@ def _candle(rng: np.random.Generator) -> list[Part]:
     parts: list[Part] = []
     if rng.random() < 0.35:  # in a glass
         parts.append((_shell([(r + 0.004, 0.0), (r + 0.006, h)], 0.003, 0.006, 32), (200, 215, 220), "glass"))
-        parts.append((S.cylinder(r, 0.006, 0.75 * h, 32), wax, "wax"))
-        parts.append((S.cylinder(0.0012, 0.75 * h, 0.75 * h + 0.012, 6), (30, 30, 30), "wick"))
+        parts.append((shapes.cylinder(r, 0.006, 0.75 * h, 32), wax, "wax"))
+        parts.append((shapes.cylinder(0.0012, 0.75 * h, 0.75 * h + 0.012, 6), (30, 30, 30), "wick"))
     else:
-        parts.append((S.revolve([(0, 0), (r, 0), (r, h - 0.004), (r - 0.004, h), (0, h - 0.002)], 32), wax, "wax"))
-        parts.append((S.cylinder(0.0012, h - 0.003, h + 0.01, 6), (30, 30, 30), "wick"))
+        parts.append((shapes.revolve([(0, 0), (r, 0), (r, h - 0.004), (r - 0.004, h), (0, h - 0.002)], 32), wax, "wax"))
+        parts.append((shapes.cylinder(0.0012, h - 0.003, h + 0.01, 6), (30, 30, 30), "wick"))
     return parts
 
 
@@ -477,7 +477,7 @@ def _wine_glass(rng: np.random.Generator) -> list[Part]:
     inner = [(max(r - 0.0025, 0.002), z + 0.0025) for r, z in outer[::-1]]
     prof = [(0.0, 0.0), (fr, 0.0), (fr, 0.002), (0.006, 0.005), (0.0035, 0.012), (0.0035, stem_h), (0.006, z1)] + outer + inner[1:] \
         + [(0.0, z1 + 0.006)]
-    return [(S.revolve(prof, 32), _c(rng, ((215, 225, 230), (230, 230, 230), (200, 220, 205)), 4), "glass")]
+    return [(shapes.revolve(prof, 32), _c(rng, ((215, 225, 230), (230, 230, 230), (200, 220, 205)), 4), "glass")]
 
 
 def _teapot(rng: np.random.Generator) -> list[Part]:
@@ -485,12 +485,12 @@ def _teapot(rng: np.random.Generator) -> list[Part]:
     t = np.linspace(0.1, np.pi - 0.5, 10)
     prof = [(0.0, 0.0), (0.55 * r, 0.0)] + [(r * np.sin(s), 0.5 * h * (1 - np.cos(s)) / (0.5 * (1 - np.cos(np.pi - 0.5)))) for s in t]
     prof += [(0.35 * r, h), (0.0, h)]
-    body = S.revolve([(max(p[0], 0.0), min(p[1], h)) for p in prof], 32)
-    lid = S.revolve([(0, h), (0.36 * r, h), (0.3 * r, h + 0.012), (0.08 * r, h + 0.018), (0.0, h + 0.018)], 24)
-    knob = S.icosphere((0, 0, h + 0.025), 0.009, 1)
+    body = shapes.revolve([(max(p[0], 0.0), min(p[1], h)) for p in prof], 32)
+    lid = shapes.revolve([(0, h), (0.36 * r, h), (0.3 * r, h + 0.012), (0.08 * r, h + 0.018), (0.0, h + 0.018)], 24)
+    knob = shapes.icosphere((0, 0, h + 0.025), 0.009, 1)
     spout_path = np.array([[0.6 * r, 0, 0.3 * h], [r + 0.01, 0, 0.4 * h], [r + 0.04, 0, 0.65 * h], [r + 0.06, 0, 0.85 * h]])
-    spout = S.sweep(spout_path, np.array([0.016, 0.012, 0.009, 0.007]), 12)
-    handle = S.torus_arc((-0.8 * r, 0.0, 0.5 * h), _u(rng, 0.035, 0.045), 0.007, np.radians(80), np.radians(280), "xz", 14, 10)
+    spout = shapes.sweep(spout_path, np.array([0.016, 0.012, 0.009, 0.007]), 12)
+    handle = shapes.torus_arc((-0.8 * r, 0.0, 0.5 * h), _u(rng, 0.035, 0.045), 0.007, np.radians(80), np.radians(280), "xz", 14, 10)
     col = _c(rng, CERAMICS + METAL)
     return [(body, col, "body"), (lid, col, "lid"), (knob, col, "knob"), (spout, col, "spout"), (handle, col, "handle")]
 

@@ -16,8 +16,8 @@ import numpy as np
 from scipy import ndimage
 
 from ..config import AgentConfig
-from . import layout as LA
-from . import shapes as S
+from . import layout
+from . import shapes
 from .artplace import is_proxy
 from .assembly import Piece
 from .furniture import Model
@@ -255,11 +255,11 @@ def nav_ok(state: RoomState, anchors: list[np.ndarray], openings: list[np.ndarra
     return True
 
 
-def _door_zones(room: LA.PlanRoom, doors: list[LA.PlanDoor]) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+def _door_zones(room: layout.PlanRoom, doors: list[layout.PlanDoor]) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
     """Return (keep-out rectangles, walking anchors, opening rectangles) of a room's doors."""
     t = 0.5 * WALL_T
     keep, anchors, openings = [], [], []
-    for d, side in LA.room_doors(room, doors):
+    for d, side in layout.room_doors(room, doors):
         c, half = d.centre, 0.5 * d.width + 0.1
         clear = 0.45
         if side == "S":
@@ -303,7 +303,7 @@ def _window_zones(interior: np.ndarray, windows: dict[str, list[tuple]]) -> list
     return wzones
 
 
-def furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generator, wall_h: float,
+def furnish(room: layout.PlanRoom, doors: list[layout.PlanDoor], rng: np.random.Generator, wall_h: float,
             windows: dict[str, list[tuple]], program: Program, fixed: tuple[np.ndarray, ...] = (),
             dress: Callable[[RoomState, Callable[[], bool]], None] | None = None) -> tuple[list[Placed], list[str]]:
     """Place the room's furniture; retries with fewer optional pieces and smaller sizes.
@@ -385,7 +385,7 @@ def furnish(room: LA.PlanRoom, doors: list[LA.PlanDoor], rng: np.random.Generato
     return (best.placed if best else []), [f"room {room.id} ({room.type}): furniture placed without the navigation guarantee"]
 
 
-def furniture_pieces(r: LA.PlanRoom, placed: list[tuple[Model, float, float, int]], fl: int, z0: float) -> list[Piece]:
+def furniture_pieces(r: layout.PlanRoom, placed: list[tuple[Model, float, float, int]], fl: int, z0: float) -> list[Piece]:
     """Return the placed furniture as pieces: parts and support surfaces moved to world coordinates."""
     out = []
     for m, ox, oy, yaw in placed:
@@ -399,6 +399,6 @@ def furniture_pieces(r: LA.PlanRoom, placed: list[tuple[Model, float, float, int
         sup = tuple(
             SurfaceSpec(float(h + z0), np.asarray(poly) @ rot2.T + np.array([ox, oy])) for h, poly in m.supports
         )
-        parts = tuple((S.transform((p.vertices, p.faces), rot=rot3, shift=(ox, oy, z0)), p.rgba, p.material) for p in m.parts)
+        parts = tuple((shapes.transform((p.vertices, p.faces), rot=rot3, shift=(ox, oy, z0)), p.rgba, p.material) for p in m.parts)
         out.append(Piece(m.label, r.id, fl, m.kind, parts, sup))
     return out

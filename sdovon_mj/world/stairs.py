@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import shapes as S
+from . import shapes
 from .assembly import MeshPart, Piece
 from .layout import STOREY_HEIGHT, WALL_T, Flight, PlanRoom
 
@@ -38,7 +38,7 @@ def flight_piece(f: Flight, z0: float, rgb: tuple[int, ...]) -> Piece:
         a = lo + i * going if f.rises in ("E", "N") else hi - (i + 1) * going
         b = a + going
         top = z0 + (i + 1) * rise
-        box = S.box((a, y0, z0), (b, y1, top)) if along_x else S.box((x0, a, z0), (x1, b, top))
+        box = shapes.box((a, y0, z0), (b, y1, top)) if along_x else shapes.box((x0, a, z0), (x1, b, top))
         parts.append((box, rgb, "wood"))
     return Piece("stairs", f.room, f.floor, "furniture", tuple(parts))
 
@@ -64,11 +64,11 @@ def railing_piece(f: Flight, well: PlanRoom, z1: float, rgb: tuple[int, ...]) ->
     t = 0.5 * WALL_T
     ix = np.array([well.x0 + t, well.y0 + t, well.x1 - t, well.y1 - t])
 
-    def box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> S.Mesh:
+    def box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> shapes.Mesh:
         """Return a box clipped to the stairwell's inside (a rail meeting a wall stops at its face)."""
         a = np.maximum(np.asarray(lo[:2]), ix[:2])
         b = np.minimum(np.asarray(hi[:2]), ix[2:])
-        return S.box((a[0], a[1], lo[2]), (b[0], b[1], hi[2]))
+        return shapes.box((a[0], a[1], lo[2]), (b[0], b[1], hi[2]))
 
     for a0, b0, a1, b1 in railing_sides(f, well):
         along_x = abs(b1 - b0) < 1e-9

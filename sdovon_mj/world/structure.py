@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import furniture as FU
-from . import layout as LA
-from . import shapes as S
+from . import furniture
+from . import layout
+from . import shapes
 from .assembly import MeshPart, Piece
 from .furniture import u
 from .layout import SKIRTING, STOREY_HEIGHT, WALL_T
@@ -40,7 +40,7 @@ def _wall_pieces(lo: float, hi: float, openings: list[tuple[float, float, float,
     return [p for p in pieces if p[1] - p[0] > 1e-6 and p[3] - p[2] > 1e-6]
 
 
-def _windows(r: LA.PlanRoom, ext: dict[str, list[tuple[float, float]]], wall_h: float,
+def _windows(r: layout.PlanRoom, ext: dict[str, list[tuple[float, float]]], wall_h: float,
              rng: np.random.Generator) -> dict[str, list[tuple]]:
     """Choose windows on a room's outer walls (the longest outer stretch of each side): side -> [(centre, half width,
     sill, top)] (storey-relative)."""
@@ -61,7 +61,7 @@ def _windows(r: LA.PlanRoom, ext: dict[str, list[tuple[float, float]]], wall_h: 
         top = min(wall_h - 0.25, u(rng, 2.0, 2.2))
         wins = []
         for k in range(n):
-            c = LA.snap(lo + length * (k + 0.5) / n + rng.uniform(-0.1, 0.1) * length / n)
+            c = layout.snap(lo + length * (k + 0.5) / n + rng.uniform(-0.1, 0.1) * length / n)
             c = float(np.clip(c, lo + 0.3 + 0.5 * ww, hi - 0.3 - 0.5 * ww))
             wins.append((c, 0.5 * ww, sill, top))
         out[side] = wins
@@ -78,7 +78,7 @@ class Site:
     stretches of each side ("S", "E", "N", "W": `exterior_sides`) and the openings cut from its floor and ceiling
     (a stairwell's)."""
 
-    room: LA.PlanRoom
+    room: layout.PlanRoom
     floor: int
     z0: float
     wall_h: float
@@ -102,7 +102,7 @@ class Finish:
 EPS = 1e-6
 
 
-def exterior_sides(r: LA.PlanRoom, rooms: list[LA.PlanRoom]) -> dict[str, Stretches]:
+def exterior_sides(r: layout.PlanRoom, rooms: list[layout.PlanRoom]) -> dict[str, Stretches]:
     """Return side -> the stretches of that side of the room that are outer walls (shared with no room of its storey).
 
     A stretch is (lo, hi) along the side: x for the S and N sides, y for W and E. A side on the outline of an
@@ -131,12 +131,12 @@ def exterior_sides(r: LA.PlanRoom, rooms: list[LA.PlanRoom]) -> dict[str, Stretc
     return out
 
 
-def _side_range(r: LA.PlanRoom, side: str) -> tuple[float, float]:
+def _side_range(r: layout.PlanRoom, side: str) -> tuple[float, float]:
     """Return (lo, hi) of a room side along it (x for S and N, y for W and E)."""
     return (r.x0, r.x1) if side in ("S", "N") else (r.y0, r.y1)
 
 
-def _full(r: LA.PlanRoom, side: str, ext: dict[str, Stretches]) -> bool:
+def _full(r: layout.PlanRoom, side: str, ext: dict[str, Stretches]) -> bool:
     """Whether the whole side is an outer wall."""
     lo, hi = _side_range(r, side)
     return len(ext[side]) == 1 and abs(ext[side][0][0] - lo) < EPS and abs(ext[side][0][1] - hi) < EPS
@@ -147,7 +147,7 @@ def _touches(stretches: Stretches, at: float) -> bool:
     return any(abs(p - at) < EPS or abs(q - at) < EPS for p, q in stretches)
 
 
-def _outer_span(r: LA.PlanRoom, side: str, ext: dict[str, Stretches], p: float, q: float) -> tuple[float, float]:
+def _outer_span(r: layout.PlanRoom, side: str, ext: dict[str, Stretches], p: float, q: float) -> tuple[float, float]:
     """Return the extent along the side of the outer half-slab over the outer stretch (p, q) of a partly outer side.
 
     S and N walls take the corners: at a corner where the next side is outer too they reach out by half a wall; where
@@ -178,16 +178,16 @@ def _minus(rect: Rect, holes: tuple[Rect, ...]) -> list[Rect]:
     return out
 
 
-def room_finish(r: LA.PlanRoom, ext: dict[str, Stretches], wall_h: float, rng: np.random.Generator) -> Finish:
+def room_finish(r: layout.PlanRoom, ext: dict[str, Stretches], wall_h: float, rng: np.random.Generator) -> Finish:
     """Draw a room's floor, wall, skirting and window-frame colours and its windows (in this order)."""
     tiled = r.type in ("kitchen", "bathroom")
-    fcol = FU.jitter((FLOOR_TILE if tiled else FLOOR_WOOD)[int(rng.integers(4))], rng, 5)
-    wcol = FU.jitter(WALL_COLOURS[int(rng.integers(len(WALL_COLOURS)))], rng, 3)
+    fcol = furniture.jitter((FLOOR_TILE if tiled else FLOOR_WOOD)[int(rng.integers(4))], rng, 5)
+    wcol = furniture.jitter(WALL_COLOURS[int(rng.integers(len(WALL_COLOURS)))], rng, 3)
     if r.type == "bathroom":
-        wcol = FU.jitter((214, 226, 232), rng, 4)
-    skc = (246, 246, 244) if rng.random() < 0.6 else FU.jitter(fcol, rng, 8)
+        wcol = furniture.jitter((214, 226, 232), rng, 4)
+    skc = (246, 246, 244) if rng.random() < 0.6 else furniture.jitter(fcol, rng, 8)
     wins = _windows(r, ext, wall_h, rng)
-    frame_c = (244, 244, 242) if rng.random() < 0.7 else FU.pick(rng, FU.WOODS[:4])
+    frame_c = (244, 244, 242) if rng.random() < 0.7 else furniture.pick(rng, furniture.WOODS[:4])
     return Finish(fcol, tiled, wcol, skc, wins, frame_c)
 
 
@@ -207,7 +207,7 @@ def floor_slab(site: Site, finish: Finish) -> Piece:
                 a, b = _outer_span(r, side, ext, p, q)
                 rects.append({"S": (a, r.y0 - t, b, r.y0), "N": (a, r.y1, b, r.y1 + t),
                               "W": (r.x0 - t, a, r.x0, b), "E": (r.x1, a, r.x1 + t, b)}[side])
-    parts = tuple((S.box((x0, y0, z0 - slab), (x1, y1, z0)), finish.floor_rgb, material) for x0, y0, x1, y1 in rects)
+    parts = tuple((shapes.box((x0, y0, z0 - slab), (x1, y1, z0)), finish.floor_rgb, material) for x0, y0, x1, y1 in rects)
     return Piece("floor", r.id, fl, "structure", parts)
 
 
@@ -217,10 +217,10 @@ def ceiling(site: Site) -> Piece:
     t = 0.5 * WALL_T
     rects = _minus((r.x0 + t, r.y0 + t, r.x1 - t, r.y1 - t), site.ceiling_holes)
     return Piece("ceiling", r.id, fl, "structure", tuple(
-        (S.box((x0, y0, z0 + wall_h), (x1, y1, z0 + wall_h + 0.02)), (248, 248, 246), "ceiling") for x0, y0, x1, y1 in rects))
+        (shapes.box((x0, y0, z0 + wall_h), (x1, y1, z0 + wall_h + 0.02)), (248, 248, 246), "ceiling") for x0, y0, x1, y1 in rects))
 
 
-def wall_openings(side: str, doors: list[tuple[LA.PlanDoor, str]], windows: dict[str, list[tuple]],
+def wall_openings(side: str, doors: list[tuple[layout.PlanDoor, str]], windows: dict[str, list[tuple]],
                    z0: float) -> list[tuple[float, float, float, float]]:
     """Return the openings of one wall: (centre, half width, bottom Z, top Z) of its doors, then its windows."""
     opens = [(d.centre, 0.5 * d.width, z0, z0 + d.height) for d, s_ in doors if s_ == side]
@@ -253,9 +253,9 @@ def wall(site: Site, side: str, opens: list[tuple[float, float, float, float]], 
         k0, k1 = a0 - sd, a0
         o0, o1 = c1, c1 + t
 
-    def box(u0: float, u1: float, v0: float, v1: float, za: float, zb: float) -> S.Mesh:
+    def box(u0: float, u1: float, v0: float, v1: float, za: float, zb: float) -> shapes.Mesh:
         """Return the box spanning [u0, u1] along the wall, [v0, v1] across it and [za, zb] in Z."""
-        return S.box((u0, v0, za), (u1, v1, zb)) if along_x else S.box((v0, u0, za), (v1, u1, zb))
+        return shapes.box((u0, v0, za), (u1, v1, zb)) if along_x else shapes.box((v0, u0, za), (v1, u1, zb))
 
     parts: list[MeshPart] = []
     for a, b, za, zb in _wall_pieces(lo, hi, opens, z0, z0 + wall_h):
@@ -287,13 +287,13 @@ def window(site: Site, side: str, win: tuple, frame_rgb: tuple[int, ...]) -> Pie
     sill_box = ((c - hw - 0.03, t, zs - 0.03), (c + hw + 0.03, t + 0.04, zs))
     glass = ((c - hw + ft, -0.004, zs + ft), (c + hw - ft, 0.004, zt - ft))
 
-    def place(lo_: tuple, hi_: tuple) -> S.Mesh:
+    def place(lo_: tuple, hi_: tuple) -> shapes.Mesh:
         """Return a box given as (along the wall, into the room, Z) corners, in world coordinates."""
         (a0, o0, z_0), (a1, o1, z_1) = lo_, hi_
         o0, o1 = sorted((line + inward * o0, line + inward * o1))
         if side in ("S", "N"):
-            return S.box((a0, o0, z_0), (a1, o1, z_1))
-        return S.box((o0, a0, z_0), (o1, a1, z_1))
+            return shapes.box((a0, o0, z_0), (a1, o1, z_1))
+        return shapes.box((o0, a0, z_0), (o1, a1, z_1))
 
     parts: list[MeshPart] = [(place(lo_, hi_), frame_rgb, "plain") for lo_, hi_ in frame + [sill_box]]
     parts.append((place(*glass), (176, 206, 226, 96), "glass"))
@@ -303,23 +303,23 @@ def window(site: Site, side: str, win: tuple, frame_rgb: tuple[int, ...]) -> Pie
 def door_frame_colour(seed: int, fl: int) -> tuple[int, ...]:
     """Draw the door-frame colour of a storey (its own seeded generator)."""
     rng = np.random.default_rng([int(seed), 2, fl])
-    return FU.jitter((240, 238, 232), rng, 3) if rng.random() < 0.6 else FU.pick(rng, FU.WOODS[:4])
+    return furniture.jitter((240, 238, 232), rng, 3) if rng.random() < 0.6 else furniture.pick(rng, furniture.WOODS[:4])
 
 
-def door_frame(d: LA.PlanDoor, z0: float, rgb: tuple[int, ...]) -> Piece:
+def door_frame(d: layout.PlanDoor, z0: float, rgb: tuple[int, ...]) -> Piece:
     """Return a doorway's frame: two jambs and the head, slightly thicker than the wall."""
     c, half, jt, dt = d.centre, 0.5 * d.width, 0.05, 0.5 * WALL_T + 0.01
     parts: list[MeshPart] = []
     for a, b, za, zb in ((c - half, c - half + jt, z0, z0 + d.height), (c + half - jt, c + half, z0, z0 + d.height),
                          (c - half, c + half, z0 + d.height - jt, z0 + d.height)):
         if d.vertical:
-            parts.append((S.box((d.line - dt, a, za), (d.line + dt, b, zb)), rgb, "wood"))
+            parts.append((shapes.box((d.line - dt, a, za), (d.line + dt, b, zb)), rgb, "wood"))
         else:
-            parts.append((S.box((a, d.line - dt, za), (b, d.line + dt, zb)), rgb, "wood"))
+            parts.append((shapes.box((a, d.line - dt, za), (b, d.line + dt, zb)), rgb, "wood"))
     return Piece("door frame", min(d.room_a, d.room_b), d.floor, "structure", tuple(parts))
 
 
-def door_record(d: LA.PlanDoor, z0: float) -> Door:
+def door_record(d: layout.PlanDoor, z0: float) -> Door:
     """Return a plan door as a Door record (clear opening inside the frame)."""
     if d.vertical:
         centre, normal = np.array([d.line, d.centre, z0]), np.array([1.0, 0.0])

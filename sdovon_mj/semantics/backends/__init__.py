@@ -27,7 +27,7 @@ import numpy as np
 
 from ...config import SemanticsConfig
 from ...errors import StageError
-from .. import prompts as P
+from .. import prompts
 from ..cache import DiskCache, cache_key
 from ..http import TransportError
 from ..validate import ReplyError
@@ -73,7 +73,7 @@ class Backend:
 
     def ask(self, prompt_id: str, payload: dict[str, Any]) -> Any:
         """Return the validated answer to one appendix C question (cached, re-asked, or fallen back)."""
-        prompt = P.get_prompt(prompt_id)
+        prompt = prompts.get_prompt(prompt_id)
         key = cache_key(self.name, self.model, prompt.tag, payload, self.options())
         if self.cache is not None:
             entry = self.cache.get(key)
@@ -110,7 +110,7 @@ class Backend:
             return result
         return self._fail(prompt, payload, f"{len(raws)} invalid repl{'y' if len(raws) == 1 else 'ies'}; last: {last}")
 
-    def _fail(self, prompt: P.Prompt, payload: dict[str, Any], reason: str) -> Any:
+    def _fail(self, prompt: prompts.Prompt, payload: dict[str, Any], reason: str) -> Any:
         """Fall back to the configured backend (recorded) or raise a StageError."""
         what = json.dumps({k: v for k, v in payload.items() if not k.startswith("_")}, sort_keys=True)
         if len(what) > 160:
@@ -126,22 +126,22 @@ class Backend:
 
     def receptacles(self, labels: list[str]) -> list[str]:
         """Return which of `labels` are receptacles (prompt C.1)."""
-        return list(self.ask(P.RECEPTACLES, {"objects": list(labels)}))
+        return list(self.ask(prompts.RECEPTACLES, {"objects": list(labels)}))
 
     def propose_regions(self, labels: list[str], vocabulary: list[str] | tuple[str, ...] = ()) -> list[str]:
         """Return region proposals, most likely first, for the labels seen in one area (prompt C.2)."""
         payload: dict[str, Any] = {"objects": list(labels)}
         if vocabulary:
             payload["_vocabulary"] = list(vocabulary)
-        return list(self.ask(P.REGION_PROPOSALS, payload))
+        return list(self.ask(prompts.REGION_PROPOSALS, payload))
 
     def score_receptacles(self, obj: str, furniture: list[str]) -> dict[str, float]:
         """Return 0-10 scores of how likely `obj` is put on each piece of furniture (prompt C.3)."""
-        return dict(self.ask(P.RECEPTACLE_RELEVANCE, {"furniture": list(furniture), "object": obj}))
+        return dict(self.ask(prompts.RECEPTACLE_RELEVANCE, {"furniture": list(furniture), "object": obj}))
 
     def score_regions(self, obj: str, regions: list[str]) -> dict[str, float]:
         """Return 0-10 relevance scores between `obj` and each region (prompt C.4)."""
-        return dict(self.ask(P.REGION_RELEVANCE, {"regions": list(regions), "object": obj}))
+        return dict(self.ask(prompts.REGION_RELEVANCE, {"regions": list(regions), "object": obj}))
 
     def pair_scores(self, obj: str, regions: list[str], receptacles: list[str], region_scores: np.ndarray,
                     receptacle_scores: np.ndarray) -> np.ndarray:

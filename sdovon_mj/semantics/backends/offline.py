@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import StageError
-from .. import prompts as P
+from .. import prompts
 from ..priors import FLOOR, Priors, default_priors, with_floor
 from ..validate import normalise
 from . import Backend
@@ -86,7 +86,7 @@ class OfflineBackend(Backend):
 
     def ask(self, prompt_id: str, payload: dict[str, Any]) -> Any:
         """Answer one appendix C question from the priors."""
-        if prompt_id == P.RECEPTACLES:
+        if prompt_id == prompts.RECEPTACLES:
             seen: set[str] = set()
             out = []
             for lab in payload["objects"]:
@@ -95,23 +95,23 @@ class OfflineBackend(Backend):
                     seen.add(n)
                     out.append(lab)
             return out
-        if prompt_id == P.REGION_PROPOSALS:
+        if prompt_id == prompts.REGION_PROPOSALS:
             return self._propose(list(payload["objects"]), list(payload.get("_vocabulary") or []))
-        if self.mode == "learned" and prompt_id in (P.RECEPTACLE_RELEVANCE, P.REGION_RELEVANCE):
+        if self.mode == "learned" and prompt_id in (prompts.RECEPTACLE_RELEVANCE, prompts.REGION_RELEVANCE):
             from ..learned import default_model
 
             m = default_model()
-            if prompt_id == P.RECEPTACLE_RELEVANCE:
+            if prompt_id == prompts.RECEPTACLE_RELEVANCE:
                 names = list(payload["furniture"])
                 p = m.score_receptacles(payload["object"], names)
             else:
                 names = list(payload["regions"])
                 p = m.score_rooms(payload["object"], names)
             return {k: round(with_floor(10.0 * float(v)), 4) for k, v in zip(names, p)}
-        if prompt_id == P.RECEPTACLE_RELEVANCE:
+        if prompt_id == prompts.RECEPTACLE_RELEVANCE:
             raw = self.priors.scores(payload["object"], list(payload["furniture"]), "receptacles")
             return {k: round(with_floor(v), 4) for k, v in raw.items()}
-        if prompt_id == P.REGION_RELEVANCE:
+        if prompt_id == prompts.REGION_RELEVANCE:
             raw = self.priors.scores(payload["object"], list(payload["regions"]), "regions")
             return {k: round(with_floor(v), 4) for k, v in raw.items()}
         raise KeyError(f"unknown prompt {prompt_id!r}")
