@@ -199,6 +199,16 @@ class RunLayout:
         return f"{RunLayout.day_dir(scene, day)}/day.json"
 
     @staticmethod
+    def day_mjcf(scene: str, day: str) -> str:
+        """Return a day's composed MJCF."""
+        return f"{RunLayout.day_dir(scene, day)}/variant.xml"
+
+    @staticmethod
+    def day_episodes(scene: str, day: str = "*") -> str:
+        """Return a day's episodes."""
+        return f"{RunLayout.day_dir(scene, day)}/episodes.json"
+
+    @staticmethod
     def dataset_dir(variant: SceneVariant) -> str:
         """Return the folder of a variant's records: a day of a chain under ``days/``, a variant under ``variants/``."""
         if variant.day is not None:
@@ -235,7 +245,21 @@ class RunLayout:
 
     @staticmethod
     def marker(stage: str, scene: str = "", variant: str = "", fmt: str = "", day: str = "") -> str:
-        """Return a declared stage's marker folder in one place of the run (`MARKERS`; `day`: a day's name)."""
+        """Return a declared stage's marker folder in one place of the run (`MARKERS`).
+
+        Parameters
+        ----------
+        stage : str
+            A declared stage's name (a key of `MARKERS`).
+        scene : str
+            The scene (scene, variant and chain stages).
+        variant : str
+            The variant's name (variant stages).
+        fmt : str
+            The exporter (export stages).
+        day : str
+            The day's name (`records.day_name`; chain stages).
+        """
         return RunLayout.MARKERS[stage].format(scene=scene, variant=variant, fmt=fmt, day=day)
 
 

@@ -503,33 +503,32 @@ def _day(ctx: StageContext) -> list[str]:
     """Place one day of the scene's chain: day 0 as a variant, a later day from the day before by the habit model."""
     from .place.days import first_day, next_day
 
-    s = ctx.key("semantics")
-    planes = load_json(ctx.store.path(f"{s}/planes.json"), ReceptaclePlane)
-    rel = load_json(ctx.store.path(f"{s}/relevance.json"), Relevance)
-    out = Path(ctx.key("day")).parent.as_posix()
+    planes = load_json(ctx.store.path(RunLayout.planes(ctx.scene, "semantics")), ReceptaclePlane)
+    rel = load_json(ctx.store.path(RunLayout.relevance(ctx.scene)), Relevance)
+    name = day_name(ctx.scene, ctx.day)
     args = (ctx.view.scene(ctx.scene), planes, rel, ctx.view.object_library(), ctx.store.root, ctx.cfg.place,
             ctx.day_seed)
     if ctx.day == 0:
-        variant, _change = first_day(*args, out, open_parts=ctx.cfg.observe.open_parts)
+        variant, _change = first_day(*args, open_parts=ctx.cfg.observe.open_parts)
     else:
-        before = Path(ctx.key("day", ctx.day - 1)).parent.as_posix()
-        previous = load_json(ctx.store.path(f"{before}/variant.json"), SceneVariant)
-        change = load_json(ctx.store.path(f"{before}/day.json"), DayChange)
-        variant, _change = next_day(previous, change, *args, out)
-    return [f"{out}/variant.json", f"{out}/day.json", variant.mjcf]
+        before = day_name(ctx.scene, ctx.day - 1)
+        previous = load_json(ctx.store.path(RunLayout.day_record(ctx.scene, before)), SceneVariant)
+        change = load_json(ctx.store.path(RunLayout.day_change(ctx.scene, before)), DayChange)
+        variant, _change = next_day(previous, change, *args)
+    return [RunLayout.day_record(ctx.scene, name), RunLayout.day_change(ctx.scene, name), variant.mjcf]
 
 
 def _day_episodes(ctx: StageContext) -> list[str]:
     """ObjectNav episodes of one day of the chain, each goal labelled by its history since the day before."""
     from .episodes import generate_episodes, label_day
 
-    d = Path(ctx.key("day:episodes")).parent.as_posix()
-    variant = load_json(ctx.store.path(f"{d}/variant.json"), SceneVariant)
-    change = load_json(ctx.store.path(f"{d}/day.json"), DayChange)
+    name = day_name(ctx.scene, ctx.day)
+    variant = load_json(ctx.store.path(RunLayout.day_record(ctx.scene, name)), SceneVariant)
+    change = load_json(ctx.store.path(RunLayout.day_change(ctx.scene, name)), DayChange)
     eps = generate_episodes(variant, ctx.view.navmaps(ctx.scene), ctx.store.root, ctx.cfg.episodes, ctx.day_seed,
                             agent=ctx.cfg.agent)
-    save_json(label_day(eps, change), ctx.store.path(f"{d}/episodes.json"))
-    return [f"{d}/episodes.json"]
+    save_json(label_day(eps, change), ctx.store.path(RunLayout.day_episodes(ctx.scene, name)))
+    return [RunLayout.day_episodes(ctx.scene, name)]
 
 
 def _day_extra(ctx: StageContext) -> list[Any]:

@@ -487,7 +487,7 @@ def dataset_statistics(run_root: Path) -> dict:
     objects = _objects(root)
     cfg = _config_info(root)
     t = _tally([r for _, r in per_scene])
-    days = day_statistics(root) if (root / "scenes").is_dir() else {}
+    days = day_statistics(root) if (root / RunLayout.SCENES).is_dir() else {}
     return _round({
         **({"days": days} if days else {}),  # runs with chains of days only: other runs keep their bytes
         "homes": _homes(scenes, [r for _, r in per_scene]),

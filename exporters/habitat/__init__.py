@@ -317,9 +317,8 @@ def _category_maps(run: RunView) -> dict[str, dict[str, int]]:
     """Return the category id maps over every variant's episodes (read as raw JSON: only the categories)."""
     cats: set[str] = set()
     for scene in run.scene_names():
-        for p in (sorted(run.root.glob(RunLayout.episodes(scene)))
-                  + sorted(run.root.glob(f"{RunLayout.day_dir(scene)}/episodes.json"))):
-            if not (p.parent / "variant.json").is_file():  # not a variant of the run (RunView.variants)
+        for p in sorted(run.root.glob(RunLayout.episodes(scene))) + sorted(run.root.glob(RunLayout.day_episodes(scene))):
+            if not (p.parent / Path(RunLayout.variant_record(scene)).name).is_file():  # not a variant (RunView.variants)
                 continue
             text = p.read_text(encoding="utf-8")
             found = _episode_categories(text)

@@ -136,12 +136,12 @@ def _empty_scene_warning(run_root: str, name: str, sc: dict) -> str:
     from .. import hints
     from ..receptacles.identify import is_receptacle
     from ..records import Instance, load_npz
-    from ..runview import RunView
+    from ..runview import RunLayout, RunView
 
     view = RunView(run_root)
     cfg = view.config()
     if sc.get("receptacle_planes", 0) == 0:
-        fused = Path(run_root) / "scenes" / name / "perceive" / "instances.npz"
+        fused = view.path(RunLayout.instances(name))
         if fused.is_file():
             labels = [r.label for r in load_npz(fused) if isinstance(r, Instance)]
         else:  # perception did not run: the scene's own instances

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import PlaceConfig, day_rates
+from ..runview import RunLayout
 from ..records import (DayChange, DayMove, ObjectAsset, Placement, ReceptaclePlane, Relevance, SceneAsset, SceneVariant,
                        save_json)
 from .sample import _inset, _place_one, category_distribution, object_radius, plane_headrooms
@@ -31,9 +32,9 @@ PLANE_TRIES = 5  # planes drawn for a moving or arriving object before it is giv
 
 
 def first_day(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relevance, objects: list[ObjectAsset],
-              store_root: str | Path, cfg: PlaceConfig, seed: int, out_dir: str, open_parts: float = 1.0
+              store_root: str | Path, cfg: PlaceConfig, seed: int, open_parts: float = 1.0
               ) -> tuple[SceneVariant, DayChange]:
-    """Place day 0 of a scene's chain as a variant; write it under `out_dir` (run-relative) and return it.
+    """Place day 0 of a scene's chain as a variant; write it in its day's folder (`RunLayout.day_dir`) and return it.
 
     Parameters
     ----------
@@ -51,8 +52,6 @@ def first_day(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relev
         Placement, settling and the habit model's rates (``place.day_*``).
     seed : int
         The day's seed (`sdovon_mj.seeds.day_seed`).
-    out_dir : str
-        Run-relative folder of the day's files (``variant.json``, ``variant.xml``, ``day.json``).
     open_parts : float
         As in `run_variant`.
     """
@@ -62,13 +61,13 @@ def first_day(scene: SceneAsset, planes: list[ReceptaclePlane], relevance: Relev
     change = DayChange(scene=scene.name, day=0, arrived=[p.object_id for p in variant.placements],
                        dropped={p.object_id: p.reason for p in variant.placements if p.status != RESTING},
                        next_object=_next_object(variant.placements, 0))
-    _write_day(variant, change, scene, planes, objects, store_root, cfg, out_dir)
+    _write_day(variant, change, scene, planes, objects, store_root, cfg)
     return variant, change
 
 
 def next_day(previous: SceneVariant, before: DayChange, scene: SceneAsset, planes: list[ReceptaclePlane],
-             relevance: Relevance, objects: list[ObjectAsset], store_root: str | Path, cfg: PlaceConfig, seed: int,
-             out_dir: str) -> tuple[SceneVariant, DayChange]:
+             relevance: Relevance, objects: list[ObjectAsset], store_root: str | Path, cfg: PlaceConfig, seed: int
+             ) -> tuple[SceneVariant, DayChange]:
     """Derive the next day of a chain from `previous` by the habit model, settle it, write it and return it.
 
     Parameters
@@ -80,8 +79,6 @@ def next_day(previous: SceneVariant, before: DayChange, scene: SceneAsset, plane
     scene, planes, relevance, objects, store_root, cfg : as in `first_day`
     seed : int
         This day's seed (`sdovon_mj.seeds.day_seed`).
-    out_dir : str
-        Run-relative folder of the day's files.
     """
     if scene.articulated:
         from ..errors import StageError
@@ -162,7 +159,7 @@ def next_day(previous: SceneVariant, before: DayChange, scene: SceneAsset, plane
             _keep_or_record(q, before_pose[q.object_id], change)
     variant = _variant_record(scene.name, day, seed, placements, notes)
     variant.day = day
-    _write_day(variant, change, scene, planes, objects, store_root, cfg, out_dir)
+    _write_day(variant, change, scene, planes, objects, store_root, cfg)
     return variant, change
 
 
@@ -249,11 +246,12 @@ def _next_object(placements: list[Placement], floor: int) -> int:
 
 
 def _write_day(variant: SceneVariant, change: DayChange, scene: SceneAsset, planes: list[ReceptaclePlane],
-               objects: list[ObjectAsset], store_root: str | Path, cfg: PlaceConfig, out_dir: str) -> None:
-    """Write a day's composed model, its record and its change record under `out_dir` (run-relative)."""
-    write_variant_model(variant, scene, planes, objects, store_root, cfg, rel=f"{out_dir}/variant.xml")
-    save_json(variant, Path(store_root) / out_dir / "variant.json")
-    save_json(change, Path(store_root) / out_dir / "day.json")
+               objects: list[ObjectAsset], store_root: str | Path, cfg: PlaceConfig) -> None:
+    """Write a day's composed model, its record and its change record in its day's folder (`RunLayout`)."""
+    write_variant_model(variant, scene, planes, objects, store_root, cfg,
+                        rel=RunLayout.day_mjcf(variant.scene, variant.name))
+    save_json(variant, Path(store_root) / RunLayout.day_record(variant.scene, variant.name))
+    save_json(change, Path(store_root) / RunLayout.day_change(variant.scene, variant.name))
 
 
 __all__ = ["STAY_TOL", "first_day", "next_day"]

@@ -552,6 +552,19 @@ def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protec
     it writes outlives it. When an allowed path holds a protected one (the dataset, the results folder), the file
     system cannot be sealed and the reason says so; a path it was asked to read (`extra_read`, the spec's
     ``paths``) that lies inside a protected one is refused (`InputError`).
+
+    Parameters
+    ----------
+    spec : AgentSpec
+        The agent (its top-level module's folder and its ``paths`` become readable).
+    scratch : Path
+        The agent's private scratch folder (its only writable folder).
+    extra_read : tuple of str
+        More files or folders the agent may read (``eval --agent-read``: its weights).
+    protect : tuple of Path
+        Folders the agent must not read (the dataset, the results folder).
+    python : str, optional
+        The agent's own interpreter (its installation and site-packages become readable); None: this one.
     """
     import site
     import sysconfig
