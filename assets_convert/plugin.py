@@ -13,6 +13,7 @@ import json
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from sdovon_mj.config import ConvertConfig
 from sdovon_mj.records import ObjectAsset, SceneAsset, save_json
@@ -184,6 +185,16 @@ class MeshConverter:
         if habitat.layout_of(path):
             out += [f for f in habitat.input_files(path) if f != path]
         return out
+
+    def key_params(self, path: str | Path) -> dict[str, Any]:
+        """Return the conversion rules a stage fingerprint must hold for `path` beside its files' digests: the
+        GPU-texture orientation rule for an input with KTX2 / Basis base-colour images (`load.gpu_texture_key`: a run
+        converted before that rule holds them upside down and must convert again on resume); {} for every other
+        input, so their fingerprints stay as they were."""
+        from .load import gpu_texture_key
+
+        path = Path(path)
+        return {} if path.is_dir() else gpu_texture_key([path] + self.extra_inputs(path))
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         """Declare the `sdovon-mj convert` options."""

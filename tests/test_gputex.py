@@ -329,3 +329,28 @@ def test_a_ktx2_orientation_that_is_none_is_an_error_naming_the_file(basisu: Pat
     glb = quad_glb(ktx, "KHR_texture_basisu", tmp_path / "stage" / "odd.glb")
     with pytest.raises(InputError, match=r"odd\.glb: KTXorientation 'up' is not a KTX2 orientation"):
         convert_scene(glb, tmp_path / "out", cache_dir="off")
+
+
+def test_convert_fingerprint_holds_the_orientation_rule_for_gpu_textured_scenes_only(basisu: Path, tmp_path: Path) -> None:
+    """A run that converted a Basis-textured scene before the orientation rule held its textures upside down: the
+    convert stage's fingerprint names the rule for such a scene, so a resume converts it again; a scene without GPU
+    textures keeps the fingerprint it had (its `extra` is the converter version, its digest and its companions')."""
+    from sdovon_mj.plugins import converter
+    from sdovon_mj.stages import _convert_extra
+
+    buf = io.BytesIO()
+    Image.fromarray(orientation_image()).save(buf, format="PNG")
+    ktx = encode(basisu, buf.getvalue(), tmp_path / "enc", "etc1s")
+    gpu = quad_glb(ktx, "KHR_texture_basisu", tmp_path / "gpu" / "room.glb")
+    plain = tmp_path / "plain" / "room.glb"
+    plain.parent.mkdir()
+    doc, binary = glb_parts(gpu.read_bytes())
+    for key in ("textures", "images", "extensionsUsed", "extensionsRequired"):
+        del doc[key]
+    del doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]
+    plain.write_bytes(glb_bytes(doc, binary))
+    conv = converter()
+    rules = [x for x in _convert_extra(conv, gpu) if isinstance(x, dict)]
+    assert rules and "gpu_orientation" in rules[0]
+    assert not [x for x in _convert_extra(conv, plain) if isinstance(x, dict)]
+    assert len(_convert_extra(conv, plain)) == 2  # version and digest: the bytes of fingerprints made before the rule
