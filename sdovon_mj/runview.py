@@ -359,8 +359,9 @@ class RunView:
         return self.root / RunLayout.dataset_dir(variant)
 
     def episodes(self, variant: SceneVariant) -> list[Episode]:
-        """Return a variant's episodes ([] when it has none or no episodes.json)."""
-        p = self.root / RunLayout.episodes(variant.scene, variant.name)
+        """Return a variant's episodes, a day's for a day of a chain ([] when it has none or no episodes.json)."""
+        p = self.root / (RunLayout.episodes(variant.scene, variant.name) if variant.day is None
+                         else RunLayout.day_episodes(variant.scene, variant.name))
         return _load(p, Episode) if p.exists() else []
 
     def object_library(self) -> list[ObjectAsset]:

@@ -117,5 +117,6 @@ def test_an_answer_table_of_the_public_run_scores_like_a_blind_agent_on_the_secr
     assert secret[-1]["info"]["hits"] == 0
     assert [(r["trajectory"], r["success"]) for r in secret] == [(r["trajectory"], r["success"]) for r in walk]
     # every row says which split it ran on
-    assert ran_as(summarize(public, bootstrap=0)) == "sealed, open split"
-    assert ran_as(summarize(secret, bootstrap=0)) == "sealed, secret split"
+    public_ran, secret_ran = ran_as(summarize(public, bootstrap=0)), ran_as(summarize(secret, bootstrap=0))
+    assert public_ran.startswith("sealed, ") and public_ran.endswith(", open split")  # the renderer between them
+    assert secret_ran.startswith("sealed, ") and secret_ran.endswith(", secret split")
