@@ -68,30 +68,39 @@ class OccupancyMap:
         length = np.linalg.norm(vec, axis=1)
         n = int(np.ceil(length.max() / res)) if len(length) else 0
         if n > 0:
-            t = np.arange(n)[None, :] * res
-            valid = t < (length[:, None] - res)
+            t = np.arange(n) * res
             unit = vec / np.maximum(length[:, None], 1e-9)
-            # Only the valid samples are computed (ray i, step j), each as cam + unit * t like the full (rays, n, 2)
-            # array did: the same float operations, so the same cells, at a fraction of the memory traffic.
-            i, j = np.nonzero(valid)
-            tj = t[0, j]
-            cells = self.frame.to_cell(np.stack([cam[0] + unit[i, 0] * tj, cam[1] + unit[i, 1] * tj], axis=1))
-            self._mark_free(cells[self.frame.inside(cells)])
+            # Only the valid samples are computed (ray i, step j: t[j] < length[i] - res, the first `count[i]` steps
+            # since t ascends), each as cam + unit * t like the full (rays, n, 2) array did: the same float
+            # operations, so the same cells, at a fraction of the memory traffic.
+            count = np.searchsorted(t, length - res, side="left")
+            i = np.repeat(np.arange(len(count)), count)
+            j = np.arange(len(i)) - np.repeat(np.cumsum(count) - count, count)
+            tj = t[j]
+            ux, uy = np.ascontiguousarray(unit[:, 0])[i], np.ascontiguousarray(unit[:, 1])[i]
+            ox, oy = self.frame.origin[0], self.frame.origin[1]  # the cells as `GridFrame.to_cell` computes them
+            self._mark_free(np.floor((cam[1] + uy * tj - oy) / res).astype(np.int64),
+                            np.floor((cam[0] + ux * tj - ox) / res).astype(np.int64))
         floor_hits = (~farv) & (np.abs(z) <= self.obstacle_min)
         fc = self.frame.to_cell(pts[floor_hits, :2])
-        self._mark_free(fc[self.frame.inside(fc)])
+        self._mark_free(fc[:, 0], fc[:, 1])
         oc = self.frame.to_cell(pts[hit_obstacle, :2])
         oc = oc[self.frame.inside(oc)]
         self.state[oc[:, 0], oc[:, 1]] = OCCUPIED
 
-    def _mark_free(self, cells: np.ndarray) -> None:
-        """Mark cells (N, 2) on the grid FREE unless OCCUPIED (repeats allowed: every state is read before any write).
+    def _mark_free(self, rows: np.ndarray, cols: np.ndarray) -> None:
+        """Mark cells (rows, cols: (N,) each) FREE unless OCCUPIED; cells off the grid are skipped, repeats allowed.
 
-        Touches only the given cells, where a whole-grid mask (``state[mask & (state != OCCUPIED)] = FREE``) read and
-        wrote the map's every cell per frame; the result is the same.
+        Every cell's state is read before any is written, as the whole-grid form
+        (``state[mask & (state != OCCUPIED)] = FREE``) did; the result is the same.
         """
-        keep = self.state[cells[:, 0], cells[:, 1]] != OCCUPIED
-        self.state[cells[keep, 0], cells[keep, 1]] = FREE
+        h, w = self.frame.shape
+        ok = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
+        seen = np.zeros(h * w, dtype=bool)
+        seen[rows[ok] * w + cols[ok]] = True  # each cell once (a ray's samples repeat cells)
+        rows, cols = np.divmod(np.flatnonzero(seen), w)
+        keep = self.state[rows, cols] != OCCUPIED
+        self.state[rows[keep], cols[keep]] = FREE
 
     def mark_free_disc(self, xy: np.ndarray, radius: float) -> None:
         """Mark the agent's own footprint free (it stands there)."""
