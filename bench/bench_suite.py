@@ -142,7 +142,7 @@ def print_step_split(bundles: list, sizes: list[tuple[int, int]], steps: int) ->
             for mode in ("in-process", "sealed"):
                 t = step_split(bundle, mode, w, h, steps)
                 ms = {k: 1000.0 * t[k] / t["steps"] for k in ("render", "physics", "observation", "protocol", "cpu")}
-                print(f"| {Path(bundle).name} | {w}x{h} | {mode} | {t['steps'] / t['wall']:.1f} | {ms['render']:.2f} | "
+                print(f"| {Path(bundle).parent.name}/{Path(bundle).name} | {w}x{h} | {mode} | {t['steps'] / t['wall']:.1f} | {ms['render']:.2f} | "
                       f"{ms['physics']:.2f} | {ms['observation']:.2f} | {ms['protocol']:.2f} | {ms['cpu']:.2f} |",
                       flush=True)
 

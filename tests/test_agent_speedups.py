@@ -89,6 +89,30 @@ def test_occupancy_integrate_equals_the_full_array_reference():
         assert (new.state == FREE).any() and (new.state == OCCUPIED).any()
 
 
+def test_occupancy_traversable_equals_the_whole_map_reference():
+    """Traversable cells of random maps (free rooms, occupied specks and walls, unknown, refused cells; free cells at
+    the map's edge) are the whole-map computation's, cell for cell."""
+    from sdovon_mj.grid import dilate
+
+    rng = np.random.default_rng(4748)
+    frame = GridFrame(np.zeros(2), 0.05, (150, 170))
+    for k in range(10):
+        occ = OccupancyMap(frame, agent=AgentConfig())
+        for _ in range(int(rng.integers(1, 4))):
+            r, c = rng.integers(-10, 140, 2)
+            occ.state[max(r, 0):r + int(rng.integers(10, 60)), max(c, 0):c + int(rng.integers(10, 60))] = FREE
+        occ.state[(rng.random(frame.shape) < 0.02) & (occ.state == FREE)] = OCCUPIED
+        occ.state[int(rng.integers(0, 150)), :] = OCCUPIED  # a wall across the map
+        if k % 2:
+            occ.mark_blocked(rng.integers(0, 150, size=(20, 2)))
+        want = (occ.state == FREE) & ~dilate(occ.state == OCCUPIED, occ.agent.radius, frame.resolution)
+        want = want if occ.blocked is None else want & ~occ.blocked
+        assert np.array_equal(occ.traversable(), want), k
+        assert want.any()
+    empty = OccupancyMap(frame, agent=AgentConfig())
+    assert not empty.traversable().any()
+
+
 # `lattice_plan` before issue 47 (verbatim but the name): the whole field and mask listed on every call.
 def _reference_lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: float, mask: np.ndarray,
                  frame: GridFrame, nav, max_nodes: int = 20000, weight: float = 1.2) -> list[int] | None:

@@ -122,8 +122,19 @@ class OccupancyMap:
 
     def traversable(self) -> np.ndarray:
         """Return cells the agent's base may plan through: free, at least a radius from obstacles, not refused."""
-        occ = self.state == OCCUPIED
-        trav = (self.state == FREE) & ~dilate(occ, self.agent.radius, self.frame.resolution)
+        # Computed in a window: the free cells' bounding box widened by the radius (+ 2 cells). An occupied cell
+        # within the radius of a free cell lies in it, and a window cell's distance to the window's nearest occupied
+        # cell is never below the whole map's, so each free cell's verdict is the whole-map one (cells that are not
+        # free are never traversable); the distance transform no longer runs over the whole 40 m map per call.
+        free = self.state == FREE
+        trav = np.zeros(self.frame.shape, dtype=bool)
+        rows, cols = np.flatnonzero(free.any(axis=1)), np.flatnonzero(free.any(axis=0))
+        if len(rows):
+            m = int(math.ceil(self.agent.radius / self.frame.resolution)) + 2
+            r0, r1 = max(0, int(rows[0]) - m), int(rows[-1]) + m + 1
+            c0, c1 = max(0, int(cols[0]) - m), int(cols[-1]) + m + 1
+            occ = self.state[r0:r1, c0:c1] == OCCUPIED
+            trav[r0:r1, c0:c1] = free[r0:r1, c0:c1] & ~dilate(occ, self.agent.radius, self.frame.resolution)
         return trav if self.blocked is None else trav & ~self.blocked
 
     def frontiers(self, min_cells: int = 4) -> list[np.ndarray]:
