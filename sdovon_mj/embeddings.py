@@ -18,6 +18,7 @@ float64 adds them exactly in any order, vectorised, fused or threaded alike.
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import io
 import os
@@ -95,13 +96,23 @@ def embedding_cache_dir() -> Path | None:
     ``~/.cache/sdovon-mj/embeddings``; one sub-folder per encoding and version set of the model and the
     libraries that compute it, so an upgrade never reads another version's vectors.
     """
-    from importlib import metadata
-
     from .store import user_cache_dir
 
     root = user_cache_dir("embeddings")
     if root is None:
         return None
+
+    return root / _version_folder()
+
+
+@functools.lru_cache(maxsize=1)
+def _version_folder() -> str:
+    """Return the cache's sub-folder name for the model and library versions installed.
+
+    Read once per process: the installed versions do not change under a running interpreter, and reading the
+    packages' metadata took ~9 ms a call, paid on every label lookup of an agent's relevance scores.
+    """
+    from importlib import metadata
 
     versions = [ENCODING]
     for dist in (MODEL_DISTRIBUTION, "sentence-transformers", "transformers", "tokenizers", "torch"):
@@ -109,7 +120,7 @@ def embedding_cache_dir() -> Path | None:
             versions.append(f"{dist}={metadata.version(dist)}")
         except metadata.PackageNotFoundError:
             versions.append(f"{dist}=?")
-    return root / ("minilm-" + hashlib.sha256(";".join(versions).encode()).hexdigest()[:16])
+    return "minilm-" + hashlib.sha256(";".join(versions).encode()).hexdigest()[:16]
 
 
 def _cache_file(folder: Path, label: str) -> Path:

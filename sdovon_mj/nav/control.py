@@ -184,10 +184,16 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
     n_head = int(round(360.0 / turn))
     tx, ty = float(target[0]), float(target[1])
     field = goal_field(mask, frame, np.array([tx, ty]), tolerance)
-    h_, w_ = mask.shape
     ox, oy, res = float(frame.origin[0]), float(frame.origin[1]), float(frame.resolution)
-    fl = (field / step).tolist()
-    ml = np.asarray(mask, dtype=bool).tolist()
+    # Python lists for the search's many single-cell reads, cut to the mask's bounding box: off the mask the field is
+    # inf (`distance_field`) and `free` is False, exactly what a cell outside the box gives, so the plan is the same
+    # while a 40 m map's 800 x 800 cells are no longer listed on every call.
+    mb = np.asarray(mask, dtype=bool)
+    rows, cols = np.flatnonzero(mb.any(axis=1)), np.flatnonzero(mb.any(axis=0))
+    r0, r1 = (int(rows[0]), int(rows[-1]) + 1) if len(rows) else (0, 0)
+    c0, c1 = (int(cols[0]), int(cols[-1]) + 1) if len(cols) else (0, 0)
+    fl = (field[r0:r1, c0:c1] / step).tolist()
+    ml = mb[r0:r1, c0:c1].tolist()
     tol2 = tolerance * tolerance
     floor = math.floor
 
@@ -195,9 +201,9 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
         if (tx - x) ** 2 + (ty - y) ** 2 <= tol2:
             return 0.0
         col, row = floor((x - ox) / res), floor((y - oy) / res)
-        if not (0 <= row < h_ and 0 <= col < w_):
+        if not (r0 <= row < r1 and c0 <= col < c1):
             return math.inf
-        return fl[row][col]
+        return fl[row - r0][col - c0]
 
     n_s = max(1, int(math.ceil(step / (res / 2.0))))
     dirs, samples = [], []
@@ -209,7 +215,7 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
     def free(x: float, y: float, k: int) -> bool:
         for dx, dy in samples[k]:
             col, row = floor((x + dx - ox) / res), floor((y + dy - oy) / res)
-            if not (0 <= row < h_ and 0 <= col < w_) or not ml[row][col]:
+            if not (r0 <= row < r1 and c0 <= col < c1) or not ml[row - r0][col - c0]:
                 return False
         return True
 

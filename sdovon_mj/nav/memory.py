@@ -8,6 +8,7 @@ back-projected and grouped by segmentation id; a receptacle's plane is the top s
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -208,21 +209,36 @@ def sample_nav_points(plane: ReceptaclePlane, traversable: np.ndarray, frame: Gr
         Least metres between two points.
     """
     h, w = traversable.shape
-    rows, cols = np.mgrid[0:h, 0:w]
-    centres = frame.to_world(np.stack([rows.ravel(), cols.ravel()], 1))
-    inside = points_in_polygon(plane.polygon, centres).reshape(h, w)
-    if not inside.any():
-        c = frame.to_cell(np.asarray(plane.polygon, float).mean(axis=0)[None])[0]
-        if frame.inside(c[None])[0]:
-            inside[c[0], c[1]] = True
+    # The work is done in a window: the polygon's cells and every cell within far + 1 m of them (+ 2 cells). A cell
+    # outside it is farther than any candidate, and the Euclidean distance transform is exact, so a window cell's
+    # distance to the nearest polygon cell is the one the whole map gives; the candidates and their (row-major,
+    # stably sorted) order are the same. Without a polygon cell in the window (a plane off the map), the whole map.
+    poly = np.asarray(plane.polygon, float)
+    margin = int(math.ceil((far + 1.0) / frame.resolution)) + 2
+    lo, hi = frame.to_cell(poly.min(axis=0)[None])[0], frame.to_cell(poly.max(axis=0)[None])[0]
+    windows = [(max(0, int(lo[0]) - margin), min(h, int(hi[0]) + margin + 1),
+                max(0, int(lo[1]) - margin), min(w, int(hi[1]) + margin + 1)), (0, h, 0, w)]
+    for r0, r1, c0, c1 in windows:
+        if r1 <= r0 or c1 <= c0:
+            continue
+        rows, cols = np.mgrid[r0:r1, c0:c1]
+        centres = frame.to_world(np.stack([rows.ravel(), cols.ravel()], 1))
+        inside = points_in_polygon(plane.polygon, centres).reshape(r1 - r0, c1 - c0)
+        if not inside.any():
+            c = frame.to_cell(poly.mean(axis=0)[None])[0]
+            if frame.inside(c[None])[0] and r0 <= c[0] < r1 and c0 <= c[1] < c1:
+                inside[c[0] - r0, c[1] - c0] = True
+        if inside.any() or (r0, r1, c0, c1) == (0, h, 0, w):
+            break
+    trav = traversable[r0:r1, c0:c1]
     dist = ndimage.distance_transform_edt(~inside) * frame.resolution
-    cand = np.argwhere(traversable & (dist >= near) & (dist <= far))
+    cand = np.argwhere(trav & (dist >= near) & (dist <= far))
     if len(cand) == 0:
-        cand = np.argwhere(traversable & (dist <= far + 1.0))
+        cand = np.argwhere(trav & (dist <= far + 1.0))
     if len(cand) == 0:
         return np.zeros((0, 2))
     order = np.argsort(dist[cand[:, 0], cand[:, 1]], kind="stable")
-    xy = frame.to_world(cand[order])
+    xy = frame.to_world(cand[order] + np.array([r0, c0]))
     keep: list[np.ndarray] = []
     for p in xy:
         if all(np.linalg.norm(p - q) >= spacing for q in keep):
