@@ -28,6 +28,7 @@ from ..observation import ObservationBuilder, dataset_vocabulary, make_sensors
 from ..protocol import REPLY_TIMEOUT, SETUP_TIMEOUT, AgentError, AgentSpec, Phase, SceneStart, opaque_token
 from ..video import EpisodeVideo
 from .exploration import run_first_visits
+from .lifelong import NOT_RUN, day_objects, day_order, goal_history, is_chain, not_run_record, stale_stop
 from .outcomes import episode_outcome
 from .phases import LiveAgent, open_session, run_phase
 from .results import agent_log_path, exploration_path, load_done, result_path, run_key, video_path
@@ -133,39 +134,65 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                                           timeout, setup_timeout, log),
                      lambda know: make_sensors(body, nav, vocab, know))
     results: list[dict] = []
+    chain = is_chain(bundles)  # the lifelong order: days in order, one agent process per scene, "new day" between days
     try:
         with Progress(limit, f"eval {label}", enabled=progress) as bar:
             for scene, items in scenes.items():
+                items = day_order(items) if chain else items
                 done = {(b.name, i): load_done(out, label, key, b.episodes[i].episode_id) for b, i in items}
                 if all(done.values()):
                     results += [done[(b.name, i)] for b, i in items]
                     bar.update(len(items), scene)
                     continue
+                # a chain scene with some episodes recorded was begun before: its agent's memory is gone with that
+                # process, so its sequence is broken and its remaining episodes are not run (never replayed)
+                broken = ("the evaluation stopped in this scene's sequence of days (resumed): the agent's memory of "
+                          "its earlier days is gone") if chain and any(done.values()) else ""
                 first = items[0][0]
                 live.get()
                 know = live.knowledge
                 start = SceneStart(opaque_token(split["salt_digest"], "scene", scene), oracle_scene_parts(first, know))
                 visit = None
-                if know.prior == "scene":
+                if know.prior == "scene" and not broken:
                     floors = {int(b.episodes[i].floor) for b, i in items if not done[(b.name, i)]}
                     visit = run_first_visits(live, first, floors, know, nav, body, vocab, seed, start,
                                              exploration_path(out, label, scene) if out is not None else None, key)
                 by_bundle: dict[str, list[tuple[Bundle, int]]] = {}
                 for b, i in items:
                     by_bundle.setdefault(b.name, []).append((b, i))
+                earlier: list[dict] = []  # the scene's earlier days' objects (stale stops)
+                day = None
                 for group in by_bundle.values():
                     b = group[0][0]
                     env = make_environment(b, nav=nav, agent=body, semantic=know.detector == "gt")
                     builder = ObservationBuilder(know, vocab, b.detector_labels())
+                    now = day_objects(env.physics, b) if chain else {}
                     try:
+                        if chain and day is not None and b.day != day and not broken and live.session is not None:
+                            try:
+                                live.get(start).new_day()
+                            except AgentError as e:
+                                live.fail()
+                                broken = f"the agent failed at the new day ({e.cause}): {str(e)[-500:]}"
                         for _b, i in group:
                             if done[(b.name, i)]:
                                 results.append(done[(b.name, i)])
                                 bar.update(1, b.episodes[i].episode_id)
                                 continue
                             eid = b.episodes[i].episode_id
-                            r = run_episode(live, start, env, builder, b, i, label, key, visit,
-                                            (out, video_path(label, eid)) if eid in videos else None, split, out)
+                            if broken:
+                                sess = live.get()
+                                r = not_run_record(episode_record(sess, live.knowledge, label, key, split, b,
+                                                                  b.episodes[i], visit), b.episodes[i], NOT_RUN, broken)
+                            else:
+                                r = run_episode(live, start, env, builder, b, i, label, key, visit,
+                                                (out, video_path(label, eid)) if eid in videos else None, split, out)
+                            if chain:
+                                r["stale_stop"] = stale_stop(r, b.episodes[i].object_category, earlier, now,
+                                                             float(nav.fn_viewpoint_radius))
+                                if r.get("failure") and not broken:
+                                    broken = (f"the agent failed in episode {eid} ({r['failure']['cause']}) earlier "
+                                              "in this scene's sequence of days: its memory is gone")
                             results.append(r)
                             if out is not None:
                                 atomic_write_text(result_path(out, label, r["episode_id"]),
@@ -173,9 +200,28 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                             bar.update(1, r["episode_id"])
                     finally:
                         env.task.close()
+                    earlier.append(now)
+                    day = b.day
+                if chain:
+                    live.close()  # one agent process per scene: the next scene's agent remembers nothing of this one
     finally:
         live.close()
     return results
+
+
+def episode_record(session: Any, know: Any, label: str, key: str, split: dict, b: Bundle, ep: Any,
+                   visit: dict | None) -> dict:
+    """Return the fields of an episode's result known before it begins: the row, how the agent runs (``session``,
+    its declared ``know``), the split, the episode (its day and goal history on a day of a chain) and the scene's
+    first visit, summarized. The parameters are `run_episode`'s; ``ep`` is ``b.episodes[i]``."""
+    return {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle, "mode": session.mode,
+            "seal": session.seal.describe(), "sealed": bool(session.seal.sealed), "split": split["split"],
+            "setup_seconds": session.setup_seconds, "run_key": key,
+            "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene, "category": ep.object_category,
+            "first_visit": None if not visit else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")}
+            | ({"floors": len(visit["floors"])} if "floors" in visit else {})
+            | ({"failure": visit["failure"]["cause"]} if visit.get("failure") else {})} \
+        | ({"day": int(ep.day), "goal_history": goal_history(ep)} if ep.day is not None else {})
 
 
 def run_episode(live: LiveAgent, start: SceneStart, env: Any, builder: ObservationBuilder, b: Bundle, i: int,
@@ -223,13 +269,7 @@ def run_episode(live: LiveAgent, start: SceneStart, env: Any, builder: Observati
     env.task.set_next_episode(i)
     phase = Phase("episode", start.scene, opaque_token(split["salt_digest"], "episode", ep.episode_id), i,
                   int(env.task.nav.max_steps), oracle_episode_parts(ep, know))
-    r = {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle, "mode": session.mode,
-         "seal": session.seal.describe(), "sealed": bool(session.seal.sealed), "split": split["split"],
-         "setup_seconds": session.setup_seconds, "run_key": key,
-         "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene, "category": ep.object_category,
-         "first_visit": None if not visit else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")}
-         | ({"floors": len(visit["floors"])} if "floors" in visit else {})
-         | ({"failure": visit["failure"]["cause"]} if visit.get("failure") else {})}
+    r = episode_record(session, know, label, key, split, b, ep, visit)
     if out is not None:  # begun: recorded as a failure until its outcome replaces it
         g = float(ep.geodesic_distance)
         begun = {**r, "success": 0.0, "spl": 0.0, "soft_spl": 0.0, "distance_to_goal": g, "shortest": g,
