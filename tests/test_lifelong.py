@@ -81,7 +81,8 @@ def test_the_memory_agent_runs_sealed_in_the_days_order_and_remembers_across_day
 
 def test_the_new_day_message_is_the_same_bytes_whatever_changed(chain, monkeypatch):
     """Between days the sealed agent gets `NEW_DAY`, the same bytes on each night although the nights changed
-    different objects; the agent's `new_day` hears each (its count is the episode's day)."""
+    different objects; the agent's `new_day` hears each (its count is the episode's day). The whole export is
+    evaluated: the scene's independent variant runs as usual, in a process of its own that hears no new day."""
     from sdovon_mj.runview import RunView
     from sdovon_mj.suite import protocol
 
@@ -101,9 +102,12 @@ def test_the_new_day_message_is_the_same_bytes_whatever_changed(chain, monkeypat
         return real(self, data, deadline)
 
     monkeypatch.setattr(protocol.SealedSession, "_send_raw", spy)
-    res = evaluate(days, _counter(), nav=NAV, body=BODY, progress=False)
+    res = evaluate(run / "export" / "mjcf" / "sdovon", _counter(), nav=NAV, body=BODY, progress=False)
     assert sent == [NEW_DAY] * (DAYS - 1) and pickle.loads(NEW_DAY) == ("new_day",)
-    assert [r["info"]["days"] for r in res] == [r["day"] for r in res]
+    on_days = [r for r in res if "day" in r]
+    assert len(on_days) == len(_in_day_order(days)) and [r["info"]["days"] for r in on_days] == [r["day"] for r in on_days]
+    variant = [r for r in res if "day" not in r]
+    assert variant and [r["info"] for r in variant] == [{"days": 0, "episodes": k + 1} for k in range(len(variant))]
 
 
 def test_a_broken_sequence_is_recorded_not_replayed(chain, tmp_path, monkeypatch):

@@ -27,6 +27,13 @@ def is_chain(bundles: list[Bundle]) -> bool:
     return any(b.day is not None for b in bundles)
 
 
+def sequence_key(scene: str, bundle: Bundle, chain: bool) -> str:
+    """Return the evaluation group a bundle's episodes run in: its scene; in a chain dataset, a scene's days form one
+    sequence (``<scene>_days``: its own agent process and first visit, its own first-visit record) and the scene's
+    independent variants, exported beside them, another (the scene, evaluated as usual)."""
+    return f"{scene}_days" if chain and bundle.day is not None else scene
+
+
 def day_order(items: list[tuple[Bundle, int]]) -> list[tuple[Bundle, int]]:
     """Return a scene's (bundle, episode index) items in the lifelong order: days ascending, each day's episodes in
     their order (a stable sort: bundles of one day keep theirs)."""
