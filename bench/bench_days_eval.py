@@ -7,7 +7,8 @@ order in one agent process, "new day" between days); SR and SPL per day and by g
 
 Rows: Semantic A* (the prior only: the same search order every day) and Semantic A* with object memory (searches
 first where it last saw the goal category, forgets a sighting it finds empty), each with the paper's FN, and the
-no-prior Semantic Frontier agent (no memory: every episode from nothing). Only the days are evaluated (the scene's
+no-prior Semantic Frontier agent without memory (every episode from nothing) and with it (localized: explores towards
+where it last saw the goal category first). Only the days are evaluated (the scene's
 independent variants, exported beside them, are named and left out). The ordering of the rows is printed as
 measured, never required. A killed run resumes (its begun sequences are recorded as not run, as the evaluator does).
 """
@@ -30,7 +31,7 @@ from sdovon_mj.suite import find_bundles, load_bundle  # noqa: E402
 from sdovon_mj.suite.evaluation.runner import Row, agent_spec, run_rows  # noqa: E402
 from sdovon_mj.suite.evaluation.tables import tables_markdown  # noqa: E402
 
-ROWS = ("semantic-astar", "semantic-astar-memory", "semantic-frontier (no prior)")
+ROWS = ("semantic-astar", "semantic-astar-memory", "semantic-frontier (no prior)", "semantic-frontier-memory")
 
 
 def rows(body: AgentConfig, nav: NavConfig) -> list[Row]:

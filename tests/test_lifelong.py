@@ -1,6 +1,6 @@
 """The lifelong evaluation (issue 50): a chain dataset's days run in order in one agent process per scene, sealed,
-with a "new day" message between days that says nothing of what changed; the memory baseline keeps its memory across
-the days; a sequence broken by a crash records its remaining episodes as not run and never replays one.
+with a "new day" message between days that says nothing of what changed; the memory baselines keep their memory
+across the days; a sequence broken by a crash records its remaining episodes as not run and never replays one.
 
 One small default-world chain (tests/test_days.py's: one apartment, three categories, three days), exported as MJCF
 bundles, is generated once for the module and every test reads it.
@@ -56,14 +56,16 @@ def _in_day_order(days: list[Path]) -> list[str]:
     return [e.episode_id for b in bundles for e in b.episodes]
 
 
-def test_the_memory_agent_runs_sealed_in_the_days_order_and_remembers_across_days(chain, tmp_path):
-    """Semantic A* with object memory runs the chain sealed end to end: the days in order (given in reverse), each
-    day's episodes in order, one agent process for the scene (one set-up), one "new day" heard before each later day;
-    each episode starts with the sightings the one before ended with (its memory survives the nights), and some
-    later day starts with sightings it made on an earlier one. The lifelong tables print every day and history."""
+@pytest.mark.parametrize("name", ["semantic-astar-memory", "semantic-frontier-memory"])
+def test_the_memory_agents_run_sealed_in_the_days_order_and_remember_across_days(chain, tmp_path, name):
+    """Semantic A* and the frontier agent with object memory run the chain sealed end to end: the days in order
+    (given in reverse), each day's episodes in order, one agent process for the scene (one set-up), one "new day"
+    heard before each later day; each episode starts with the sightings the one before ended with (its memory
+    survives the nights), and some later day starts with sightings it made on an earlier one. The lifelong tables
+    print every day and history."""
     _run, days = chain
-    res = evaluate(days, agent_spec("semantic-astar-memory", NAV, agent=BODY, explore_steps=300), nav=NAV, body=BODY,
-                   out=tmp_path, progress=False)
+    kw = {"explore_steps": 300} if "astar" in name else {}
+    res = evaluate(days, agent_spec(name, NAV, agent=BODY, **kw), nav=NAV, body=BODY, out=tmp_path, progress=False)
     assert [r["episode_id"] for r in res] == _in_day_order(days)
     assert [r["day"] for r in res] == sorted(r["day"] for r in res) and {r["day"] for r in res} == set(range(DAYS))
     assert all(r["mode"] == "sealed" and r["goal_history"] in HISTORIES and isinstance(r["stale_stop"], bool)
@@ -73,9 +75,9 @@ def test_the_memory_agent_runs_sealed_in_the_days_order_and_remembers_across_day
     assert [m["days"] for m in mem] == [r["day"] for r in res]
     assert mem[0]["at_start"] == 0 and all(b["at_start"] == a["at_end"] for a, b in zip(mem, mem[1:]))
     assert any(m["at_start"] > 0 for m, r in zip(mem, res) if r["day"] > 0)
-    md = lifelong_tables({"semantic-astar-memory": res}, bootstrap=50)
+    md = lifelong_tables({name: res}, bootstrap=50)
     for d in range(DAYS):
-        assert f"| semantic-astar-memory | {d} | " in md
+        assert f"| {name} | {d} | " in md
     assert "Lifelong: by goal history" in md and "stale stops" in md
 
 

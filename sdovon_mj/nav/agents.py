@@ -7,7 +7,7 @@ final point-goal navigation, ``nav.fn_mode`` picks the paper's FN, our FN with r
 This package never imports the suite: what the agent gets comes in through the protocol's calls.
 
 One agent a module: `random_agent`, `oracle_agent`, `random_astar`, `semantic_astar`, `semantic_astar_memory`
-(with `object_memory`), `semantic_frontier`; the A*
+(with `object_memory`), `semantic_frontier`, `semantic_frontier_memory`; the A*
 agents' common search in `receptacle_astar` (the episode) with what it does split by concept: `first_visit` (its
 memory), `search_order`, `looking`, `planning`, `final_navigation`; their base `agent.Agent`. This module is their
 public name: the entry points, the built-in plugins and the classes' ``__module__`` (`agent.public_home`: pickles
@@ -43,6 +43,8 @@ from .receptacle_astar import OPENABLE_LABELS, ReceptacleAStar
 from .semantic_astar import SemanticAStar
 from .semantic_astar_memory import SemanticAStarMemory
 from .semantic_frontier import SemanticFrontierAgent
+from .semantic_frontier_memory import SemanticFrontierMemory
 
 __all__ = ["Agent", "RandomAgent", "OracleAgent", "ReceptacleAStar", "RandomAStar", "SemanticAStar",
-           "SemanticAStarMemory", "SemanticFrontierAgent", "OPENABLE_LABELS", "FAR_APPROACHES", "FLOOR_TOLERANCE"]
+           "SemanticAStarMemory", "SemanticFrontierAgent",
+           "SemanticFrontierMemory", "OPENABLE_LABELS", "FAR_APPROACHES", "FLOOR_TOLERANCE"]

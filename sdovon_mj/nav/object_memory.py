@@ -1,5 +1,6 @@
-"""Object memory of the A* agents: where the agent last saw each object category, kept across episodes and days of a
-scene (one agent process serves a scene's whole sequence of days), searched first, forgotten when found empty.
+"""Object memory of the agents: where the agent last saw each object category, kept across episodes and days of a
+scene (one agent process serves a scene's whole sequence of days), searched first, forgotten when found empty
+(`ObjectMemory` for the A* agents, `FrontierObjectMemory` for the no-prior frontier agent).
 
 A sighting is the receptacle (an entry of the scene's first-visit memory, `memory.SceneMemory`) the agent was looking
 at when a category covered at least the detector's ``eta`` of a rendered frame: the agent's own detections, on the
@@ -83,3 +84,73 @@ class ObjectMemory:
         super().end(view, ts)
         if view.phase == "episode":
             self.info["object_memory"] = {**self._recall, "at_end": len(self.sightings)}
+
+
+class FrontierObjectMemory:
+    """Mixin for `SemanticFrontierAgent`: where it last saw each category (scene-frame XY, from its own detections'
+    depth), kept across the episodes and days of a scene; a frontier within ``nav.frontier_radius`` of where it last
+    saw the goal category scores 1 (relevance scores are probabilities: memory comes first at equal distance). A
+    remembered place it stands within ``nav.fn_viewpoint_radius`` of for a full turn of looks without seeing the goal
+    is forgotten. Memory across episodes needs one frame for all of them: the agent declares itself localized
+    (``pose="absolute"``) and centres each episode's map where it starts.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        from dataclasses import replace
+
+        super().__init__(*args, **kwargs)
+        self.knowledge = replace(self.knowledge, pose="absolute")
+        self.places: dict[tuple[str, str], np.ndarray] = {}
+        self.days = 0
+        self._recall: dict[str, Any] = {}
+        self._n_seen = 0
+        self._misses: dict[tuple[str, str], int] = {}
+
+    def new_day(self) -> None:
+        """The scene's next day begins: count it; the places stay."""
+        self.days += 1
+
+    def reset(self, view: Any, ts: Any) -> None:
+        """Start an episode: note the places held (the memory that survived from earlier episodes and days)."""
+        self._n_seen, self._misses = 0, {}
+        category = str(ts.observation["objectgoal_text"])
+        self._recall = {"at_start": len(self.places), "from_memory": (str(view.scene), category) in self.places,
+                        "forgotten": 0, "days": self.days}
+        super().reset(view, ts)
+
+    def _map_centre(self) -> np.ndarray:
+        """Return where it starts, in the scene frame (its map's centre)."""
+        return np.asarray(self.ts.observation["position"], float)[:2]
+
+    def _floor_z(self) -> float:
+        """Return the floor's height in the scene frame (its base stands on it)."""
+        return float(np.asarray(self.ts.observation["position"], float)[2])
+
+    def _looked(self, category: str, seen: list[tuple[np.ndarray, str]], found: bool) -> None:
+        """Remember the look's new detections; count a look near where the goal was remembered that misses it."""
+        from .frontier import scan_actions
+
+        scene = str(self.env.scene)
+        for xy, label in seen[self._n_seen:]:
+            self.places[(scene, label)] = np.asarray(xy, float)
+        self._n_seen = len(seen)
+        key = (scene, category)
+        if found or key not in self.places:
+            return
+        pos = np.asarray(self.ts.observation["position"], float)[:2]
+        if np.linalg.norm(self.places[key] - pos) <= self.nav.fn_viewpoint_radius:
+            self._misses[key] = self._misses.get(key, 0) + 1
+            if self._misses[key] >= scan_actions(self.nav.turn_angle):  # a full turn there without it: stale
+                del self.places[key]
+                self._recall["forgotten"] += 1
+
+    def _recalled(self, category: str, xy: np.ndarray) -> float:
+        """Return 1 for a frontier near where the goal category was last seen, else 0."""
+        p = self.places.get((str(self.env.scene), category))
+        return 1.0 if p is not None and np.linalg.norm(p - np.asarray(xy, float)) <= self.nav.frontier_radius else 0.0
+
+    def end(self, view: Any, ts: Any) -> None:
+        """The phase is over: report the memory (episodes only)."""
+        super().end(view, ts)
+        if view.phase == "episode":
+            self.info["object_memory"] = {**self._recall, "at_end": len(self.places)}
