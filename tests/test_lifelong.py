@@ -114,13 +114,17 @@ def test_the_new_day_message_is_the_same_bytes_whatever_changed(chain, monkeypat
 
 def test_a_broken_sequence_is_recorded_not_replayed(chain, tmp_path, monkeypatch):
     """The agent crashes in its fifth episode: that one is an agent failure, every later one of the scene is recorded
-    as not run (cause `NOT_RUN`, naming the crashed episode) and no agent process begins them. A rerun starts no
+    as not run (cause `NOT_RUN`, naming the crashed episode) and no agent process is started for them. A rerun starts no
     agent; with the last records removed, a resumed run records those as not run again (the scene's sequence was
     begun: its memory is gone), and still begins none of them."""
     import sdovon_mj.suite.evaluation.loop as E
 
     _run, days = chain
+    real, started = E.open_session, []
+    monkeypatch.setattr(E, "open_session", lambda *a, **k: started.append(1) or real(*a, **k))
     res = evaluate(days, _counter(crash_at=4), nav=NAV, body=BODY, out=tmp_path, progress=False)
+    assert started == [1]  # the crashed process is not replaced for the episodes left unrun
+    started.clear()
     n = len(res)
     assert n > 5 and [r["outcome"] for r in res[4:]] == ["agent failure"] + ["not run"] * (n - 5)
     assert not any(r.get("failure") for r in res[:4])
@@ -129,8 +133,6 @@ def test_a_broken_sequence_is_recorded_not_replayed(chain, tmp_path, monkeypatch
                and r["success"] == 0 for r in res[5:])
     assert all(r["info"]["episodes"] == k + 1 for k, r in enumerate(res[:4]))  # one process, episodes in turn
 
-    real, started = E.open_session, []
-    monkeypatch.setattr(E, "open_session", lambda *a, **k: started.append(1) or real(*a, **k))
     again = evaluate(days, _counter(crash_at=4), nav=NAV, body=BODY, out=tmp_path, progress=False)
     assert started == [] and [r["outcome"] for r in again] == [r["outcome"] for r in res]
     for r in res[n - 2:]:

@@ -167,6 +167,10 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                     floors = {int(b.episodes[i].floor) for b, i in items if not done[(b.name, i)]}
                     visit = run_first_visits(live, first, floors, know, nav, body, vocab, seed, start,
                                              exploration_path(out, label, group_key) if out is not None else None, key)
+                    if seq and visit and visit.get("failure"):
+                        broken = (f"the agent failed in the scene's first visit ({visit['failure']['cause']}): its "
+                                  "memory of the scene is gone")
+                held = live.session  # how the agent ran, for the records of episodes a broken sequence leaves unrun
                 by_bundle: dict[str, list[tuple[Bundle, int]]] = {}
                 for b, i in items:
                     by_bundle.setdefault(b.name, []).append((b, i))
@@ -190,13 +194,13 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                                 bar.update(1, b.episodes[i].episode_id)
                                 continue
                             eid = b.episodes[i].episode_id
-                            if broken:
-                                sess = live.get()
-                                r = not_run_record(episode_record(sess, live.knowledge, label, key, split, b,
+                            if broken:  # no agent process is started for it
+                                r = not_run_record(episode_record(live.session or held, know, label, key, split, b,
                                                                   b.episodes[i], visit), b.episodes[i], NOT_RUN, broken)
                             else:
                                 r = run_episode(live, start, env, builder, b, i, label, key, visit,
                                                 (out, video_path(label, eid)) if eid in videos else None, split, out)
+                                held = live.session or held
                             if seq:
                                 r["stale_stop"] = stale_stop(r, b.episodes[i].object_category, earlier, now,
                                                              float(nav.fn_viewpoint_radius))
