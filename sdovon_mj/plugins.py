@@ -35,7 +35,9 @@ _BUILTIN: dict[str, dict[str, str]] = {
     "sdovon_mj.agents": {
         "random-astar": "sdovon_mj.nav.agents:RandomAStar",
         "semantic-astar": "sdovon_mj.nav.agents:SemanticAStar",
+        "semantic-astar-memory": "sdovon_mj.nav.agents:SemanticAStarMemory",
         "semantic-frontier": "sdovon_mj.nav.agents:SemanticFrontierAgent",
+        "semantic-frontier-memory": "sdovon_mj.nav.agents:SemanticFrontierMemory",
         "oracle": "sdovon_mj.nav.agents:OracleAgent",
         "random": "sdovon_mj.nav.agents:RandomAgent",
     },

@@ -364,7 +364,7 @@ def test_episode_outcomes_name_why_an_episode_ended():
             "outcome": o} for s, o in ((1.0, "success"), (0.0, "step limit"), (0.0, "step limit"), (0.0, "not found"))]
     out = summarize(res, bootstrap=0)["outcomes"]
     assert out == {"success": 0.25, "step limit": 0.5, "not found": 0.25, "other instance": 0.0, "missed stop": 0.0,
-                   "agent failure": 0.0}
+                   "agent failure": 0.0, "not run": 0.0}
     table = outcome_table({"a": {**summarize(res, bootstrap=0)}})
     assert "| a | 4 | 0.250 | 0.500 | 0.250 | 0.000 | 0.000 |" in table
 

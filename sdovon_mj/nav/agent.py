@@ -71,6 +71,10 @@ class Agent:
     def end(self, view: Any, ts: Any) -> None:
         """The phase is over (default: nothing to do)."""
 
+    def new_day(self) -> None:
+        """A lifelong evaluation's scene begins its next day (default: nothing to do; what changed overnight is for
+        the agent to find out)."""
+
     def act(self, ts) -> int:
         """Return the next action for the current timestep (STOP once the policy is done)."""
         self.ts = ts

@@ -6,7 +6,8 @@ them as ``factory(nav=NavConfig, agent=AgentConfig, seed=int)`` in their own pro
 final point-goal navigation, ``nav.fn_mode`` picks the paper's FN, our FN with retries, or our lattice variant).
 This package never imports the suite: what the agent gets comes in through the protocol's calls.
 
-One agent a module: `random_agent`, `oracle_agent`, `random_astar`, `semantic_astar`, `semantic_frontier`; the A*
+One agent a module: `random_agent`, `oracle_agent`, `random_astar`, `semantic_astar`, `semantic_astar_memory`
+(with `object_memory`), `semantic_frontier`, `semantic_frontier_memory`; the A*
 agents' common search in `receptacle_astar` (the episode) with what it does split by concept: `first_visit` (its
 memory), `search_order`, `looking`, `planning`, `final_navigation`; their base `agent.Agent`. This module is their
 public name: the entry points, the built-in plugins and the classes' ``__module__`` (`agent.public_home`: pickles
@@ -26,6 +27,7 @@ Protocol (what `suite.protocol.AgentRunner` calls, in the agent's process; docs/
     agent.reset(view, ts)         an episode begins (``view``: scene, episode id and index, steps, step limit)
     action = agent.act(ts)        one discrete action per time step (dm_env TimeStep, reward None)
     agent.end(view, ts)           the phase is over (STOP or its step limit); ``agent.info`` is read after it
+    agent.new_day()               lifelong evaluation: the scene's next day begins (default no-op; no content)
     agent.wants_frame             whether the next observation needs rendered images (blank frames otherwise)
 """
 
@@ -39,7 +41,10 @@ from .random_agent import RandomAgent
 from .random_astar import RandomAStar
 from .receptacle_astar import OPENABLE_LABELS, ReceptacleAStar
 from .semantic_astar import SemanticAStar
+from .semantic_astar_memory import SemanticAStarMemory
 from .semantic_frontier import SemanticFrontierAgent
+from .semantic_frontier_memory import SemanticFrontierMemory
 
 __all__ = ["Agent", "RandomAgent", "OracleAgent", "ReceptacleAStar", "RandomAStar", "SemanticAStar",
-           "SemanticFrontierAgent", "OPENABLE_LABELS", "FAR_APPROACHES", "FLOOR_TOLERANCE"]
+           "SemanticAStarMemory", "SemanticFrontierAgent",
+           "SemanticFrontierMemory", "OPENABLE_LABELS", "FAR_APPROACHES", "FLOOR_TOLERANCE"]

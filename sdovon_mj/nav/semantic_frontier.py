@@ -59,6 +59,22 @@ class SemanticFrontierAgent(ReceptacleAStar):
     def _explore(self, env) -> Generator[int, object, None]:
         yield STOP  # no prior: it declares none and the evaluator starts no first visit
 
+    def _map_centre(self) -> np.ndarray:
+        """Return where its episode's map is centred: the start (the origin of its GPS+compass frame)."""
+        return np.zeros(2)
+
+    def _floor_z(self) -> float:
+        """Return the height of the floor in its pose frame (the start frame: 0)."""
+        return 0.0
+
+    def _looked(self, category: str, seen: list[tuple[np.ndarray, str]], found: bool) -> None:
+        """A look is done: ``seen`` its detections so far (XY, label), ``found`` whether the goal is in view (a hook
+        for a memory; none here: every episode from nothing)."""
+
+    def _recalled(self, category: str, xy: np.ndarray) -> float:
+        """Return a frontier's score from memory (0 here: no memory; a memory's score competes with relevance)."""
+        return 0.0
+
     def _can_grow(self) -> bool:
         """Its map grows with every look (`_map_grew`)."""
         return True
@@ -93,9 +109,10 @@ class SemanticFrontierAgent(ReceptacleAStar):
         from ..grid import nearest_true
 
         category = str(self.ts.observation["objectgoal_text"])
-        frame = agent_frame(np.zeros(2), self.nav.map_size, self.nav.map_resolution)
-        occ = self._occ = OccupancyMap(frame, floor_z=0.0, agent=self.agent_config)
-        occ.mark_free_disc(np.zeros(2), self.agent_config.radius + 0.05)
+        start = self._map_centre()
+        frame = agent_frame(start, self.nav.map_size, self.nav.map_resolution)
+        occ = self._occ = OccupancyMap(frame, floor_z=self._floor_z(), agent=self.agent_config)
+        occ.mark_free_disc(start, self.agent_config.radius + 0.05)
         seen: list[tuple[np.ndarray, str]] = []  # (world XY in the start frame, label) of detections
         nv = Navigator(self.nav, occ.traversable, frame,
                        on_blocked=lambda p, yaw: occ.mark_blocked(blocked_cells(frame, p, yaw, self.nav.forward_step)))
@@ -112,7 +129,9 @@ class SemanticFrontierAgent(ReceptacleAStar):
                 pts = goal_points(o["depth"], det.mask, self.env.K, T, self.nav.depth_min, self.nav.depth_max)
                 if len(pts):
                     seen.append((np.median(pts[:, :2], axis=0), det.label))
-            return self._detect()
+            mask = self._detect()
+            self._looked(category, seen, mask is not None)
+            return mask
 
         while self.env.steps < budget:
             mask = look() if self.frame_fresh else None
@@ -157,7 +176,7 @@ class SemanticFrontierAgent(ReceptacleAStar):
                     continue
                 xy = frame.to_world(cells[k][None])[0]
                 near_labels = [lab for q, lab in seen if np.linalg.norm(q - xy) <= self.nav.frontier_radius]
-                s = max((scores.get(lab, 0.0) for lab in near_labels), default=0.0)
+                s = max([scores.get(lab, 0.0) for lab in near_labels] + [self._recalled(category, xy)])
                 u = (0.1 + s) / (1.0 + float(d[k]) / 5.0)
                 if u > best_u:
                     best, best_u = xy, u

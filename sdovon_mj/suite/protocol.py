@@ -9,6 +9,8 @@ it talks to the agent through a session with five calls, each answered by the ag
                               a declared step budget) or "episode"; the reply is the first action
     step(obs)                 the next observation; the reply is the next action
     end(obs)                  the phase is over (STOP or its step limit); the reply is the agent's info dict
+    new_day()                 a lifelong evaluation (days of a home): the next day of the scene begins; the message
+                              holds nothing but that fact (`NEW_DAY`, the same bytes whatever changed overnight)
 
 Replies are JSON objects (``{"action": int, "frame": bool}``, ``{"info": {...}}``): the evaluator never unpickles
 anything an agent sends. ``frame`` says whether the next observation needs images (the evaluator skips rendering
@@ -46,6 +48,10 @@ PHASES = ("explore", "episode")
 MODES = ("sealed", "in-process")
 MAX_REPLY_BYTES = 4 << 20  # an agent's reply (JSON) larger than this is a protocol error
 
+
+# The "new day" message of a lifelong evaluation: no content but the fact, so it is the same bytes whatever changed
+# overnight (what moved, left or arrived is for the agent to find out).
+NEW_DAY = pickle.dumps(("new_day",), protocol=4)
 
 # Why an agent's session failed (`AgentError.cause`): recorded with the episode it failed in.
 CAUSES = ("crash", "timeout", "protocol error")
@@ -325,6 +331,10 @@ class AgentRunner:
         if kind == "step":
             self.view.steps += 1
             return self._act(self._ts("mid", args[0]))
+        if kind == "new_day":
+            if hasattr(agent, "new_day"):
+                agent.new_day()
+            return {"ok": True}
         if kind == "end":
             self.view.steps += 1
             if hasattr(agent, "end"):
@@ -392,6 +402,10 @@ class InProcessSession:
     def end(self, obs: dict, rendered: bool = True) -> dict:
         """End the phase; return the agent's info."""
         return self._call("info", self.runner.handle, "end", obs)
+
+    def new_day(self) -> None:
+        """Announce the scene's next day (`NEW_DAY`: the message itself, unpickled as the agent's process would)."""
+        self._call("ok", self.runner.handle, *pickle.loads(NEW_DAY))
 
     def close(self) -> None:
         """Nothing to free."""
@@ -823,6 +837,11 @@ class SealedSession:
         self._send("end", self.frames.write(obs, rendered))
         return self._recv("info")
 
+    def new_day(self) -> None:
+        """Announce the scene's next day: the `NEW_DAY` bytes, nothing else."""
+        self._send_raw(NEW_DAY)
+        self._recv("ok")
+
     def close(self) -> None:
         """Stop the agent's process (its whole process group: whatever it started) and free the frame buffer, the
         scratch folder and the log."""
@@ -854,6 +873,6 @@ class SealedSession:
             shutil.rmtree(self.scratch, ignore_errors=True)
 
 
-__all__ = ["AgentError", "AgentRunner", "AgentSpec", "AgentView", "CAUSES", "FrameBuffer", "InProcessSession", "MODES",
+__all__ = ["AgentError", "AgentRunner", "AgentSpec", "AgentView", "CAUSES", "FrameBuffer", "InProcessSession", "MODES", "NEW_DAY",
            "OracleParts", "PHASES", "Phase", "REPLY_TIMEOUT", "Reply", "SETUP_TIMEOUT", "SceneStart", "SealedSession",
            "agent_name", "decode_reply", "opaque_token", "encode_reply", "knowledge_from_json", "knowledge_to_json", "seal_plan"]

@@ -6,7 +6,8 @@ random; others from the ``sdovon_mj.agents`` entry points), built as ``factory(n
 seed=int)``, by default in their own sealed process (`protocol.SealedSession`): the evaluator never imports an agent
 named by an `AgentSpec`. Each episode's result records the mode it ran in, whether the agent's file system was
 sealed, the split (open or secret, `dataset_split`) and the agent's set-up time; an episode the agent failed in
-is recorded with the failure's cause, and no begun episode or first visit is ever played again.
+is recorded with the failure's cause, and no begun episode or first visit is ever played again. A dataset of chains of
+days runs in the lifelong order (`lifelong`): a scene's days in order in one agent process, "new day" between days.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ from ..observation import ObservationBuilder, dataset_vocabulary, make_sensors
 from ..protocol import REPLY_TIMEOUT, SETUP_TIMEOUT, AgentError, AgentSpec, Phase, SceneStart, opaque_token
 from ..video import EpisodeVideo
 from .exploration import run_first_visits
+from .lifelong import (NOT_RUN, day_objects, day_order, goal_history, is_chain, not_run_record, sequence_key,
+                       stale_stop)
 from .outcomes import episode_outcome
 from .phases import LiveAgent, open_session, run_phase
 from .results import agent_log_path, exploration_path, load_done, result_path, run_key, video_path
@@ -72,6 +75,12 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     scene's first visit of a floor is granted once (`exploration.run_first_visits`). Episode and scene ids reach the
     agent as opaque tokens (`protocol.opaque_token`, keyed by the split's salt digest: stable within a scene, so the
     agent's memory of a scene works). The agent process's output goes to ``out/agents/<label>.log``.
+
+    Days of chains (bundles with `Bundle.day`) run in the lifelong order (`lifelong.sequence_key`, `day_order`): a
+    scene's days in order, each day's episodes in order, in one agent process per scene (the scene's independent
+    variants in another), its first visit once before day 0 and `protocol.NEW_DAY` between days; once the agent
+    fails in a scene's sequence, or a resumed run finds it begun, its remaining episodes are recorded as not run
+    (`lifelong.not_run_record`). Their results carry ``day``, ``goal_history`` and ``stale_stop``.
 
     Parameters
     ----------
@@ -123,9 +132,10 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     total = sum(len(b.episodes) for b in bundles)
     limit = total if episodes is None else min(int(episodes), total)
     plan: list[tuple[Bundle, int]] = [(b, i) for b in bundles for i in range(len(b.episodes))][:limit]
+    chain = is_chain(bundles)  # the lifelong order: days in order, one agent process per scene, "new day" between days
     scenes: dict[str, list[tuple[Bundle, int]]] = {}
     for b, i in plan:
-        scenes.setdefault(str(b.episodes[i].scene), []).append((b, i))
+        scenes.setdefault(sequence_key(str(b.episodes[i].scene), b, chain), []).append((b, i))
     label = label or (agent.name if isinstance(agent, AgentSpec) else str(getattr(agent, "name", type(agent).__name__)))
     key = run_key(label, agent, nav, body, mode, seed)
     out = Path(out) if out is not None else None
@@ -141,38 +151,69 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
     results: list[dict] = []
     try:
         with Progress(limit, f"eval {label}", enabled=progress) as bar:
-            for scene, items in scenes.items():
+            for group_key, items in scenes.items():
+                scene = str(items[0][0].episodes[items[0][1]].scene)
+                seq = chain and items[0][0].day is not None  # a scene's days: the lifelong order
+                items = day_order(items) if seq else items
                 done = {(b.name, i): load_done(out, label, key, b.episodes[i].episode_id) for b, i in items}
                 if all(done.values()):
                     results += [done[(b.name, i)] for b, i in items]
-                    bar.update(len(items), scene)
+                    bar.update(len(items), group_key)
                     continue
+                # a chain scene with some episodes recorded was begun before: its agent's memory is gone with that
+                # process, so its sequence is broken and its remaining episodes are not run (never replayed)
+                broken = ("the evaluation stopped in this scene's sequence of days (resumed): the agent's memory of "
+                          "its earlier days is gone") if seq and any(done.values()) else ""
                 first = items[0][0]
                 live.get()
                 know = live.knowledge
                 start = SceneStart(opaque_token(split["salt_digest"], "scene", scene), oracle_scene_parts(first, know))
                 visit = None
-                if know.prior == "scene":
+                if know.prior == "scene" and not broken:
                     floors = {int(b.episodes[i].floor) for b, i in items if not done[(b.name, i)]}
                     visit = run_first_visits(live, first, floors, know, nav, body, vocab, seed, start,
-                                             exploration_path(out, label, scene) if out is not None else None, key)
+                                             exploration_path(out, label, group_key) if out is not None else None, key)
+                    if seq and visit and visit.get("failure"):
+                        broken = (f"the agent failed in the scene's first visit ({visit['failure']['cause']}): its "
+                                  "memory of the scene is gone")
+                held = live.session  # how the agent ran, for the records of episodes a broken sequence leaves unrun
                 by_bundle: dict[str, list[tuple[Bundle, int]]] = {}
                 for b, i in items:
                     by_bundle.setdefault(b.name, []).append((b, i))
+                earlier: list[dict] = []  # the scene's earlier days' objects (stale stops)
+                day = None
                 for group in by_bundle.values():
                     b = group[0][0]
                     env = make_environment(b, nav=nav, agent=body, semantic=know.detector == "gt")
                     builder = ObservationBuilder(know, vocab, b.detector_labels())
+                    now = day_objects(env.physics, b) if seq else {}
                     try:
+                        if seq and day is not None and b.day != day and not broken and live.session is not None:
+                            try:
+                                live.get(start).new_day()
+                            except AgentError as e:
+                                live.fail()
+                                broken = f"the agent failed at the new day ({e.cause}): {str(e)[-500:]}"
                         for _b, i in group:
                             if done[(b.name, i)]:
                                 results.append(done[(b.name, i)])
                                 bar.update(1, b.episodes[i].episode_id)
                                 continue
                             eid = b.episodes[i].episode_id
-                            r = run_episode(live, start, env, builder, b, i, label, key, visit,
-                                            (out, video_path(label, eid)) if eid in videos else None, split,
-                                            out) | drawn
+                            if broken:  # no agent process is started for it
+                                r = not_run_record(episode_record(live.session or held, know, label, key, split, b,
+                                                                  b.episodes[i], visit), b.episodes[i], NOT_RUN, broken)
+                            else:
+                                r = run_episode(live, start, env, builder, b, i, label, key, visit,
+                                                (out, video_path(label, eid)) if eid in videos else None, split,
+                                                out) | drawn
+                                held = live.session or held
+                            if seq:
+                                r["stale_stop"] = stale_stop(r, b.episodes[i].object_category, earlier, now,
+                                                             float(nav.fn_viewpoint_radius))
+                                if r.get("failure") and not broken:
+                                    broken = (f"the agent failed in episode {eid} ({r['failure']['cause']}) earlier "
+                                              "in this scene's sequence of days: its memory is gone")
                             results.append(r)
                             if out is not None:
                                 atomic_write_text(result_path(out, label, r["episode_id"]),
@@ -180,6 +221,10 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                             bar.update(1, r["episode_id"])
                     finally:
                         env.task.close()
+                    earlier.append(now)
+                    day = b.day
+                if chain:  # one agent process per sequence: the next one's agent remembers nothing of this one
+                    live.close()
     finally:
         live.close()
     return results
@@ -190,6 +235,21 @@ def drawn_by(render: str) -> dict[str, str]:
     rec = use_renderer(render)
     return {"render": rec["render"], "renderer": rec["renderer"],
             **({"render_fallback": rec["fallback"]} if rec.get("fallback") else {})}
+
+
+def episode_record(session: Any, know: Any, label: str, key: str, split: dict, b: Bundle, ep: Any,
+                   visit: dict | None) -> dict:
+    """Return the fields of an episode's result known before it begins: the row, how the agent runs (``session``,
+    its declared ``know``), the split, the episode (its day and goal history on a day of a chain) and the scene's
+    first visit, summarized. The parameters are `run_episode`'s; ``ep`` is ``b.episodes[i]``."""
+    return {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle, "mode": session.mode,
+            "seal": session.seal.describe(), "sealed": bool(session.seal.sealed), "split": split["split"],
+            "setup_seconds": session.setup_seconds, "run_key": key,
+            "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene, "category": ep.object_category,
+            "first_visit": None if not visit else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")}
+            | ({"floors": len(visit["floors"])} if "floors" in visit else {})
+            | ({"failure": visit["failure"]["cause"]} if visit.get("failure") else {})} \
+        | ({"day": int(ep.day), "goal_history": goal_history(ep)} if ep.day is not None else {})
 
 
 def run_episode(live: LiveAgent, start: SceneStart, env: Any, builder: ObservationBuilder, b: Bundle, i: int,
@@ -237,13 +297,7 @@ def run_episode(live: LiveAgent, start: SceneStart, env: Any, builder: Observati
     env.task.set_next_episode(i)
     phase = Phase("episode", start.scene, opaque_token(split["salt_digest"], "episode", ep.episode_id), i,
                   int(env.task.nav.max_steps), oracle_episode_parts(ep, know))
-    r = {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle, "mode": session.mode,
-         "seal": session.seal.describe(), "sealed": bool(session.seal.sealed), "split": split["split"],
-         "setup_seconds": session.setup_seconds, "run_key": key,
-         "episode_id": ep.episode_id, "variant": b.name, "scene": ep.scene, "category": ep.object_category,
-         "first_visit": None if not visit else {k: visit[k] for k in ("steps", "metres", "budget", "seconds")}
-         | ({"floors": len(visit["floors"])} if "floors" in visit else {})
-         | ({"failure": visit["failure"]["cause"]} if visit.get("failure") else {})}
+    r = episode_record(session, know, label, key, split, b, ep, visit)
     if out is not None:  # begun: recorded as a failure until its outcome replaces it
         g = float(ep.geodesic_distance)
         begun = {**r, "success": 0.0, "spl": 0.0, "soft_spl": 0.0, "distance_to_goal": g, "shortest": g,

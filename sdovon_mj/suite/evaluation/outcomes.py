@@ -13,7 +13,7 @@ from ..boundary import scene_frame_point
 
 
 # Why an episode ended as it did (`episode_outcome`), in table order.
-OUTCOMES = ("success", "step limit", "not found", "other instance", "missed stop", "agent failure")
+OUTCOMES = ("success", "step limit", "not found", "other instance", "missed stop", "agent failure", "not run")
 OUTCOME_HELP = {
     "success": "STOP within the success distance of a goal's view point",
     "step limit": "the step limit ended the episode (no STOP)",
@@ -22,6 +22,8 @@ OUTCOME_HELP = {
     "missed stop": "STOP near a detected goal object, not within the success distance of its view points",
     "agent failure": "the agent crashed, timed out or broke the protocol during the episode (its cause is recorded; "
                      "the episode is not run again)",
+    "not run": "a lifelong sequence broke before the episode (the agent failed earlier in its scene's days, or the "
+               "evaluation stopped there): its memory is gone, so the episode is recorded with the cause, never run",
 }
 
 
@@ -40,6 +42,8 @@ def episode_outcome(result: dict, episode: Any, pose: str = "absolute") -> str:
     ``gps+compass`` the centre is in the episode's start frame and is taken back to the scene frame here.
     Agents that report neither end as "missed stop" when they STOP elsewhere.
     """
+    if result.get("not_run"):
+        return "not run"
     if result.get("failure"):
         return "agent failure"
     if result.get("success"):

@@ -1,6 +1,6 @@
 """The statistics of an evaluation's results: SR, SPL, Soft SPL and DTG with cluster-bootstrap intervals (scenes, then
 variants, then episodes), paired differences of two rows over the same episodes, the episodes' difficulty, the
-first visits' use and the evaluation's speed."""
+first visits' use, the evaluation's speed, and a lifelong evaluation's figures per day and by goal history."""
 
 from __future__ import annotations
 
@@ -147,3 +147,42 @@ def paired_difference(a: list[dict], b: list[dict], key: str = "success", bootst
 def episodes_per_minute(results: list[dict], seconds: float) -> float:
     """Return evaluation speed: episodes per wall minute."""
     return 60.0 * len(results) / seconds if seconds > 0 else float("nan")
+
+
+def lifelong(results: list[dict], bootstrap: int = 1000, seed: int = 0) -> dict[str, Any]:
+    """Return a lifelong evaluation's figures (results with ``day``; `lifelong.py`): SR and SPL per day and by the
+    goal's history (unmoved since the day before, moved, new; `lifelong.goal_history`), each with its 95 % interval,
+    and the stale stops (a failed STOP where the goal category rested on an earlier day and rests no more).
+
+    The intervals resample scenes, then days within them, then episodes (`metrics.cluster_bootstrap`: a day's
+    bundle is its variant). Returns ``{"days": {day: {...}}, "history": {history: {...}}, "stale_stops": {...}}``;
+    each group holds ``episodes``, ``success``, ``spl``, ``success_ci``, ``spl_ci`` and ``stale_stop`` (its share
+    of the group's episodes); ``stale_stops`` holds the count, the share of all episodes and the share of the
+    failed STOPs. Episodes not run (a broken sequence) count as failures and are counted in ``not_run``.
+    """
+    from .lifelong import HISTORIES
+
+    rs = [r for r in results if r.get("day") is not None]
+    days = sorted({int(r["day"]) for r in rs})
+
+    def group(sub: list[dict]) -> dict[str, Any]:
+        out: dict[str, Any] = {"episodes": len(sub)}
+        if not sub:
+            return out
+        x = np.array([[float(r["success"]), float(r["spl"]), float(bool(r.get("stale_stop")))] for r in sub], float)
+        for j, k in enumerate(("success", "spl", "stale_stop")):
+            out[k] = round(float(x[:, j].mean()), 4)
+        if bootstrap > 0:
+            means = metrics.cluster_bootstrap(x[:, :2], *_clusters(sub), resamples=bootstrap, seed=seed)
+            for j, k in enumerate(("success", "spl")):
+                lo, hi = metrics.percentile_interval(means[:, j])
+                out[f"{k}_ci"] = (round(lo, 4), round(hi, 4))
+        out["not_run"] = sum(1 for r in sub if r.get("not_run"))
+        return out
+
+    stale = sum(1 for r in rs if r.get("stale_stop"))
+    failed_stops = sum(1 for r in rs if r.get("stop_called") and not r.get("success"))
+    return {"days": {d: group([r for r in rs if int(r["day"]) == d]) for d in days},
+            "history": {h: group([r for r in rs if r.get("goal_history") == h]) for h in HISTORIES},
+            "stale_stops": {"count": stale, "share": round(stale / len(rs), 4) if rs else math.nan,
+                            "of_failed_stops": round(stale / failed_stops, 4) if failed_stops else math.nan}}

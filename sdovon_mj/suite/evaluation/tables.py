@@ -1,5 +1,6 @@
 """The markdown tables of an evaluation: overall (with the episodes' difficulty, the first visits and the paper's
-rows for context), per category, paired differences, how episodes ended, and inside articulated receptacles."""
+rows for context), per category, paired differences, how episodes ended, inside articulated receptacles, and a
+lifelong evaluation's tables per day and by goal history."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from .outcomes import OUTCOME_HELP, OUTCOMES
-from .statistics import INTERVALS, paired_difference, summarize
+from .statistics import INTERVALS, lifelong, paired_difference, summarize
 
 
 PAPER = {  # SD-OVON tables 4 and 5 (ground-truth detector), for the closing comparison
@@ -199,4 +200,36 @@ def tables_markdown(per_agent: dict[str, list[dict]], pairs: list[tuple[str, str
         md += "\n## How episodes ended\n\n" + ended + "\n"
     if inside:
         md += "\n## Inside articulated receptacles (goal behind a closed door or drawer)\n\n" + inside + "\n"
+    days = lifelong_tables(per_agent)
+    if days:
+        md += "\n" + days
     return md, rows
+
+
+def lifelong_tables(per_agent: dict[str, list[dict]], bootstrap: int = 1000) -> str:
+    """Return the markdown of a lifelong evaluation's tables ('' when no result has a day): SR and SPL per day, then
+    by goal history (unmoved, moved, new since the day before), each cell with its 95 % interval (scenes, then days,
+    then episodes), with the share of stale stops (`statistics.lifelong`)."""
+    got = {n: lifelong(res, bootstrap) for n, res in per_agent.items() if any(r.get("day") is not None for r in res)}
+    if not got:
+        return ""
+
+    def table(part: str, head: str) -> list[str]:
+        lines = [f"| Agent | {head} | Episodes | SR [95% CI] | SPL [95% CI] | Stale stops | Not run |",
+                 "|---|---|---|---|---|---|---|"]
+        for name, f in got.items():
+            for key, g in f[part].items():
+                if g["episodes"]:
+                    lines.append(f"| {name} | {key} | {g['episodes']} | {_cell(g, 'success')} | {_cell(g, 'spl')} | "
+                                 f"{_share(g['stale_stop'])} | {g['not_run']} |")
+        return lines
+
+    stale = ["| Agent | Stale stops | Share of episodes | Share of failed STOPs |", "|---|---|---|---|"]
+    for name, f in got.items():
+        st = f["stale_stops"]
+        stale.append(f"| {name} | {st['count']} | {_share(st['share'])} | "
+                     f"{'-' if st['of_failed_stops'] != st['of_failed_stops'] else _share(st['of_failed_stops'])} |")
+    return "\n".join(["## Lifelong: per day", "", *table("days", "Day"), "",
+                      "## Lifelong: by goal history (since the day before)", "", *table("history", "History"), "",
+                      "## Lifelong: stale stops (a failed STOP where the goal category rested on an earlier day, "
+                      "and rests no more)", "", *stale, "", f"{INTERVALS.replace('variants', 'days')}.", ""])
