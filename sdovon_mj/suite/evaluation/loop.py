@@ -241,7 +241,27 @@ def episode_record(session: Any, know: Any, label: str, key: str, split: dict, b
                    visit: dict | None) -> dict:
     """Return the fields of an episode's result known before it begins: the row, how the agent runs (``session``,
     its declared ``know``), the split, the episode (its day and goal history on a day of a chain) and the scene's
-    first visit, summarized. The parameters are `run_episode`'s; ``ep`` is ``b.episodes[i]``."""
+    first visit, summarized.
+
+    Parameters
+    ----------
+    session : AgentSession
+        The agent's session (sealed or in-process): its mode, seal and set-up seconds.
+    know : Knowledge
+        What the agent declared it knows.
+    label : str
+        The row's name.
+    key : str
+        The run key (`results.run_key`).
+    split : dict
+        The dataset's split record (``split``: open or secret split).
+    b : Bundle
+        The variant the episode belongs to.
+    ep : Episode
+        The episode (``b.episodes[i]``; its day and goal history on a day of a chain).
+    visit : dict or None
+        The scene's first visit (`exploration.run_first_visits`), summarized into the record.
+    """
     return {"agent": label, "knowledge": know.describe(), "oracle": know.is_oracle, "mode": session.mode,
             "seal": session.seal.describe(), "sealed": bool(session.seal.sealed), "split": split["split"],
             "setup_seconds": session.setup_seconds, "run_key": key,
