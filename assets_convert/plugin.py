@@ -186,15 +186,17 @@ class MeshConverter:
             out += [f for f in habitat.input_files(path) if f != path]
         return out
 
-    def key_params(self, path: str | Path) -> dict[str, Any]:
+    def key_params(self, path: str | Path, extra: list[Path] | None = None) -> dict[str, Any]:
         """Return the conversion rules a stage fingerprint must hold for `path` beside its files' digests: the
         GPU-texture orientation rule for an input with KTX2 / Basis base-colour images (`load.gpu_texture_key`: a run
         converted before that rule holds them upside down and must convert again on resume); {} for every other
-        input, so their fingerprints stay as they were."""
+        input, so their fingerprints stay as they were. `extra`: `extra_inputs(path)` when the caller has it."""
         from .load import gpu_texture_key
 
         path = Path(path)
-        return {} if path.is_dir() else gpu_texture_key([path] + self.extra_inputs(path))
+        if path.is_dir():
+            return {}
+        return gpu_texture_key([path] + (self.extra_inputs(path) if extra is None else [Path(f) for f in extra]))
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         """Declare the `sdovon-mj convert` options."""

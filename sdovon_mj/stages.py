@@ -328,7 +328,7 @@ def _objects_extra(ctx: StageContext) -> list[Any]:
     """Return the object stage's further inputs: converter version, (name, category, digest) per file, and the
     files it skips (listed in failures.json: a .dae added to a finished run's library folder is listed on resume)."""
     conv = converter()
-    extra = [conv.version, [(_input_name(ctx.store, p), c, file_hash(p), *_extra_digests(conv, p), *_key_params(conv, p))
+    extra = [conv.version, [(_input_name(ctx.store, p), c, file_hash(p), *_further_inputs(conv, p))
                             for p, c in _object_files(ctx)]]
     skipped = sorted(_library_skipped(ctx, conv))
     return extra + [skipped] if skipped else extra  # none: the fingerprint of runs before it
@@ -337,23 +337,19 @@ def _objects_extra(ctx: StageContext) -> list[Any]:
 def _convert_extra(conv: Any, path: Path) -> list[Any]:
     """Return the convert stage's further inputs: converter version, the scene file's digest, its companions'
     (a converted scene's folder: the digests of the files the converter names for it)."""
-    return [conv.version, file_hash(path) if path.is_file() else "folder", *_extra_digests(conv, path),
-            *_key_params(conv, path)]
+    return [conv.version, file_hash(path) if path.is_file() else "folder", *_further_inputs(conv, path)]
 
 
-def _key_params(conv: Any, path: Path) -> list[dict[str, Any]]:
-    """Return [the conversion rules the converter names for `path`] ([] when none, so a fingerprint keeps its bytes):
-    a rule that changed how such inputs convert (GPU textures' orientation) redoes their conversion on resume."""
-    params = getattr(conv, "key_params", None)
-    found = params(path) if params is not None else {}
-    return [found] if found else []
-
-
-def _extra_digests(conv: Any, path: Path) -> list[list[str]]:
-    """Return [[digest of each further file the converter reads for `path`]] ([] when none: metadata, companions)."""
+def _further_inputs(conv: Any, path: Path) -> list[Any]:
+    """Return what a fingerprint holds of `path` beyond its own digest, each part only when not empty (so a fingerprint
+    keeps its bytes): [digest of each further file the converter reads for it] (metadata, companions), then the
+    conversion rules the converter names for it and those files (GPU textures' orientation: a rule that changed how
+    such inputs convert redoes their conversion on resume). The further files are listed once for both."""
     extra = getattr(conv, "extra_inputs", None)
     files = list(extra(path)) if extra is not None else []
-    return [[file_hash(Path(f)) for f in files]] if files else []
+    params = getattr(conv, "key_params", None)
+    rules = params(path, files) if params is not None else {}
+    return ([[file_hash(Path(f)) for f in files]] if files else []) + ([rules] if rules else [])
 
 
 def _world_scene(ctx: StageContext) -> list[str]:

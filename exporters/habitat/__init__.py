@@ -317,9 +317,10 @@ def _category_maps(run: RunView) -> dict[str, dict[str, int]]:
     """Return the category id maps over every variant's episodes (read as raw JSON: only the categories)."""
     cats: set[str] = set()
     for scene in run.scene_names():
-        for p in sorted(run.root.glob(RunLayout.episodes(scene))) + sorted(run.root.glob(RunLayout.day_episodes(scene))):
-            if not (p.parent / Path(RunLayout.variant_record(scene)).name).is_file():  # not a variant (RunView.variants)
-                continue
+        layouts = ((RunLayout.episodes, RunLayout.variant_record), (RunLayout.day_episodes, RunLayout.day_record))
+        files = [p for episodes, record in layouts for p in sorted(run.root.glob(episodes(scene)))
+                 if run.path(record(scene, p.parent.name)).is_file()]  # a variant's or a day's (RunView.variants, days)
+        for p in files:
             text = p.read_text(encoding="utf-8")
             found = _episode_categories(text)
             if found is not None:
