@@ -30,7 +30,8 @@ and prints each stage's top N functions by own time (0: skip).
 ``--big`` writes one scene of HM3D-Semantics size with the HM3D layout writer (`big_hm3d_scene`: default-world
 apartments side by side, their triangles split until the scene has ``--big-faces``; HM3DSem averages about 660
 instances per scene) and runs it through `generate` in one worker, printing each stage's wall seconds and peak
-resident memory (goal: < 4 GB per worker).
+resident memory (goal: < 4 GB per worker). ``--digests FILE`` writes the digest of every output of that run,
+``--against FILE`` compares the run with another code version's digests (the byte check of a speed-up).
 """
 
 from __future__ import annotations
@@ -317,6 +318,30 @@ def run_big(args: argparse.Namespace, work: Path) -> None:
           f"{tree_peak.peak_mb:.0f} MiB = {tree_peak.peak_mb * 2**20 / 1e9:.2f} GB")
     print(f"load average (1, 5, 15 min): {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs "
           "(figures taken on a shared machine are noisy)")
+    byte_check(work / "big_job", args.digests, args.against)
+
+
+def byte_check(run: Path, write: str | None, against: str | None) -> None:
+    """Write the run's output digests to `write` and/or compare them with those in `against`, printing the verdict
+    (same files, same bytes) and the first paths that differ."""
+    if not (write or against):
+        return
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    from run_digests import run_digests
+
+    got = run_digests(run)
+    if write:
+        Path(write).write_text(json.dumps(got, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+        print(f"digests of {len(got)} outputs written to {write}")
+    if against:
+        want = json.loads(Path(against).read_text(encoding="utf-8"))
+        differ = sorted(k for k in set(got) & set(want) if got[k] != want[k])
+        only_new, only_old = sorted(set(got) - set(want)), sorted(set(want) - set(got))
+        same = not (differ or only_new or only_old)
+        print(f"byte check against {against}: {len(got)} outputs, {len(differ)} differ, {len(only_new)} new, "
+              f"{len(only_old)} missing: {'IDENTICAL' if same else 'DIFFERENT'}")
+        for k in (differ + only_new + only_old)[:10]:
+            print(f"  {k}")
 
 
 def main() -> None:
@@ -343,6 +368,11 @@ def main() -> None:
     ap.add_argument("--big", action="store_true", help="only the HM3D-size scene: >= 500 instances, >= 1.5 M triangles")
     ap.add_argument("--big-apartments", type=int, default=12, help="default-world apartments in the big scene")
     ap.add_argument("--big-faces", type=int, default=1_500_000, help="triangles of the big scene")
+    ap.add_argument("--digests", default=None, metavar="FILE",
+                    help="--big: write the digest of every output of the big scene's run here (tools/run_digests.py)")
+    ap.add_argument("--against", default=None, metavar="FILE",
+                    help="--big: compare the run's outputs with digests another code version wrote (--digests): "
+                         "the byte check of a speed-up, run once at the end")
     args = ap.parse_args()
     if args.big:
         work = Path(args.out or tempfile.mkdtemp(prefix="bench_generate_big_"))

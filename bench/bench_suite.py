@@ -98,7 +98,8 @@ def step_split(bundle, mode: str, width: int, height: int, steps: int) -> dict:
     nav = replace(NavConfig(), max_steps=10 ** 9)
     vocab = Vocabulary.of_bundles([b])
     session = open_session(agent_spec("random", nav, 0, agent=body), mode, width, height)
-    env = make_environment(b, nav=nav, agent=body, semantic=session.knowledge.detector == "gt")
+    env = make_environment(b, nav=nav, agent=body, semantic=session.knowledge.detector == "gt",
+                           rgb=session.knowledge.rgb)
     try:
         session.setup(make_sensors(body, nav, vocab, session.knowledge))
         builder = ObservationBuilder(session.knowledge, vocab, b.detector_labels())
@@ -203,7 +204,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int,
                 for e, _bd in envs.values():
                     e.task.close()
                 envs.clear()
-                envs[b.name] = (make_environment(b, nav=nav, agent=body, semantic=know.detector == "gt"),
+                envs[b.name] = (make_environment(b, nav=nav, agent=body, semantic=know.detector == "gt", rgb=know.rgb),
                                 ObservationBuilder(know, vocab, b.detector_labels()))
             env, builder = envs[b.name]
             for m in order:

@@ -45,6 +45,7 @@ class Knowledge:
     oracle: tuple[str, ...] = ()  # generator artefacts it reads (ORACLE_PARTS): an oracle, an upper bound
     fn: str = "-"  # final navigation after a detection: "paper" (Navigate(p_g|eps_nav), STOP), "retry", "lattice", "-"
     explore_steps: int = 0  # the first visit's step budget (prior="scene"), declared and reported
+    rgb: bool = True  # it reads the colour image; False: the evaluator renders none for it (a blank one is sent)
 
     def __post_init__(self) -> None:
         check_word(self.detector, "detector")
@@ -53,6 +54,8 @@ class Knowledge:
             raise ValueError(f"unknown pose sensor {self.pose!r} ({', '.join(POSES)})")
         if self.prior not in PRIORS:
             raise ValueError(f"unknown prior {self.prior!r} ({', '.join(PRIORS)})")
+        if not isinstance(self.rgb, bool):
+            raise ValueError(f"rgb must be true or false, got {self.rgb!r}")
         if (self.prior == "scene") != (int(self.explore_steps) > 0):
             raise ValueError(f"prior {self.prior!r} with explore_steps={self.explore_steps}: a first visit "
                              "(prior='scene') needs a step budget > 0, and only it")
@@ -69,6 +72,8 @@ class Knowledge:
         """Return a one-line description for result tables."""
         parts = [f"detector {self.detector}", "pose absolute (localized)" if self.pose == "absolute" else "GPS+compass",
                  f"first visit {self.explore_steps} steps" if self.prior == "scene" else "no prior", f"FN {self.fn}"]
+        if not self.rgb:
+            parts.append("no colour image")
         if self.oracle:
             parts.append("ORACLE: " + ", ".join(self.oracle))
         return "; ".join(parts)

@@ -245,8 +245,9 @@ def test_combined_pass_equals_separate_passes(two_storey):
 
 
 def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
-    """A render that skips the geoms outside the view cone gives the images of a render of everything, byte for
-    byte, and the geoms it skips are none of those the full render shows."""
+    """A render that skips the geoms outside the view frustum, and draws in its lit pass only the geoms its flat pass
+    shows, gives the images of a render of everything, byte for byte; the geoms it skips are none of those the full
+    render shows, and both cuts do leave geoms out."""
     from sdovon_mj.observe.render_views import load_model, make_renderer
     from sdovon_mj.sim.camera import pose_cv
     from sdovon_mj.sim.render import SceneRenderer
@@ -257,18 +258,69 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
     poses = [pose_cv(np.array(xyz), yaw, pitch) for xyz in spots for yaw in (0.0, 100.0, 215.0)
              for pitch in (-60.0, -10.0, 25.0)]
     poses.append(pose_cv(np.array([3.0, 3.0, 2.5]), 30.0, -90.0))  # straight down: the image's up sets the roll
+    lit_geoms: list[int] = []
+    lit = SceneRenderer._lit_pass
+
+    def counted(self, seg):
+        out = lit(self, seg)
+        lit_geoms.append(self._renderer.scene.ngeom)
+        return out
+
     try:
+        monkeypatch.setattr(SceneRenderer, "_lit_pass", counted)
         culled = [r.render(T, rgb=True, depth=True, segmentation=True) for T in poses]
+        rgb_depth = [r.render(T, rgb=True, depth=True, segmentation=False) for T in poses]
         skipped = [r.outside_view(T) for T in poses]
         monkeypatch.setattr(SceneRenderer, "outside_view", lambda self, T: np.zeros(0, dtype=np.int64))
+        monkeypatch.setattr(SceneRenderer, "_lit_pass", lambda self, seg: counted(self, None))  # draw everything
         full = [r.render(T, rgb=True, depth=True, segmentation=True) for T in poses]
     finally:
         r.close()
-    assert sum(len(s) for s in skipped) > 0  # the cull does hide geoms in these views
-    for a, b, out in zip(culled, full, skipped):
+    assert sum(len(s) for s in skipped) > 0  # the frustum cull does hide geoms in these views
+    n = len(poses)
+    assert all(a < b for a, b in zip(lit_geoms[:n], lit_geoms[2 * n:]))  # and the lit pass draws fewer than all
+    for a, c, b, out in zip(culled, rgb_depth, full, skipped):
         assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
+        assert np.array_equal(c.rgb, b.rgb) and np.array_equal(c.depth, b.depth) and c.segmentation is None
         assert np.array_equal(a.segmentation, b.segmentation)
         assert not set(np.unique(b.segmentation).tolist()) & set(out.tolist())
+
+
+GLASS = """<mujoco>
+  <asset><material name="glass" rgba="0.2 0.4 0.9 0.4"/></asset>
+  <worldbody>
+    <light pos="0 0 4" dir="0 0 -1"/>
+    <geom name="floor" type="plane" size="5 5 0.1" rgba="0.6 0.6 0.6 1"/>
+    <geom name="pane" type="box" pos="1.5 0 1" size="0.02 1 1" material="glass"/>
+    <geom name="red" type="box" pos="3 0 1" size="0.3 0.3 0.3" rgba="1 0 0 1"/>
+  </worldbody>
+</mujoco>"""
+
+
+def test_lit_pass_draws_what_shows_through_glass(monkeypatch):
+    """A geom behind a see-through one wins no pixel of the flat pass, yet shows in the lit image: with a transparent
+    geom in the segmentation the lit pass draws everything in view, and the images are a full render's."""
+    import mujoco
+
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer, hiding
+
+    model = mujoco.MjModel.from_xml_string(GLASS)
+    r = SceneRenderer(model, width=96, height=72, hfov=60.0, groups=(0,))
+    T = pose_cv(np.array([0.0, 0.0, 1.0]), 0.0, 0.0)
+    red = model.geom("red").id
+    lit = SceneRenderer._lit_pass
+    try:
+        a = r.render(T, rgb=True, depth=True, segmentation=True)
+        with hiding(model, np.array([red])):
+            no_red = r.render(T, rgb=True, depth=True, segmentation=True)
+        monkeypatch.setattr(SceneRenderer, "_lit_pass", lambda self, seg: lit(self, None))  # draw everything
+        b = r.render(T, rgb=True, depth=True, segmentation=True)
+    finally:
+        r.close()
+    assert red not in set(np.unique(a.segmentation).tolist())  # the pane hides it from the flat pass
+    assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
+    assert not np.array_equal(a.rgb, no_red.rgb)  # and it shows through the pane in the lit image
 
 
 # ---------------------------------------------------------------------------------------------- stage + CLI

@@ -101,7 +101,8 @@ class ReceptacleAStar(FirstVisitMemory, SearchOrder, Looking, Planning, FinalNav
         self.perceive = perceive or PerceiveConfig()
         self.oracle_parts = tuple(oracle_parts)
         self.knowledge = Knowledge(detector="gt", pose="absolute", prior="scene", oracle=self.oracle_parts,
-                                   fn=self.nav.fn_mode if self.final_nav else "-", explore_steps=int(explore_steps))
+                                   fn=self.nav.fn_mode if self.final_nav else "-", explore_steps=int(explore_steps),
+                                   rgb=False)  # the ground-truth detector reads the category image, not colour
         self.memories: dict[tuple[str, float], SceneMemory] = {}  # (scene, floor height in m) -> its first visit's
         self._explore_key: tuple[str, float] | None = None  # the first visit under way
         self._memory_key: tuple[str, float] | None = None  # the memory the current episode plans on

@@ -53,7 +53,8 @@ class SemanticFrontierAgent(ReceptacleAStar):
         """
         super().__init__(nav, seed, final_nav, semantics=semantics, agent=agent)
         self.knowledge = Knowledge(detector="gt", pose="gps+compass", prior="none",
-                                   fn=self.nav.fn_mode if self.final_nav else "-")
+                                   fn=self.nav.fn_mode if self.final_nav else "-",
+                                   rgb=False)  # the ground-truth detector reads the category image, not colour
         self._occ: OccupancyMap | None = None  # the current episode's occupancy map
 
     def _explore(self, env) -> Generator[int, object, None]:

@@ -110,54 +110,118 @@ class SceneRenderer:
     def outside_view(self, T_cam: np.ndarray) -> np.ndarray:
         """Return the ids of the geoms that no pixel of a view from T_cam can show (they are not drawn).
 
-        A geom is out when its bounding sphere (grown by 1 mm) lies wholly outside the circular cone about the
-        optical axis, from the camera, that holds the view frustum with 5 % to spare on its diagonal half-angle
-        (the model's vertical field of view and this renderer's aspect): a roll-free test, so it holds however the
-        free camera turns the image about its axis. Planes (no bounding radius) always count as in view.
+        The frustum is MuJoCo's own for the posed free camera (``MjvScene.camera``: position, forward and up axes,
+        the near plane's edges, the far distance), as `mujoco.mjr_render` sets it. A geom is out when its bounding
+        sphere (grown by 1 mm) lies wholly outside one of the frustum's planes, the four sides widened by 5 % of
+        their half-range: beyond the far plane, before the near one, or off a side. A triangle outside a frustum
+        plane is clipped away whole, so such a geom covers no pixel. Planes (no bounding radius) always count as
+        in view.
         """
-        m = self.model
-        tan_hy = math.tan(math.radians(float(m.vis.global_.fovy)) / 2.0)
-        tan_d = 1.05 * math.hypot(tan_hy, tan_hy * self.width / self.height)
-        if not 0.0 < tan_d < 50.0:  # a view this wide (or no field of view) culls nothing worth the test
+        self._pose_camera(T_cam)
+        r = self._renderer
+        r.update_scene(self.data, camera=self.camera, scene_option=self.option)
+        cam = r.scene.camera[0]  # a mono camera: both of the scene's cameras are the same
+        near, far = float(cam.frustum_near), float(cam.frustum_far)
+        top, bottom = float(cam.frustum_top), float(cam.frustum_bottom)
+        if not (0.0 < near < far) or top <= bottom:
             return np.zeros(0, dtype=np.int64)
-        a = math.atan(tan_d)
-        fwd = np.asarray(T_cam[:3, 2], dtype=float)
-        v = np.asarray(self.data.geom_xpos) - np.asarray(T_cam[:3, 3], dtype=float)[None]
-        rb = np.asarray(m.geom_rbound)
-        out, _ = spheres_off_cone(v, rb + 1e-3, fwd / np.linalg.norm(fwd), math.sin(a), math.cos(a))
+        half_w = float(cam.frustum_width) or 0.5 * self.width / self.height * (top - bottom)
+        centre = float(cam.frustum_center)
+        fwd, up = np.asarray(cam.forward, float), np.asarray(cam.up, float)
+        right = np.cross(fwd, up)
+        p = np.asarray(self.data.geom_xpos) - np.asarray(cam.pos, float)[None]
+        rb = np.asarray(self.model.geom_rbound)
+        r_out = rb + 1e-3
+        z, x, y = p @ fwd, p @ right, p @ up
+        out = (z + r_out < near) | (z - r_out > far)
+        for lo, hi, c in ((centre - half_w, centre + half_w, x), (bottom, top, y)):
+            grow = 0.05 * (hi - lo) / 2.0
+            s_lo, s_hi = (lo - grow) / near, (hi + grow) / near  # the side planes' slopes (c = s z on a plane)
+            out |= (c - s_hi * z) / math.hypot(1.0, s_hi) > r_out
+            out |= (s_lo * z - c) / math.hypot(1.0, s_lo) > r_out
         return np.nonzero(out & (rb > 0.0))[0]
 
     def render(self, T_cam: np.ndarray, rgb: bool = True, depth: bool = True, segmentation: bool = False) -> Frame:
         """Render the requested images from pose T_cam (world <- OpenCV camera).
 
         Geoms out of view (`outside_view`) are hidden while it renders: the images are those of a render of
-        everything (a geom that covers no pixel changes none), made with less geometry to draw.
+        everything (a geom that covers no pixel changes none), made with less geometry to draw. When colour and
+        depth or segmentation are asked for, the flat id pass runs first and the lit pass draws only the geoms
+        that pass shows (`_lit_pass`).
         """
+        hidden = self.outside_view(T_cam)
         self._pose_camera(T_cam)
-        with hiding(self.model, self.outside_view(T_cam)):
+        with hiding(self.model, hidden):
             return self._render(rgb, depth, segmentation)
 
     def _render(self, rgb: bool, depth: bool, segmentation: bool) -> Frame:
         """Render the posed camera's requested images."""
+        r = self._renderer
+        self._update_scene()
+        if not _LOW_LEVEL_OK(r):
+            return self._render_passes(rgb, depth, segmentation)
+        out_rgb = out_depth = out_seg = None
+        if depth or segmentation:
+            # One flat id-colour pass gives both the segmentation (colour) and the depth buffer; with colour asked
+            # for, its ids also tell the lit pass which geoms to draw.
+            ids, d = self._pass(flat=True, want_rgb=segmentation or rgb, want_depth=depth)
+            if depth:
+                out_depth = self._linear_depth(d)
+            seg = self._decode_ids(ids) if ids is not None else None
+            if segmentation:
+                out_seg = seg
+            if rgb:
+                out_rgb = self._lit_pass(seg)
+        elif rgb:
+            out_rgb = np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
+        return Frame(out_rgb, out_depth, out_seg)
+
+    def _update_scene(self) -> None:
+        """Build the scene of the posed camera with this renderer's flags (no shadows unless asked, no reflection,
+        no skybox)."""
         r = self._renderer
         r.update_scene(self.data, camera=self.camera, scene_option=self.option)
         scn = r.scene
         scn.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = int(self.shadows)
         scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
         scn.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = 0
-        if not _LOW_LEVEL_OK(r):
-            return self._render_passes(rgb, depth, segmentation)
-        out_rgb = out_depth = out_seg = None
-        if rgb:
-            out_rgb = np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
-        if depth or segmentation:
-            # One flat id-colour pass gives both the segmentation (colour) and the depth buffer.
-            ids, d = self._pass(flat=True, want_rgb=segmentation, want_depth=depth)
-            if depth:
-                out_depth = self._linear_depth(d)
-            if segmentation:
-                out_seg = self._decode_ids(ids)
-        return Frame(out_rgb, out_depth, out_seg)
+
+    def _lit_pass(self, seg: np.ndarray | None) -> np.ndarray:
+        """Render the lit colour image, drawing only the geoms the flat pass's segmentation `seg` shows.
+
+        Every geom the flat pass drew ends at the same fragments in the lit pass (the same geometry and camera:
+        lighting and colour do not move fragments), and with opaque geoms and a depth test a pixel shows the
+        nearest fragment whichever others are drawn: leaving out geoms that win no pixel changes no pixel. So the
+        cut is made only when it holds: no shadows (an unseen geom may cast one), no texture with an alpha
+        channel, and every geom the segmentation shows opaque (a transparent one lets geoms behind it through).
+        Otherwise everything in view is drawn.
+        """
+        m = self.model
+        if seg is not None and not self.shadows and self._opaque_textures():
+            shown = np.unique(seg)
+            shown = shown[shown >= 0]
+            if not self._transparent(shown).any():
+                hidden = np.ones(m.ngeom, dtype=bool)
+                hidden[shown] = False
+                hidden &= np.asarray(m.geom_group) != GROUP_AGENT  # already hidden: left as they are
+                with hiding(m, np.nonzero(hidden)[0]):
+                    self._update_scene()
+                    return np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
+        return np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
+
+    def _opaque_textures(self) -> bool:
+        """Return whether no texture of the model has an alpha channel (one could make a lit geom see-through)."""
+        n = getattr(self.model, "tex_nchannel", None)
+        return n is None or not (np.asarray(n) > 3).any()
+
+    def _transparent(self, geoms: np.ndarray) -> np.ndarray:
+        """Return, per geom id, whether its colour or its material's has alpha below 1 (conservative: either)."""
+        m = self.model
+        a = np.asarray(m.geom_rgba)[geoms, 3] < 1.0
+        mat = np.asarray(m.geom_matid)[geoms]
+        has = mat >= 0
+        a[has] |= np.asarray(m.mat_rgba)[mat[has], 3] < 1.0
+        return a
 
     def _pass(self, flat: bool, want_rgb: bool, want_depth: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
         """Render once and read colour and/or depth buffers (flipped to image rows top-down)."""

@@ -177,7 +177,7 @@ class ObjectNavEnv(gymnasium.Env):
         self.action_space = spaces.Discrete(len(ACTION_NAMES))
         self.observation_space = observation_space(self.sensors, self.goal_text)
         self._builder = ObservationBuilder(know, vocab, self._bundle.detector_labels())
-        self._env = make_environment(self._bundle, nav=nav, agent=body, semantic=know.detector == "gt")
+        self._env = make_environment(self._bundle, nav=nav, agent=body, semantic=know.detector == "gt", rgb=know.rgb)
         self._ts: Any = None
         self._rgb: np.ndarray | None = None
         self._next = 0

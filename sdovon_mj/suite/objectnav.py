@@ -202,6 +202,7 @@ class ObjectNavTask(control.Task):
         self._graphs: dict[int, tuple] = {}
         self._next_index = 0
         self.render_frames = True
+        self.render_rgb = True  # False: the rgb observation is a blank image (an agent that reads none)
         self.episode: Episode = bundle.episodes[0]
         self.state = AgentState(np.zeros(3), 0.0)
         self.frame_mask: np.ndarray | None = None
@@ -530,11 +531,13 @@ class ObjectNavTask(control.Task):
         p = self.state.position + np.array([0.0, 0.0, self.agent.camera_height])
         return pose_cv(p, self.state.yaw, self.state.pitch)
 
-    def render(self, physics: Physics, segmentation: bool | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Render rgb (H,W,3), depth (H,W) metres clipped to the sensor range, and segment ids (or None)."""
+    def render(self, physics: Physics, segmentation: bool | None = None,
+               rgb: bool = True) -> tuple[np.ndarray | None, np.ndarray, np.ndarray | None]:
+        """Render rgb (H,W,3) (None when `rgb` is False), depth (H,W) metres clipped to the sensor range, and
+        segment ids (or None)."""
         seg = self.semantic if segmentation is None else segmentation
         r = self.renderer(physics)
-        f = r.render(self.camera_pose(), rgb=True, depth=True, segmentation=seg)
+        f = r.render(self.camera_pose(), rgb=rgb, depth=True, segmentation=seg)
         depth = np.clip(np.nan_to_num(f.depth, nan=self.nav.depth_max, posinf=self.nav.depth_max),
                         self.nav.depth_min, self.nav.depth_max).astype(np.float32)
         ids = segment_image(f.segmentation, self._lut) if seg else None
@@ -544,7 +547,9 @@ class ObjectNavTask(control.Task):
         """Return the observation dict matching `observation_spec` (blank frames when rendering is off)."""
         h, w = self.agent.sensor_height, self.agent.sensor_width
         if self.render_frames:
-            rgb, depth, ids = self.render(physics)
+            rgb, depth, ids = self.render(physics, rgb=self.render_rgb)
+            if rgb is None:
+                rgb = np.zeros((h, w, 3), np.uint8)
         else:
             rgb = np.zeros((h, w, 3), np.uint8)
             depth = np.full((h, w), self.nav.depth_min, np.float32)
@@ -618,7 +623,7 @@ def make_physics(bundle: Bundle, agent: AgentConfig = AgentConfig()) -> Physics:
 def make_environment(bundle: str | Path | Bundle, nav: NavConfig | None = None, semantic: bool = False,
                      episode_order: str = "sequential", random: int | None = None, width: int | None = None,
                      height: int | None = None, max_steps: int | None = None, pose_observations: bool = True,
-                     agent: AgentConfig | None = None, **environment_kwargs: Any) -> control.Environment:
+                     agent: AgentConfig | None = None, rgb: bool = True, **environment_kwargs: Any) -> control.Environment:
     """Return a dm_control Environment running ObjectNav episodes of one bundle.
 
     Parameters
@@ -641,6 +646,9 @@ def make_environment(bundle: str | Path | Bundle, nav: NavConfig | None = None, 
         Add ``position`` (m, world), ``heading`` and ``pitch`` (rad) observations.
     agent
         The agent's body and camera (default `AgentConfig()`).
+    rgb
+        Render the ``rgb`` observation (False: a blank image, for an agent that declares it reads none:
+        `Knowledge.rgb`; the depth and segmentation then cost one flat render pass).
     **environment_kwargs
         Passed on to ``dm_control.rl.control.Environment``.
     """
@@ -654,5 +662,6 @@ def make_environment(bundle: str | Path | Bundle, nav: NavConfig | None = None, 
     physics = make_physics(b, agent)
     task = ObjectNavTask(b, nav, semantic=semantic, episode_order=episode_order, random=random,
                          pose_observations=pose_observations, agent=agent)
+    task.render_rgb = bool(rgb)
     environment_kwargs.setdefault("time_limit", float("inf"))
     return control.Environment(physics, task, **environment_kwargs)

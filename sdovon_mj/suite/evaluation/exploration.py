@@ -59,7 +59,7 @@ def _explore(session: Any, bundle: Bundle, know: Any, nav: NavConfig, body: Agen
     session is then broken). ``scene``: the scene's token sent to the agent (default its name)."""
     t0 = time.perf_counter()
     env = make_environment(bundle, nav=replace(nav, max_steps=int(know.explore_steps)), agent=body,
-                           semantic=know.detector == "gt")
+                           semantic=know.detector == "gt", rgb=know.rgb)
     floor = int(bundle.episodes[0].floor) if floor is None else int(floor)
     try:
         start, yaw = exploration_start(bundle, seed, floor)

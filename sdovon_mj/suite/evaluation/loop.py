@@ -184,7 +184,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                 day = None
                 for group in by_bundle.values():
                     b = group[0][0]
-                    env = make_environment(b, nav=nav, agent=body, semantic=know.detector == "gt")
+                    env = make_environment(b, nav=nav, agent=body, semantic=know.detector == "gt", rgb=know.rgb)
                     builder = ObservationBuilder(know, vocab, b.detector_labels())
                     now = day_objects(env.physics, b) if seq else {}
                     try:

@@ -89,10 +89,12 @@ class LiveAgent:
 
 
 def _record(video: EpisodeVideo | None, env: Any, obs: dict, rendered: bool) -> None:
-    """Add the frame of this step to an episode's video: the view the agent got, or (it asked for no frame and got a
-    blank one) the view rendered here for the video alone; the pose from the evaluator's physics."""
+    """Add the frame of this step to an episode's video: the view the agent got, or (it asked for no frame, or reads
+    no colour image, and got a blank one) the view rendered here for the video alone; the pose from the evaluator's
+    physics."""
     if video is not None:
-        rgb = obs["rgb"] if rendered else env.task.render(env.physics, segmentation=False)[0]
+        own = rendered and env.task.render_rgb  # the agent's frame holds the colour image
+        rgb = obs["rgb"] if own else env.task.render(env.physics, segmentation=False)[0]
         video.add(rgb, env.task.state.position, env.task.state.yaw)
 
 
