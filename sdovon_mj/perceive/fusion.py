@@ -342,26 +342,39 @@ class InstanceFuser:
         """Merge fused instances into one another with the same test (fragments whose link was seen later); return merges.
 
         Pass after pass, the smallest instance that has a bigger one to merge into merges, and the pass starts
-        again. An instance found with none keeps that finding until a merge grows an instance near it (nothing
-        else its test reads changes), so a pass re-tests only those: a house fuses a thousand instances.
+        again. An instance found with none keeps that finding until a merge grows an instance near it: nothing
+        else its test reads changes (its own points and label, the other instances' points, labels and boxes, the
+        order of sizes and indices among them), so every other candidate still scores below phi_min and the re-test
+        asks the grown instances alone, which gives the answer of a full test. The grown instance itself is tested
+        anew in full. A house fuses a thousand instances.
         """
         merges = 0
         changed = True
         settled: dict[int, _Fused] = {}  # id -> instances with nothing to merge into, in the map as it is
+        recheck: dict[int, list[_Fused]] = {}  # id of a settled one -> instances grown near it since (held: live ids)
         r = self.cfg.overlap_radius
         while changed and len(self.fused) > 1:
             changed = False
             order = sorted(range(len(self.fused)), key=lambda j: (len(self.fused[j].keys), j))
             sizes = np.array([len(f.keys) for f in self.fused])
             index = np.arange(len(self.fused))
+            where = {id(f): k for k, f in enumerate(self.fused)}
             bounds = self._bounds()
             for i in order:
                 small = self.fused[i]
-                if id(small) in settled:
-                    continue
+                key = id(small)
+                only = None
+                if key in settled:
+                    grown = sorted({where[id(g)] for g in recheck.get(key, ()) if id(g) in where})
+                    if not grown:
+                        continue
+                    only = np.zeros(len(self.fused), dtype=bool)
+                    only[grown] = True
                 probe = Instance(id=-1, label=small.label, points=small.points.astype(np.float32), center=np.zeros(3))
                 # Only merge into a bigger instance (never itself), so every pass strictly shrinks the list.
                 allowed = (sizes > sizes[i]) | ((sizes == sizes[i]) & (index > i))
+                if only is not None:
+                    allowed &= only
                 j = self.best_match(probe, bounds=bounds, allowed=allowed)
                 if j >= 0:
                     target = self.fused[j]
@@ -369,10 +382,17 @@ class InstanceFuser:
                     del self.fused[i]
                     merges += 1
                     changed = True
+                    settled.pop(key, None)
+                    recheck.pop(key, None)
+                    settled.pop(id(target), None)  # the grown instance: a full test
+                    recheck.pop(id(target), None)
                     lo, hi = target.lo - 2 * r, target.hi + 2 * r  # whose test may now find the grown instance
-                    settled = {k: f for k, f in settled.items() if np.any(f.lo > hi) or np.any(f.hi < lo)}
+                    for k, f in settled.items():
+                        if not (np.any(f.lo > hi) or np.any(f.hi < lo)):
+                            recheck.setdefault(k, []).append(target)
                     break
-                settled[id(small)] = small
+                settled[key] = small
+                recheck.pop(key, None)
         return merges
 
     def instances(self) -> list[Instance]:
