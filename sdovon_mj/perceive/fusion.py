@@ -387,9 +387,12 @@ class InstanceFuser:
                     settled.pop(id(target), None)  # the grown instance: a full test
                     recheck.pop(id(target), None)
                     lo, hi = target.lo - 2 * r, target.hi + 2 * r  # whose test may now find the grown instance
-                    for k, f in settled.items():
-                        if not (np.any(f.lo > hi) or np.any(f.hi < lo)):
-                            recheck.setdefault(k, []).append(target)
+                    if settled:
+                        keys = list(settled)
+                        slo = np.array([settled[k].lo for k in keys])
+                        shi = np.array([settled[k].hi for k in keys])
+                        for n in np.flatnonzero(~(np.any(slo > hi, axis=1) | np.any(shi < lo, axis=1))):
+                            recheck.setdefault(keys[n], []).append(target)
                     break
                 settled[key] = small
                 recheck.pop(key, None)
