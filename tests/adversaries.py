@@ -454,3 +454,29 @@ class Forger(_Base):
         k = Knowledge(detector="none")
         object.__setattr__(k, "detector", "none\n| oracle | detector none; no prior | sealed | 20 | 1.000 |")
         self.knowledge = k
+
+
+class Looker(_Base):
+    """Wants every frame and walks at random; reports a digest of each frame's colour and depth images. With
+    ``colour=False`` it declares that it reads no colour image (`Knowledge(rgb=False)`)."""
+
+    name = "looker"
+
+    def __init__(self, seed: int = 0, steps: int = 60, colour: bool = True) -> None:
+        super().__init__(seed, steps)
+        self.knowledge = Knowledge(detector="none", rgb=bool(colour))
+        self.wants_frame = True
+        self.frames: list = []
+
+    def reset(self, view, ts) -> None:
+        self.frames = []
+        super().reset(view, ts)
+
+    def _look(self, ts) -> None:
+        super()._look(ts)
+        o = ts.observation
+        self.frames.append([int(np.asarray(o["rgb"]).max()), zlib.crc32(np.ascontiguousarray(o["depth"]).tobytes())])
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        self.info["frames"] = self.frames

@@ -338,3 +338,31 @@ def test_agent_read_inside_the_dataset_is_refused(dataset):
         _run(dataset, spec("Blind"), episodes=1, read=(str(dataset / "fixture_apartment_v000"),))
     r = _run(dataset, spec("Blind"), episodes=1, read=(str(dataset.parent),))[0]
     assert not r["sealed"] and "NOT sealed" in r["seal"]
+
+
+def test_an_agent_that_reads_no_colour_gets_none_and_the_same_depth(dataset):
+    """An agent that declares `Knowledge(rgb=False)` gets a blank colour image on every frame (the evaluator renders
+    none for it, sealed) and, step for step, the depth images the same agent gets when it reads colour; its tables
+    say so."""
+    seeing = _run(dataset, spec("Looker"), episodes=2)
+    blind = _run(dataset, spec("Looker", colour=False), episodes=2)
+    for s, b in zip(seeing, blind):
+        assert s["trajectory"] == b["trajectory"]
+        fs, fb = s["info"]["frames"], b["info"]["frames"]
+        assert len(fs) == len(fb) > 5
+        assert all(a[0] > 0 for a in fs) and all(c[0] == 0 for c in fb)  # colour in one, blank in the other
+        assert [a[1] for a in fs] == [c[1] for c in fb]  # the same depth
+    assert "no colour image" in blind[0]["knowledge"] and "no colour image" not in seeing[0]["knowledge"]
+
+
+def test_the_colour_declaration_crosses_the_protocol_as_a_boolean():
+    """`Knowledge.rgb` goes through the protocol's JSON and back; anything but true or false is a protocol error."""
+    from sdovon_mj.knowledge import Knowledge
+    from sdovon_mj.suite.protocol import AgentError, knowledge_from_json, knowledge_to_json
+
+    k = Knowledge(detector="gt", rgb=False)
+    assert knowledge_from_json(knowledge_to_json(k)) == k
+    assert knowledge_from_json({}).rgb is True  # an agent that says nothing reads colour, as before
+    for bad in ("no", 0, None):
+        with pytest.raises(AgentError, match="rgb must be true or false"):
+            knowledge_from_json({"rgb": bad})

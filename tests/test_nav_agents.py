@@ -481,3 +481,18 @@ def test_cluster_bootstrap_resamples_scenes_then_variants_then_episodes():
     assert np.all(flat == 1.0)
     two = cluster_bootstrap(np.column_stack([x, np.where(x > 0, np.nan, 2.0)]), scenes, variants, resamples=200, seed=0)
     assert two.shape == (200, 2) and np.all((two[:, 1] == 2.0) | np.isnan(two[:, 1]))  # NaN values left out of their column
+
+
+def test_near_seen_decides_as_the_norm_of_each_point_does():
+    """The frontier agent's detections near a frontier, found at once, are those the per-point norm finds, also for
+    points on the radius itself (where a sum's last bit could decide)."""
+    from sdovon_mj.nav.semantic_frontier import near_seen
+
+    rng = np.random.default_rng(2)
+    xy = np.array([0.3, -1.7])
+    ang = rng.uniform(0, 2 * np.pi, 400)
+    r = np.concatenate([rng.uniform(0.0, 3.0, 300), np.full(100, 1.5)])  # a hundred on the radius, up to rounding
+    pts = xy + np.stack([np.cos(ang) * r, np.sin(ang) * r], 1)
+    want = [n for n in range(len(pts)) if np.linalg.norm(pts[n] - xy) <= 1.5]
+    assert near_seen(pts, xy, 1.5) == want and 0 < len(want) < len(pts)
+    assert near_seen(np.zeros((0, 2)), xy, 1.5) == []

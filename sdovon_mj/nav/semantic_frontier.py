@@ -19,6 +19,20 @@ from .memory import SceneMemory
 from .receptacle_astar import ReceptacleAStar
 
 
+
+def near_seen(points: np.ndarray, xy: np.ndarray, radius: float) -> list[int]:
+    """Return the indices (ascending) of the points (N, 2) within `radius` (m) of `xy`, each decided as
+    ``np.linalg.norm(point - xy) <= radius`` decides it: the distances are computed at once, and the few within a
+    rounding's reach of the radius (where the two sums' last bits could differ) are decided one by one."""
+    if len(points) == 0:
+        return []
+    d = np.linalg.norm(points - xy[None], axis=1)
+    near = d <= radius
+    close = np.flatnonzero(np.abs(d - radius) <= 1e-9 * max(1.0, abs(radius)))
+    for n in close:
+        near[n] = np.linalg.norm(points[n] - xy) <= radius
+    return np.flatnonzero(near).tolist()
+
 @public_home
 class SemanticFrontierAgent(ReceptacleAStar):
     """No prior knowledge (the paper's VLFM / L3MVN rows): frontier exploration scored by semantics, per episode.
@@ -169,6 +183,7 @@ class SemanticFrontierAgent(ReceptacleAStar):
             g, index = cell_graph(trav)
             dist = dijkstra(g, indices=int(index[rc[0], rc[1]]))
             scores = self._scores(category, [lab for _xy, lab in seen])
+            seen_xy = np.array([q for q, _lab in seen], dtype=float).reshape(-1, 2)
             best, best_u = None, -1.0
             for cells in clusters:
                 d = dist[index[cells[:, 0], cells[:, 1]]] * frame.resolution
@@ -176,7 +191,7 @@ class SemanticFrontierAgent(ReceptacleAStar):
                 if not np.isfinite(d[k]) or d[k] < 0.5:
                     continue
                 xy = frame.to_world(cells[k][None])[0]
-                near_labels = [lab for q, lab in seen if np.linalg.norm(q - xy) <= self.nav.frontier_radius]
+                near_labels = [seen[n][1] for n in near_seen(seen_xy, xy, self.nav.frontier_radius)]
                 s = max([scores.get(lab, 0.0) for lab in near_labels] + [self._recalled(category, xy)])
                 u = (0.1 + s) / (1.0 + float(d[k]) / 5.0)
                 if u > best_u:
