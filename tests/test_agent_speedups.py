@@ -201,6 +201,32 @@ def _reference_lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tol
 
 
 
+
+def test_frontiers_equal_the_whole_map_reference():
+    """Frontier clusters of random maps (free rooms with unknown around them, occupied specks, free cells on the map's
+    edge, refused cells) are the whole-map computation's: the same clusters, cells in the same order, same order."""
+    rng = np.random.default_rng(4749)
+    frame = GridFrame(np.zeros(2), 0.05, (130, 150))
+    found = 0
+    for k in range(12):
+        occ = OccupancyMap(frame, agent=AgentConfig())
+        for _ in range(int(rng.integers(1, 5))):
+            r, c = rng.integers(-10, 120, 2)
+            occ.state[max(r, 0):r + int(rng.integers(10, 70)), max(c, 0):c + int(rng.integers(10, 70))] = FREE
+        occ.state[(rng.random(frame.shape) < 0.01) & (occ.state == FREE)] = OCCUPIED
+        if k % 3 == 0:
+            occ.state[:, -1] = FREE  # free cells on the map's edge: the edge counts as known
+        if k % 2:
+            occ.mark_blocked(rng.integers(0, 130, size=(20, 2)))
+        trav = occ.traversable()
+        near_unknown = ndimage.binary_dilation(occ.state == 0, structure=np.ones((3, 3), bool))
+        lab, n = ndimage.label(trav & near_unknown, structure=np.ones((3, 3), bool))
+        want = [c for c in (np.argwhere(lab == j) for j in range(1, n + 1)) if len(c) >= 4]
+        got = occ.frontiers()
+        assert len(got) == len(want) and all(np.array_equal(a, b) and a.dtype == b.dtype for a, b in zip(got, want)), k
+        found += len(want)
+    assert found > 12
+
 def test_lattice_plan_equals_the_whole_grid_reference():
     """Plans on random room-like masks (a few open rectangles in a larger grid, as an agent's map around what it saw)
     are the same action lists as the replaced code's, reachable targets and not."""

@@ -250,6 +250,7 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
     render shows, and both cuts do leave geoms out."""
     from sdovon_mj.observe.render_views import load_model, make_renderer
     from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim import render as render_module
     from sdovon_mj.sim.render import SceneRenderer
 
     scene, root, *_ = two_storey
@@ -269,7 +270,9 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
     try:
         monkeypatch.setattr(SceneRenderer, "_lit_pass", counted)
         culled = [r.render(T, rgb=True, depth=True, segmentation=True) for T in poses]
-        rgb_depth = [r.render(T, rgb=True, depth=True, segmentation=False) for T in poses]
+        rgb_depth = [r.render(T, rgb=True, depth=True, segmentation=False) for T in poses]  # a small scene: no cut
+        monkeypatch.setattr(render_module, "LIT_CUT_MIN_TRIANGLES", 0)  # the cut without segmentation asked for
+        rgb_depth_cut = [r.render(T, rgb=True, depth=True, segmentation=False) for T in poses]
         skipped = [r.outside_view(T) for T in poses]
         monkeypatch.setattr(SceneRenderer, "outside_view", lambda self, T: np.zeros(0, dtype=np.int64))
         monkeypatch.setattr(SceneRenderer, "_lit_pass", lambda self, seg: counted(self, None))  # draw everything
@@ -278,10 +281,15 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
         r.close()
     assert sum(len(s) for s in skipped) > 0  # the frustum cull does hide geoms in these views
     n = len(poses)
-    assert all(a < b for a, b in zip(lit_geoms[:n], lit_geoms[2 * n:]))  # and the lit pass draws fewer than all
-    for a, c, b, out in zip(culled, rgb_depth, full, skipped):
+    assert all(a < b for a, b in zip(lit_geoms[:n], lit_geoms[3 * n:]))  # and the lit pass draws fewer than all
+    assert all(a < b for a, b in zip(lit_geoms[2 * n:3 * n], lit_geoms[3 * n:]))
+    # below the triangle count that pays: everything in the frustum, more than the cut draws
+    assert all(a >= b for a, b in zip(lit_geoms[n:2 * n], lit_geoms[2 * n:3 * n]))
+    assert any(a > b for a, b in zip(lit_geoms[n:2 * n], lit_geoms[2 * n:3 * n]))
+    for a, c, cc, b, out in zip(culled, rgb_depth, rgb_depth_cut, full, skipped):
         assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
         assert np.array_equal(c.rgb, b.rgb) and np.array_equal(c.depth, b.depth) and c.segmentation is None
+        assert np.array_equal(cc.rgb, b.rgb) and np.array_equal(cc.depth, b.depth) and cc.segmentation is None
         assert np.array_equal(a.segmentation, b.segmentation)
         assert not set(np.unique(b.segmentation).tolist()) & set(out.tolist())
 

@@ -154,16 +154,23 @@ class OccupancyMap:
     def frontiers(self, min_cells: int = 4) -> list[np.ndarray]:
         """Return clusters (each (N, 2) cells) of traversable cells next to unknown cells."""
         trav = self.traversable()
-        unknown = self.state == UNKNOWN
-        near_unknown = ndimage.binary_dilation(unknown, structure=np.ones((3, 3), bool))
-        fr = trav & near_unknown
+        rows, cols = np.flatnonzero(trav.any(axis=1)), np.flatnonzero(trav.any(axis=0))
+        if len(rows) == 0:
+            return []
+        # Computed in the traversable cells' bounding box (frontier cells are traversable), the unknown cells one
+        # cell around it (all a 3x3 dilation reads; the map's edge counts as known, as before): a component's cells
+        # and the raster order that numbers the components are the whole map's, so are the clusters and their order.
+        h, w = self.state.shape
+        r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+        R0, R1, C0, C1 = max(0, r0 - 1), min(h, r1 + 1), max(0, c0 - 1), min(w, c1 + 1)
+        near_unknown = ndimage.binary_dilation(self.state[R0:R1, C0:C1] == UNKNOWN, structure=np.ones((3, 3), bool))
+        fr = trav[r0:r1, c0:c1] & near_unknown[r0 - R0:r1 - R0, c0 - C0:c1 - C0]
         lab, n = ndimage.label(fr, structure=np.ones((3, 3), bool))
-        out = []
-        for k in range(1, n + 1):
-            cells = np.argwhere(lab == k)
-            if len(cells) >= min_cells:
-                out.append(cells)
-        return out
+        cells = np.argwhere(lab > 0)  # raster order; a stable sort by label keeps it within each cluster
+        labels = lab[cells[:, 0], cells[:, 1]]
+        order = np.argsort(labels, kind="stable")
+        cells, labels = cells[order] + np.array([r0, c0]), labels[order]
+        return [c for c in np.split(cells, np.flatnonzero(np.diff(labels)) + 1) if len(c) >= min_cells]
 
 
 def scan_actions(turn_angle: float) -> int:

@@ -22,6 +22,14 @@ from .. import gl
 from . import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from .camera import intrinsics, vfov_from_hfov
 
+# The lit pass draws only the geoms the flat pass shows when the flat pass reads the id colours anyway (segmentation
+# asked for), or when the geoms in view hold at least this many triangles: without segmentation the cut costs a
+# colour read and its decoding (about 0.5 ms at 320x240 on llvmpipe) and saves about 0.1 us per triangle it leaves
+# out (1.5 M triangles: a 390 k-triangle lit pass took 44 ms), so below ~10 k triangles in view it cannot pay.
+# Either way the images are the same bytes: this is a choice of speed only (docs/results.md, issue 47).
+LIT_CUT_MIN_TRIANGLES = 20_000
+PRIMITIVE_TRIANGLES = 200  # what a primitive geom (box, sphere, cylinder...) counts for: MuJoCo tessellates it finely
+
 
 @dataclass
 class Frame:
@@ -147,15 +155,31 @@ class SceneRenderer:
         Geoms out of view (`outside_view`) are hidden while it renders: the images are those of a render of
         everything (a geom that covers no pixel changes none), made with less geometry to draw. When colour and
         depth or segmentation are asked for, the flat id pass runs first and the lit pass draws only the geoms
-        that pass shows (`_lit_pass`).
+        that pass shows (`_lit_pass`), when segmentation is asked for or the view holds enough triangles for the
+        cut to pay (`LIT_CUT_MIN_TRIANGLES`).
         """
         hidden = self.outside_view(T_cam)
         self._pose_camera(T_cam)
+        cut = segmentation or self._triangles_in_view(hidden) >= LIT_CUT_MIN_TRIANGLES
         with hiding(self.model, hidden):
-            return self._render(rgb, depth, segmentation)
+            return self._render(rgb, depth, segmentation, cut)
 
-    def _render(self, rgb: bool, depth: bool, segmentation: bool) -> Frame:
-        """Render the posed camera's requested images."""
+    def _triangles_in_view(self, hidden: np.ndarray) -> int:
+        """Return the triangles of the geoms a render would draw: those of a shown group, less `hidden` (mesh geoms
+        their faces, a primitive `PRIMITIVE_TRIANGLES`)."""
+        m = self.model
+        if getattr(self, "_tri_model", None) is not m:
+            mesh = np.asarray(m.geom_type) == int(mujoco.mjtGeom.mjGEOM_MESH)
+            faces = np.asarray(m.mesh_facenum)[np.where(mesh, np.asarray(m.geom_dataid), 0)] if m.nmesh else 0
+            self._tri = np.where(mesh, faces, PRIMITIVE_TRIANGLES).astype(np.int64)
+            self._tri_model = m
+        shown = (np.asarray(self.option.geomgroup)[np.clip(np.asarray(m.geom_group), 0, 5)] > 0)
+        shown[hidden] = False
+        return int(self._tri[shown].sum())
+
+    def _render(self, rgb: bool, depth: bool, segmentation: bool, cut: bool = True) -> Frame:
+        """Render the posed camera's requested images (`cut`: the lit pass draws only the geoms the flat pass shows,
+        when colour comes with depth or segmentation)."""
         r = self._renderer
         self._update_scene()
         if not _LOW_LEVEL_OK(r):
@@ -164,14 +188,14 @@ class SceneRenderer:
         if depth or segmentation:
             # One flat id-colour pass gives both the segmentation (colour) and the depth buffer; with colour asked
             # for, its ids also tell the lit pass which geoms to draw.
-            ids, d = self._pass(flat=True, want_rgb=segmentation or rgb, want_depth=depth)
+            ids, d = self._pass(flat=True, want_rgb=segmentation or (rgb and cut), want_depth=depth)
             if depth:
                 out_depth = self._linear_depth(d)
             seg = self._decode_ids(ids) if ids is not None else None
             if segmentation:
                 out_seg = seg
             if rgb:
-                out_rgb = self._lit_pass(seg)
+                out_rgb = self._lit_pass(seg)  # seg None (no cut): everything in view
         elif rgb:
             out_rgb = np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
         return Frame(out_rgb, out_depth, out_seg)
@@ -198,8 +222,7 @@ class SceneRenderer:
         """
         m = self.model
         if seg is not None and not self.shadows and self._opaque_textures():
-            shown = np.unique(seg)
-            shown = shown[shown >= 0]
+            shown = np.flatnonzero(np.bincount(seg.ravel() + 1, minlength=m.ngeom + 1)[1:])  # ids in the image
             if not self._transparent(shown).any():
                 hidden = np.ones(m.ngeom, dtype=bool)
                 hidden[shown] = False
