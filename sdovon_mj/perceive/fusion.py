@@ -100,8 +100,6 @@ class _Fused:
     chunks: list[_Chunk] = field(default_factory=list)
     lo: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
     hi: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
-    _boxes_of: list = field(default_factory=list, repr=False, compare=False)
-    _boxes: tuple = field(default=(), repr=False, compare=False)
 
     MAX_CHUNKS = 8
 
@@ -135,7 +133,8 @@ class _Fused:
         # it is not queried there (the margin keeps every point that could be within the radius). The boxes of
         # all chunks are tested at once; which chunk finds a point's neighbour first does not change the count.
         margin = box_margin(radius)
-        mins, maxes = self._chunk_boxes()
+        mins = np.array([c.mins for c in self.chunks]).reshape(-1, 3)
+        maxes = np.array([c.maxes for c in self.chunks]).reshape(-1, 3)
         inside = ((points[None] >= mins[:, None] - margin) & (points[None] <= maxes[:, None] + margin)).all(axis=2)
         for c in range(len(self.chunks) - 1, -1, -1):
             idx = np.flatnonzero(inside[c] & todo)
@@ -144,15 +143,6 @@ class _Fused:
             d, _ = self.chunks[c].tree.query(points[idx], k=1, distance_upper_bound=radius)
             todo[idx[np.isfinite(d)]] = False
         return float(1.0 - np.count_nonzero(todo) / len(points))
-
-    def _chunk_boxes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Return the chunks' box corners (C, 3) each (kept while the chunk list is the same)."""
-        held = self._boxes_of  # the chunks the boxes were read from (held: their ids cannot be reused)
-        if len(held) != len(self.chunks) or any(a is not b for a, b in zip(held, self.chunks)):
-            self._boxes = (np.array([c.mins for c in self.chunks]).reshape(-1, 3),
-                           np.array([c.maxes for c in self.chunks]).reshape(-1, 3))
-            self._boxes_of = list(self.chunks)
-        return self._boxes
 
     def overlap_bound(self, points: np.ndarray, radius: float) -> float:
         """Return an upper bound on `overlap(points, radius)`: the fraction of the queried points within the
