@@ -195,3 +195,20 @@ def test_the_training_example_runs_and_prints_its_returns(dataset):
         n, ret = ln.split(": ")[1].split(" steps, return ")
         assert int(n) == steps and abs(float(ret.split(" m")[0])) <= steps * 0.25 + 1e-6, ln
     assert proc.stdout.splitlines()[-1].startswith("40 steps, 3 episodes; mean return")
+
+
+def test_an_env_for_an_agent_that_reads_no_colour_renders_none(dataset):
+    """`Knowledge(rgb=False)`: the observation's colour image is blank (within its space) and the depth and category
+    images are those of the colour-reading environment, step for step."""
+    both = [ObjectNavEnv(dataset / "fixture_apartment_v000", knowledge=Knowledge(rgb=rgb), **SIZE) for rgb in (True, False)]
+    try:
+        obs = [e.reset(seed=3)[0] for e in both]
+        for action in (1, 2, 1, 3, 1):
+            for k in ("depth", "category"):
+                assert np.array_equal(obs[0][k], obs[1][k])
+            assert obs[0]["rgb"].any() and not obs[1]["rgb"].any()
+            assert both[1].observation_space.contains(obs[1])
+            obs = [e.step(action)[0] for e in both]
+    finally:
+        for e in both:
+            e.close()
