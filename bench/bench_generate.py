@@ -327,7 +327,7 @@ def byte_check(run: Path, write: str | None, against: str | None) -> None:
     if not (write or against):
         return
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-    from run_digests import run_digests
+    from run_digests import digest_diff, run_digests
 
     got = run_digests(run)
     if write:
@@ -335,8 +335,7 @@ def byte_check(run: Path, write: str | None, against: str | None) -> None:
         print(f"digests of {len(got)} outputs written to {write}")
     if against:
         want = json.loads(Path(against).read_text(encoding="utf-8"))
-        differ = sorted(k for k in set(got) & set(want) if got[k] != want[k])
-        only_new, only_old = sorted(set(got) - set(want)), sorted(set(want) - set(got))
+        differ, only_new, only_old = digest_diff(want, got)
         same = not (differ or only_new or only_old)
         print(f"byte check against {against}: {len(got)} outputs, {len(differ)} differ, {len(only_new)} new, "
               f"{len(only_old)} missing: {'IDENTICAL' if same else 'DIFFERENT'}")

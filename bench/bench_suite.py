@@ -90,7 +90,7 @@ def step_split(bundle, mode: str, width: int, height: int, steps: int) -> dict:
     from sdovon_mj.suite.evaluation.phases import open_session
     from sdovon_mj.suite.evaluation.runner import agent_spec
     from sdovon_mj.suite.objectnav import make_environment
-    from sdovon_mj.suite.observation import ObservationBuilder, Vocabulary, make_sensors
+    from sdovon_mj.suite.observation import ObservationBuilder, Vocabulary, make_sensors, rendered_images
     from sdovon_mj.suite.protocol import Phase
 
     b = load_bundle(bundle)
@@ -98,8 +98,7 @@ def step_split(bundle, mode: str, width: int, height: int, steps: int) -> dict:
     nav = replace(NavConfig(), max_steps=10 ** 9)
     vocab = Vocabulary.of_bundles([b])
     session = open_session(agent_spec("random", nav, 0, agent=body), mode, width, height)
-    env = make_environment(b, nav=nav, agent=body, semantic=session.knowledge.detector == "gt",
-                           rgb=session.knowledge.rgb)
+    env = make_environment(b, nav=nav, agent=body, **rendered_images(session.knowledge))
     try:
         session.setup(make_sensors(body, nav, vocab, session.knowledge))
         builder = ObservationBuilder(session.knowledge, vocab, b.detector_labels())
@@ -165,7 +164,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int,
     from sdovon_mj.suite.evaluation.phases import LiveAgent, open_session
     from sdovon_mj.suite.evaluation.runner import agent_spec
     from sdovon_mj.suite.objectnav import make_environment
-    from sdovon_mj.suite.observation import ObservationBuilder, dataset_vocabulary, make_sensors
+    from sdovon_mj.suite.observation import ObservationBuilder, dataset_vocabulary, make_sensors, rendered_images
     from sdovon_mj.suite.protocol import SceneStart
 
     body = replace(AgentConfig(), sensor_width=width, sensor_height=height)
@@ -204,7 +203,7 @@ def modes(dataset, name: str, episodes: int, width: int, height: int,
                 for e, _bd in envs.values():
                     e.task.close()
                 envs.clear()
-                envs[b.name] = (make_environment(b, nav=nav, agent=body, semantic=know.detector == "gt", rgb=know.rgb),
+                envs[b.name] = (make_environment(b, nav=nav, agent=body, **rendered_images(know)),
                                 ObservationBuilder(know, vocab, b.detector_labels()))
             env, builder = envs[b.name]
             for m in order:

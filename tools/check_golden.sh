@@ -9,10 +9,13 @@ export MUJOCO_GL=egl PYOPENGL_PLATFORM=egl HF_HUB_OFFLINE=1 TRANSFORMERS_OFFLINE
 .venv/bin/python tools/run_digests.py "$out/run" --out "$out/after.json"
 .venv/bin/python - "$before" "$out/after.json" <<'PY'
 import json, sys
+sys.path.insert(0, "tools")
+from run_digests import digest_diff
 a, b = (json.load(open(p)) for p in sys.argv[1:3])
-diff = sorted(k for k in a.keys() | b.keys() if a.get(k) != b.get(k))
+differ, new, missing = digest_diff(a, b)
+diff = sorted(differ + new + missing)
 for k in diff:
-    print("DIFF", k, "(missing after)" if k not in b else "(new)" if k not in a else "")
+    print("DIFF", k, "(missing after)" if k in missing else "(new)" if k in new else "")
 print(f"{len(a)} files before, {len(b)} after, {len(diff)} differ")
 sys.exit(1 if diff else 0)
 PY

@@ -65,6 +65,13 @@ def run_digests(root: str | Path) -> dict[str, str]:
     return out
 
 
+def digest_diff(before: dict[str, str], after: dict[str, str]) -> tuple[list[str], list[str], list[str]]:
+    """Return the paths (sorted) whose digests differ between two `run_digests` results, those only `after` has
+    (new) and those only `before` has (missing)."""
+    differ = sorted(k for k in before.keys() & after.keys() if before[k] != after[k])
+    return differ, sorted(after.keys() - before.keys()), sorted(before.keys() - after.keys())
+
+
 def main(argv: list[str] | None = None) -> int:
     """Command line: print or write the digests of a run folder."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -19,7 +19,6 @@ from .memory import SceneMemory
 from .receptacle_astar import ReceptacleAStar
 
 
-
 def near_seen(points: np.ndarray, xy: np.ndarray, radius: float) -> list[int]:
     """Return the indices (ascending) of the points (N, 2) within `radius` (m) of `xy`, each decided as
     ``np.linalg.norm(point - xy) <= radius`` decides it: the distances are computed at once, and the few within a
@@ -32,6 +31,7 @@ def near_seen(points: np.ndarray, xy: np.ndarray, radius: float) -> list[int]:
     for n in close:
         near[n] = np.linalg.norm(points[n] - xy) <= radius
     return np.flatnonzero(near).tolist()
+
 
 @public_home
 class SemanticFrontierAgent(ReceptacleAStar):

@@ -144,16 +144,6 @@ class _Fused:
             todo[idx[np.isfinite(d)]] = False
         return float(1.0 - np.count_nonzero(todo) / len(points))
 
-    def overlap_bound(self, points: np.ndarray, radius: float) -> float:
-        """Return an upper bound on `overlap(points, radius)`: the fraction of the queried points within the
-        instance's box widened by the overlap test's margin (a point outside it is outside every chunk's)."""
-        if len(points) == 0:
-            return 0.0
-        points = query_points(points)
-        margin = box_margin(radius)
-        outside = ~((points >= self.lo - margin) & (points <= self.hi + margin)).all(axis=1)
-        return float(1.0 - np.count_nonzero(outside) / len(points))
-
     def merge(self, other: "_Fused") -> None:
         """Absorb another fused instance (points, votes, confidences)."""
         self._union(other.keys, other.sums, other.counts, other.heights)
@@ -275,7 +265,7 @@ class InstanceFuser:
         """Return the fused j with the highest phi(inst, j) (the first of equals) if it reaches phi_min, else -1.
 
         The same answer as thresholding the argmax of `similarity` (over the ``allowed`` mask, when given), with
-        fewer overlap tests: phi(inst, j) <= k_sem * label + k_geo * `_Fused.overlap_bound`, so the candidates are
+        fewer overlap tests: phi(inst, j) <= k_sem * label + k_geo * `_overlap_bounds`, so the candidates are
         tested in order of that bound and the search stops at the first whose bound is below phi_min or below the
         best phi found (floating-point sums and products are monotone: the bound holds exactly).
         """
@@ -302,8 +292,9 @@ class InstanceFuser:
         return best_j if best >= cfg.phi_min else -1
 
     def _overlap_bounds(self, q: np.ndarray, cands: np.ndarray) -> list[float]:
-        """Return `_Fused.overlap_bound` of the query points `q` for each candidate fused instance, tested at once
-        (the same counts and the same arithmetic as one call per candidate)."""
+        """Return, per candidate fused instance, an upper bound on its `_Fused.overlap` of the query points `q`: the
+        fraction of them within its box widened by the overlap test's margin (a point outside it is outside every
+        chunk's box), all candidates tested at once."""
         if len(q) == 0:
             return [0.0] * len(cands)
         margin = box_margin(self.cfg.overlap_radius)

@@ -93,6 +93,12 @@ class SceneRenderer:
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         self.shadows = shadows
+        # what the lit-pass cut reads of the model that cannot change under it: each geom's triangles (mesh geoms
+        # their faces, a primitive PRIMITIVE_TRIANGLES), and whether a texture has an alpha channel
+        mesh = np.asarray(model.geom_type) == int(mujoco.mjtGeom.mjGEOM_MESH)
+        faces = np.asarray(model.mesh_facenum)[np.where(mesh, np.asarray(model.geom_dataid), 0)] if model.nmesh else 0
+        self._triangles = np.where(mesh, faces, PRIMITIVE_TRIANGLES).astype(np.int64)
+        self._alpha_texture = bool((np.asarray(getattr(model, "tex_nchannel", np.zeros(0))) > 3).any())
         _register_cleanup()
         _LIVE.add(self)
 
@@ -126,9 +132,8 @@ class SceneRenderer:
         in view.
         """
         self._pose_camera(T_cam)
-        r = self._renderer
-        r.update_scene(self.data, camera=self.camera, scene_option=self.option)
-        cam = r.scene.camera[0]  # a mono camera: both of the scene's cameras are the same
+        self._update_scene()
+        cam = self._renderer.scene.camera[0]  # a mono camera: both of the scene's cameras are the same
         near, far = float(cam.frustum_near), float(cam.frustum_far)
         top, bottom = float(cam.frustum_top), float(cam.frustum_bottom)
         if not (0.0 < near < far) or top <= bottom:
@@ -167,15 +172,9 @@ class SceneRenderer:
     def _triangles_in_view(self, hidden: np.ndarray) -> int:
         """Return the triangles of the geoms a render would draw: those of a shown group, less `hidden` (mesh geoms
         their faces, a primitive `PRIMITIVE_TRIANGLES`)."""
-        m = self.model
-        if getattr(self, "_tri_model", None) is not m:
-            mesh = np.asarray(m.geom_type) == int(mujoco.mjtGeom.mjGEOM_MESH)
-            faces = np.asarray(m.mesh_facenum)[np.where(mesh, np.asarray(m.geom_dataid), 0)] if m.nmesh else 0
-            self._tri = np.where(mesh, faces, PRIMITIVE_TRIANGLES).astype(np.int64)
-            self._tri_model = m
-        shown = (np.asarray(self.option.geomgroup)[np.clip(np.asarray(m.geom_group), 0, 5)] > 0)
+        shown = np.asarray(self.option.geomgroup)[np.clip(np.asarray(self.model.geom_group), 0, 5)] > 0
         shown[hidden] = False
-        return int(self._tri[shown].sum())
+        return int(self._triangles[shown].sum())
 
     def _render(self, rgb: bool, depth: bool, segmentation: bool, cut: bool = True) -> Frame:
         """Render the posed camera's requested images (`cut`: the lit pass draws only the geoms the flat pass shows,
@@ -221,7 +220,7 @@ class SceneRenderer:
         Otherwise everything in view is drawn.
         """
         m = self.model
-        if seg is not None and not self.shadows and self._opaque_textures():
+        if seg is not None and not self.shadows and not self._alpha_texture:
             shown = np.flatnonzero(np.bincount(seg.ravel() + 1, minlength=m.ngeom + 1)[1:])  # ids in the image
             if not self._transparent(shown).any():
                 hidden = np.ones(m.ngeom, dtype=bool)
@@ -231,11 +230,6 @@ class SceneRenderer:
                     self._update_scene()
                     return np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
         return np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
-
-    def _opaque_textures(self) -> bool:
-        """Return whether no texture of the model has an alpha channel (one could make a lit geom see-through)."""
-        n = getattr(self.model, "tex_nchannel", None)
-        return n is None or not (np.asarray(n) > 3).any()
 
     def _transparent(self, geoms: np.ndarray) -> np.ndarray:
         """Return, per geom id, whether its colour or its material's has alpha below 1 (conservative: either)."""

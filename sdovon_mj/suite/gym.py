@@ -42,7 +42,7 @@ from ..gl import RENDERS
 from ..gl import use as use_renderer
 from .bundle import Bundle, find_bundles, load_bundle
 from .objectnav import make_environment
-from .observation import ObservationBuilder, Sensors, Vocabulary, dataset_vocabulary, make_sensors
+from .observation import ObservationBuilder, Sensors, Vocabulary, dataset_vocabulary, make_sensors, rendered_images
 from .video import FPS, MapPanel, compose_frame
 
 ENV_ID = "sdovon_mj/ObjectNav-v0"
@@ -177,7 +177,7 @@ class ObjectNavEnv(gymnasium.Env):
         self.action_space = spaces.Discrete(len(ACTION_NAMES))
         self.observation_space = observation_space(self.sensors, self.goal_text)
         self._builder = ObservationBuilder(know, vocab, self._bundle.detector_labels())
-        self._env = make_environment(self._bundle, nav=nav, agent=body, semantic=know.detector == "gt", rgb=know.rgb)
+        self._env = make_environment(self._bundle, nav=nav, agent=body, **rendered_images(know))
         self._ts: Any = None
         self._rgb: np.ndarray | None = None
         self._next = 0

@@ -133,6 +133,12 @@ def make_sensors(agent: AgentConfig, nav: NavConfig, vocabulary: Vocabulary, kno
                    float(nav.depth_max), float(agent.camera_height), float(agent.eta_gt), agent, nav, vocabulary, knowledge)
 
 
+def rendered_images(knowledge: Knowledge) -> dict[str, bool]:
+    """Return `make_environment`'s image arguments for an agent's declared knowledge: the segmentation behind the
+    category image with the ground-truth detector, the colour image unless it reads none (`Knowledge.rgb`)."""
+    return {"semantic": knowledge.detector == "gt", "rgb": bool(knowledge.rgb)}
+
+
 class ObservationBuilder:
     """Build an agent's observation dict from the dm_control task's observation, within its declared knowledge.
 
@@ -196,4 +202,4 @@ class ObservationBuilder:
         return out
 
 
-__all__ = ["ObservationBuilder", "Sensors", "Vocabulary", "dataset_vocabulary", "make_sensors"]
+__all__ = ["ObservationBuilder", "Sensors", "Vocabulary", "dataset_vocabulary", "make_sensors", "rendered_images"]

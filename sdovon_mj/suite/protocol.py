@@ -254,15 +254,12 @@ def knowledge_from_json(d: Any) -> Knowledge:
         steps = d.get("explore_steps", 0)
         if not isinstance(steps, int) or isinstance(steps, bool):
             raise ValueError(f"explore_steps must be an integer, got {steps!r}")
-        rgb = d.get("rgb", True)
-        if not isinstance(rgb, bool):
-            raise ValueError(f"rgb must be true or false, got {rgb!r}")
         oracle = d.get("oracle", ())
         if not isinstance(oracle, (list, tuple)):
             raise ValueError(f"oracle must be a list, got {oracle!r}")
         return Knowledge(detector=d.get("detector", "gt"), pose=d.get("pose", "gps+compass"),
                          prior=d.get("prior", "none"), oracle=tuple(oracle), fn=d.get("fn", "-"), explore_steps=steps,
-                         rgb=rgb)
+                         rgb=d.get("rgb", True))
     except (TypeError, ValueError) as e:
         raise AgentError(f"agent knowledge {d!r}: {e}"[:500], "protocol error") from None
 

@@ -19,7 +19,7 @@ from ...errors import InputError
 from ...store import atomic_write_text, json_safe
 from ..bundle import Bundle
 from ..objectnav import make_environment
-from ..observation import ObservationBuilder, Vocabulary
+from ..observation import ObservationBuilder, Vocabulary, rendered_images
 from ..protocol import AgentError, Phase, SceneStart
 from .phases import LiveAgent, run_phase
 
@@ -59,7 +59,7 @@ def _explore(session: Any, bundle: Bundle, know: Any, nav: NavConfig, body: Agen
     session is then broken). ``scene``: the scene's token sent to the agent (default its name)."""
     t0 = time.perf_counter()
     env = make_environment(bundle, nav=replace(nav, max_steps=int(know.explore_steps)), agent=body,
-                           semantic=know.detector == "gt", rgb=know.rgb)
+                           **rendered_images(know))
     floor = int(bundle.episodes[0].floor) if floor is None else int(floor)
     try:
         start, yaw = exploration_start(bundle, seed, floor)

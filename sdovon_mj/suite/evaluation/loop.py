@@ -26,7 +26,7 @@ from ...store import atomic_write_text, json_safe
 from ..boundary import oracle_episode_parts, oracle_scene_parts
 from ..bundle import Bundle, find_bundles, load_bundle
 from ..objectnav import make_environment
-from ..observation import ObservationBuilder, dataset_vocabulary, make_sensors
+from ..observation import ObservationBuilder, dataset_vocabulary, make_sensors, rendered_images
 from ..protocol import REPLY_TIMEOUT, SETUP_TIMEOUT, AgentError, AgentSpec, Phase, SceneStart, opaque_token
 from ..video import EpisodeVideo
 from .exploration import run_first_visits
@@ -184,7 +184,7 @@ def evaluate(dataset: str | Path | list[Path | Bundle], agent: Any, nav: NavConf
                 day = None
                 for group in by_bundle.values():
                     b = group[0][0]
-                    env = make_environment(b, nav=nav, agent=body, semantic=know.detector == "gt", rgb=know.rgb)
+                    env = make_environment(b, nav=nav, agent=body, **rendered_images(know))
                     builder = ObservationBuilder(know, vocab, b.detector_labels())
                     now = day_objects(env.physics, b) if seq else {}
                     try:
