@@ -12,6 +12,7 @@ from typing import Callable, Generator
 
 import numpy as np
 
+from .. import native
 from ..actions import MOVE_FORWARD, TURN_LEFT, TURN_RIGHT
 from ..gridgraph import distance_field
 from .astar import plan
@@ -142,9 +143,10 @@ def goal_field(mask: np.ndarray, frame: GridFrame, target: np.ndarray, tolerance
     c = frame.to_cell(np.asarray(target, float)[None, :2])[0]
     r = int(math.ceil(tolerance / frame.resolution)) + 1
     h, w = mask.shape
-    rr, cc = np.mgrid[max(0, c[0] - r):min(h, c[0] + r + 1), max(0, c[1] - r):min(w, c[1] + r + 1)]
-    if rr.size == 0:
+    (ra, rb), (ca, cb) = (max(0, c[0] - r), min(h, c[0] + r + 1)), (max(0, c[1] - r), min(w, c[1] + r + 1))
+    if ra >= rb or ca >= cb:  # the goal region lies off the grid: no cell reaches it
         return np.full(mask.shape, np.inf)
+    rr, cc = np.mgrid[ra:rb, ca:cb]
     xy = frame.to_world(np.stack([rr.ravel(), cc.ravel()], 1))
     near = (np.linalg.norm(xy - np.asarray(target, float)[None, :2], axis=1) <= tolerance) & mask[rr.ravel(), cc.ravel()]
     return distance_field(mask, np.stack([rr.ravel()[near], cc.ravel()[near]], 1), frame.resolution)
@@ -185,15 +187,15 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
     tx, ty = float(target[0]), float(target[1])
     field = goal_field(mask, frame, np.array([tx, ty]), tolerance)
     ox, oy, res = float(frame.origin[0]), float(frame.origin[1]), float(frame.resolution)
-    # Python lists for the search's many single-cell reads, cut to the mask's bounding box: off the mask the field is
-    # inf (`distance_field`) and `free` is False, exactly what a cell outside the box gives, so the plan is the same
-    # while a 40 m map's 800 x 800 cells are no longer listed on every call.
+    # The field and mask cut to the mask's bounding box (the Python search reads them as lists): off the mask the field
+    # is inf (`distance_field`) and `free` is False, exactly what a cell outside the box gives, so the plan is the
+    # same while a 40 m map's 800 x 800 cells are no longer listed on every call.
     mb = np.asarray(mask, dtype=bool)
     rows, cols = np.flatnonzero(mb.any(axis=1)), np.flatnonzero(mb.any(axis=0))
     r0, r1 = (int(rows[0]), int(rows[-1]) + 1) if len(rows) else (0, 0)
     c0, c1 = (int(cols[0]), int(cols[-1]) + 1) if len(cols) else (0, 0)
-    fl = (field[r0:r1, c0:c1] / step).tolist()
-    ml = mb[r0:r1, c0:c1].tolist()
+    fw = np.ascontiguousarray(field[r0:r1, c0:c1] / step)
+    mw = np.ascontiguousarray(mb[r0:r1, c0:c1])
     tol2 = tolerance * tolerance
     floor = math.floor
 
@@ -211,6 +213,20 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
         c, s_ = math.cos(math.radians(yaw + k * turn)), math.sin(math.radians(yaw + k * turn))
         dirs.append((step * c, step * s_))
         samples.append([(step * c * i / n_s, step * s_ * i / n_s) for i in range(n_s + 1)])
+    x0, y0 = float(pos[0]), float(pos[1])
+    if (tx - x0) ** 2 + (ty - y0) ** 2 <= tol2:
+        return []
+    lib = native.library()
+    if lib is not None:  # the same search compiled (native/kernels.c `sdv_lattice`): the same actions
+        out = np.zeros(max_nodes + 1, dtype=np.int32)
+        dirs_a, samples_a = np.ascontiguousarray(dirs, dtype=float), np.ascontiguousarray(samples, dtype=float)
+        n = lib.sdv_lattice(fw.ctypes.data, mw.view(np.uint8).ctypes.data, r0, c0, r1 - r0, c1 - c0, ox, oy, res,
+                            tx, ty, tol2, x0, y0, n_head, dirs_a.ctypes.data, samples_a.ctypes.data, n_s + 1,
+                            float(weight), int(max_nodes), TURN_LEFT, TURN_RIGHT, MOVE_FORWARD, out.ctypes.data)
+        if n == -2:
+            raise MemoryError("lattice_plan: the compiled search ran out of memory")
+        return None if n < 0 else [int(a) for a in out[:n]]
+    fl, ml = fw.tolist(), mw.tolist()
 
     def free(x: float, y: float, k: int) -> bool:
         for dx, dy in samples[k]:
@@ -219,9 +235,6 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
                 return False
         return True
 
-    x0, y0 = float(pos[0]), float(pos[1])
-    if (tx - x0) ** 2 + (ty - y0) ** 2 <= tol2:
-        return []
     h0 = heur(x0, y0)
     if not math.isfinite(h0):
         return None

@@ -18,6 +18,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
 
+from .. import native
 from ..actions import TURN_LEFT
 from ..config import AgentConfig
 from ..records import Observation
@@ -88,13 +89,22 @@ class OccupancyMap:
             # since t ascends), each as cam + unit * t like the full (rays, n, 2) array did: the same float
             # operations, so the same cells, at a fraction of the memory traffic.
             count = np.searchsorted(t, length - res, side="left")
-            i = np.repeat(np.arange(len(count)), count)
-            j = np.arange(len(i)) - np.repeat(np.cumsum(count) - count, count)
-            tj = t[j]
-            ux, uy = np.ascontiguousarray(unit[:, 0])[i], np.ascontiguousarray(unit[:, 1])[i]
             ox, oy = self.frame.origin[0], self.frame.origin[1]  # the cells as `GridFrame.to_cell` computes them
-            self._mark_free(np.floor((cam[1] + uy * tj - oy) / res).astype(np.int64),
-                            np.floor((cam[0] + ux * tj - ox) / res).astype(np.int64))
+            lib = native.library()
+            if lib is not None and self.state.flags.c_contiguous and self.state.dtype == np.int8:
+                # the same samples, cells and marks compiled (native/kernels.c `sdv_carve`), without the arrays
+                ux, uy = (np.ascontiguousarray(unit[:, a], dtype=np.float64) for a in (0, 1))
+                count, t = np.ascontiguousarray(count, dtype=np.int64), np.ascontiguousarray(t, dtype=np.float64)
+                h, w = self.frame.shape
+                lib.sdv_carve(self.state.ctypes.data, h, w, ux.ctypes.data, uy.ctypes.data, count.ctypes.data,
+                              len(count), t.ctypes.data, float(cam[0]), float(cam[1]), float(ox), float(oy), float(res))
+            else:
+                i = np.repeat(np.arange(len(count)), count)
+                j = np.arange(len(i)) - np.repeat(np.cumsum(count) - count, count)
+                tj = t[j]
+                ux, uy = np.ascontiguousarray(unit[:, 0])[i], np.ascontiguousarray(unit[:, 1])[i]
+                self._mark_free(np.floor((cam[1] + uy * tj - oy) / res).astype(np.int64),
+                                np.floor((cam[0] + ux * tj - ox) / res).astype(np.int64))
         floor_hits = (~farv) & (np.abs(z) <= self.obstacle_min)
         fc = self.frame.to_cell(pts[floor_hits, :2])
         self._mark_free(fc[:, 0], fc[:, 1])

@@ -586,6 +586,7 @@ def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protec
 
     import sdovon_mj
 
+    from .. import native
     from ..embeddings import embedding_cache_dir
 
     protected = [Path(p).resolve() for p in protect]
@@ -621,6 +622,8 @@ def seal_plan(spec: Any, scratch: Path, extra_read: tuple[str, ...] = (), protec
     emb = embedding_cache_dir()
     if emb is not None:
         read.add(str(emb))  # read only: an agent's writes there would outlive it (and reach the next evaluation)
+    if native.library() is not None:  # built here first: the sealed agent may load the compiled kernels, not write them
+        read.add(str(native.library_dir()))
     for dev in ("/dev/dri", "/dev/nvidiactl", "/dev/nvidia0", "/dev/nvidia-uvm", "/dev/nvidia-uvm-tools"):
         if os.path.exists(dev):  # an agent on a GPU reaches its accelerator
             write.add(dev)
@@ -632,7 +635,7 @@ def _child_env(scratch: Path) -> dict[str, str]:
     """Return the agent process's environment: a few variables of ours, HOME and TMPDIR in its scratch folder."""
     keep = ("PATH", "LANG", "LC_ALL", "MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_HUB_OFFLINE", "TRANSFORMERS_OFFLINE",
             "TOKENIZERS_PARALLELISM", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS", "LP_NUM_THREADS",
-            "SDOVON_CACHE", "CUDA_VISIBLE_DEVICES", "NVIDIA_VISIBLE_DEVICES")
+            "SDOVON_CACHE", "SDOVON_NATIVE", "CUDA_VISIBLE_DEVICES", "NVIDIA_VISIBLE_DEVICES")
     env = {k: os.environ[k] for k in keep if k in os.environ}
     env.update(HOME=str(scratch), TMPDIR=str(scratch), PYTHONDONTWRITEBYTECODE="1")
     # the shared caches where the evaluator finds them (HOME moved): the sealed agent may read only its embeddings

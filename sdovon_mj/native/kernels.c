@@ -1,0 +1,265 @@
+/* Compiled forms of two agent inner loops (sdovon_mj/native/__init__.py builds and loads this file).
+ *
+ * Each function computes exactly what its Python reference computes (nav/control.py `lattice_plan`,
+ * nav/frontier.py `OccupancyMap.integrate`'s ray carving): the same IEEE double operations in the same order
+ * (built with -ffp-contract=off, so no fused multiply-add, and -fno-builtin-pow, so `pow` is the C library's as in
+ * Python's `x ** 2`), Python's round-half-even (`nearbyint`), and the same tie-breaking of the search queue. The
+ * tests compare both forms on many inputs. Plain C99, no Python headers: loaded with ctypes.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define FREE_CELL 1
+#define OCCUPIED_CELL 2
+
+/* ---- ray carving ---------------------------------------------------------------------------------------- */
+
+/* Mark FREE every cell a ray's samples fall in (unless OCCUPIED): ray i's samples j < count[i] sit at
+ * (camx + ux[i] * t[j] - ox, camy + uy[i] * t[j] - oy) / res, floored; cells off the (h, w) grid are skipped. */
+void sdv_carve(int8_t *state, int64_t h, int64_t w, const double *ux, const double *uy, const int64_t *count,
+               int64_t n_rays, const double *t, double camx, double camy, double ox, double oy, double res) {
+    for (int64_t i = 0; i < n_rays; i++) {
+        const double uxi = ux[i], uyi = uy[i];
+        for (int64_t j = 0; j < count[i]; j++) {
+            const double tj = t[j];
+            const double yy = camy + uyi * tj - oy;
+            const double xx = camx + uxi * tj - ox;
+            const double fr = floor(yy / res), fc = floor(xx / res);
+            if (!(fr >= 0.0 && fr < (double)h && fc >= 0.0 && fc < (double)w))
+                continue;
+            int8_t *s = state + (int64_t)fr * w + (int64_t)fc;
+            if (*s != OCCUPIED_CELL)
+                *s = FREE_CELL;
+        }
+    }
+}
+
+/* ---- lattice A* ----------------------------------------------------------------------------------------- */
+
+typedef struct {
+    int64_t rx, ry;   /* the pose's key: position in cm (round half even), heading index */
+    int64_t k;
+    double x, y;      /* the pose (the latest one stored under this key) */
+    int64_t g;        /* best cost so far */
+    int64_t parent;   /* node index, -1 at the start */
+    int32_t act;
+} Node;
+
+typedef struct {
+    double f;
+    int64_t ng;       /* -g: ties go to the deeper node */
+    int64_t counter;  /* then to the earlier push */
+    int64_t node;
+    int64_t g;        /* the g this entry was pushed with */
+} Entry;
+
+typedef struct {
+    Node *nodes;
+    int64_t n, cap;
+    int64_t *slots;   /* open addressing: node index + 1, 0 empty */
+    int64_t n_slots;
+    Entry *heap;
+    int64_t hn, hcap;
+} Search;
+
+static uint64_t key_hash(int64_t rx, int64_t ry, int64_t k) {
+    uint64_t h = (uint64_t)rx * 0x9E3779B97F4A7C15ULL;
+    h ^= (uint64_t)ry * 0xC2B2AE3D27D4EB4FULL + (h << 6) + (h >> 2);
+    h ^= (uint64_t)k * 0x165667B19E3779F9ULL + (h << 6) + (h >> 2);
+    return h ^ (h >> 29);
+}
+
+static int grow_slots(Search *s) {
+    int64_t n_slots = s->n_slots ? s->n_slots * 2 : 4096;
+    int64_t *slots = calloc((size_t)n_slots, sizeof(int64_t));
+    if (!slots)
+        return -1;
+    for (int64_t i = 0; i < s->n; i++) {
+        const Node *nd = &s->nodes[i];
+        uint64_t p = key_hash(nd->rx, nd->ry, nd->k) & (uint64_t)(n_slots - 1);
+        while (slots[p])
+            p = (p + 1) & (uint64_t)(n_slots - 1);
+        slots[p] = i + 1;
+    }
+    free(s->slots);
+    s->slots = slots;
+    s->n_slots = n_slots;
+    return 0;
+}
+
+/* Return the node index of key (rx, ry, k), creating it (g = INT64_MAX) when absent; -1 when out of memory. */
+static int64_t node_of(Search *s, int64_t rx, int64_t ry, int64_t k) {
+    if ((s->n + 1) * 2 > s->n_slots && grow_slots(s))
+        return -1;
+    uint64_t p = key_hash(rx, ry, k) & (uint64_t)(s->n_slots - 1);
+    while (s->slots[p]) {
+        const Node *nd = &s->nodes[s->slots[p] - 1];
+        if (nd->rx == rx && nd->ry == ry && nd->k == k)
+            return s->slots[p] - 1;
+        p = (p + 1) & (uint64_t)(s->n_slots - 1);
+    }
+    if (s->n == s->cap) {
+        int64_t cap = s->cap ? s->cap * 2 : 4096;
+        Node *nodes = realloc(s->nodes, (size_t)cap * sizeof(Node));
+        if (!nodes)
+            return -1;
+        s->nodes = nodes;
+        s->cap = cap;
+    }
+    Node *nd = &s->nodes[s->n];
+    nd->rx = rx; nd->ry = ry; nd->k = k; nd->g = INT64_MAX; nd->parent = -1; nd->act = -1; nd->x = 0.0; nd->y = 0.0;
+    s->slots[p] = s->n + 1;
+    return s->n++;
+}
+
+static int entry_less(const Entry *a, const Entry *b) {
+    if (a->f != b->f)
+        return a->f < b->f;
+    if (a->ng != b->ng)
+        return a->ng < b->ng;
+    return a->counter < b->counter;
+}
+
+static int heap_push(Search *s, Entry e) {
+    if (s->hn == s->hcap) {
+        int64_t cap = s->hcap ? s->hcap * 2 : 4096;
+        Entry *heap = realloc(s->heap, (size_t)cap * sizeof(Entry));
+        if (!heap)
+            return -1;
+        s->heap = heap;
+        s->hcap = cap;
+    }
+    int64_t i = s->hn++;
+    while (i > 0) {
+        int64_t up = (i - 1) / 2;
+        if (!entry_less(&e, &s->heap[up]))
+            break;
+        s->heap[i] = s->heap[up];
+        i = up;
+    }
+    s->heap[i] = e;
+    return 0;
+}
+
+static Entry heap_pop(Search *s) {
+    Entry top = s->heap[0], last = s->heap[--s->hn];
+    int64_t i = 0;
+    for (;;) {
+        int64_t c = 2 * i + 1;
+        if (c >= s->hn)
+            break;
+        if (c + 1 < s->hn && entry_less(&s->heap[c + 1], &s->heap[c]))
+            c++;
+        if (!entry_less(&s->heap[c], &last))
+            break;
+        s->heap[i] = s->heap[c];
+        i = c;
+    }
+    if (s->hn > 0)
+        s->heap[i] = last;
+    return top;
+}
+
+typedef struct {
+    const double *field;     /* (nr, nc) goal distance in steps, inf where unreachable */
+    const uint8_t *mask;     /* (nr, nc) where the agent may stand */
+    int64_t r0, c0, nr, nc;  /* the window's first row and column in the grid, its size */
+    double ox, oy, res;      /* the grid frame: origin (m), resolution (m per cell) */
+    double tx, ty, tol2;     /* the target (m) and the squared tolerance (m^2) */
+} Grid;
+
+static double heur(const Grid *gr, double x, double y) {
+    if (pow(gr->tx - x, 2.0) + pow(gr->ty - y, 2.0) <= gr->tol2)
+        return 0.0;
+    const double col = floor((x - gr->ox) / gr->res), row = floor((y - gr->oy) / gr->res);
+    if (!((double)gr->r0 <= row && row < (double)(gr->r0 + gr->nr) && (double)gr->c0 <= col &&
+          col < (double)(gr->c0 + gr->nc)))
+        return INFINITY;
+    return gr->field[((int64_t)row - gr->r0) * gr->nc + ((int64_t)col - gr->c0)];
+}
+
+static int step_free(const Grid *gr, double x, double y, const double *samples, int64_t n_samples) {
+    for (int64_t i = 0; i < n_samples; i++) {
+        const double col = floor((x + samples[2 * i] - gr->ox) / gr->res);
+        const double row = floor((y + samples[2 * i + 1] - gr->oy) / gr->res);
+        if (!((double)gr->r0 <= row && row < (double)(gr->r0 + gr->nr) && (double)gr->c0 <= col &&
+              col < (double)(gr->c0 + gr->nc)))
+            return 0;
+        if (!gr->mask[((int64_t)row - gr->r0) * gr->nc + ((int64_t)col - gr->c0)])
+            return 0;
+    }
+    return 1;
+}
+
+/* The search of nav/control.py `lattice_plan` (see there): returns the number of actions written to `out` (at most
+ * max_nodes), -1 when the search gave up (None), -2 when out of memory. dirs: (n_head, 2) forward moves;
+ * samples: (n_head, n_samples, 2) offsets checked on the mask before a forward move; acts: the action codes of
+ * turning left, right and moving forward. */
+int64_t sdv_lattice(const double *field, const uint8_t *mask, int64_t r0, int64_t c0, int64_t nr, int64_t nc,
+                    double ox, double oy, double res, double tx, double ty, double tol2, double x0, double y0,
+                    int64_t n_head, const double *dirs, const double *samples, int64_t n_samples, double weight,
+                    int64_t max_nodes, int32_t act_left, int32_t act_right, int32_t act_forward, int32_t *out) {
+    Grid gr = {field, mask, r0, c0, nr, nc, ox, oy, res, tx, ty, tol2};
+    Search s;
+    memset(&s, 0, sizeof(s));
+    int64_t result = -1;
+    const double h0 = heur(&gr, x0, y0);
+    if (!isfinite(h0))
+        return -1;
+    int64_t start = node_of(&s, (int64_t)nearbyint(x0 * 100.0), (int64_t)nearbyint(y0 * 100.0), 0);
+    if (start < 0) { result = -2; goto done; }
+    s.nodes[start].x = x0; s.nodes[start].y = y0; s.nodes[start].g = 0;
+    Entry e0 = {weight * h0, 0, 0, start, 0};
+    if (heap_push(&s, e0)) { result = -2; goto done; }
+    int64_t counter = 0, expanded = 0;
+    while (s.hn > 0 && expanded < max_nodes) {
+        const Entry top = heap_pop(&s);
+        const int64_t g = top.g;
+        if (s.nodes[top.node].g < g)
+            continue;
+        expanded++;
+        const double x = s.nodes[top.node].x, y = s.nodes[top.node].y;
+        const int64_t k = s.nodes[top.node].k;
+        if (pow(tx - x, 2.0) + pow(ty - y, 2.0) <= tol2) {
+            int64_t n = 0;
+            for (int64_t i = top.node; s.nodes[i].parent >= 0; i = s.nodes[i].parent)
+                n++;
+            int64_t j = n;
+            for (int64_t i = top.node; s.nodes[i].parent >= 0; i = s.nodes[i].parent)
+                out[--j] = s.nodes[i].act;
+            result = n;
+            goto done;
+        }
+        double sx[3], sy[3];
+        int64_t sk[3];
+        int32_t sa[3];
+        int n_succ = 2;
+        sx[0] = x; sy[0] = y; sk[0] = (k + 1) % n_head; sa[0] = act_left;
+        sx[1] = x; sy[1] = y; sk[1] = ((k - 1) % n_head + n_head) % n_head; sa[1] = act_right;
+        if (step_free(&gr, x, y, samples + 2 * n_samples * k, n_samples)) {
+            sx[2] = x + dirs[2 * k]; sy[2] = y + dirs[2 * k + 1]; sk[2] = k; sa[2] = act_forward;
+            n_succ = 3;
+        }
+        for (int i = 0; i < n_succ; i++) {
+            const double hs = heur(&gr, sx[i], sy[i]);
+            if (hs == INFINITY)
+                continue;
+            const int64_t nd = node_of(&s, (int64_t)nearbyint(sx[i] * 100.0), (int64_t)nearbyint(sy[i] * 100.0), sk[i]);
+            if (nd < 0) { result = -2; goto done; }
+            if (g + 1 < s.nodes[nd].g) {
+                Node *p = &s.nodes[nd];
+                p->g = g + 1; p->parent = top.node; p->act = sa[i]; p->x = sx[i]; p->y = sy[i];
+                counter++;
+                Entry e = {(double)(g + 1) + weight * hs, -(g + 1), counter, nd, g + 1};
+                if (heap_push(&s, e)) { result = -2; goto done; }
+            }
+        }
+    }
+done:
+    free(s.nodes);
+    free(s.slots);
+    free(s.heap);
+    return result;
+}
