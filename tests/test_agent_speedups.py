@@ -311,3 +311,83 @@ def test_bench_suite_prints_the_environment_step_split():
     for r in rows:
         figures = [float(v) for v in r.strip().strip("|").split("|")[3:]]
         assert len(figures) == 6 and all(f > 0 for f in figures), r
+
+
+# `CategoryDetector.detect` before this change (verbatim but the name): each category labelled over the whole image.
+def _reference_detect(det, cat: np.ndarray, view_id: int = 0) -> list[tuple[str, np.ndarray]]:
+    need = det.eta * cat.size
+    out = []
+    ids, counts = np.unique(cat[cat >= 0], return_counts=True)
+    for c, n in zip(ids.tolist(), counts.tolist()):
+        if n < need or not 0 <= c < len(det.labels):
+            continue
+        regions, k = ndimage.label(cat == c, structure=np.ones((3, 3), bool))
+        sizes = np.bincount(regions.ravel(), minlength=k + 1)
+        for r in range(1, k + 1):
+            if sizes[r] >= need:
+                out.append((det.labels[c], regions == r))
+    return out
+
+
+def test_category_detections_equal_the_whole_image_labelling():
+    """Random category images (blobs of several categories, touching and apart, at the image's edges, specks below
+    eta, unknown ids): the same detections in the same order, masks pixel for pixel."""
+    from sdovon_mj.nav.sensing import CategoryDetector
+    from sdovon_mj.records import Observation
+
+    rng = np.random.default_rng(4749)
+    det = CategoryDetector(("chair", "table", "bed", "sofa"), eta=0.002)
+    found = 0
+    for trial in range(25):
+        cat = np.full((48, 64), -1, np.int16)
+        for _ in range(int(rng.integers(0, 9))):
+            r, c = rng.integers(-5, 48, 2)
+            cat[max(r, 0):r + int(rng.integers(1, 15)), max(c, 0):c + int(rng.integers(1, 20))] = rng.integers(0, 5)
+        obs = Observation(view_id=trial, rgb=np.zeros((48, 64, 3), np.uint8), depth=np.ones((48, 64), np.float32),
+                          K=np.eye(3), T_cam=np.eye(4), segmentation=cat)
+        got = [(d.label, d.mask) for d in det.detect(obs)]
+        want = _reference_detect(det, cat)
+        assert len(got) == len(want), trial
+        assert all(a[0] == b[0] and np.array_equal(a[1], b[1]) for a, b in zip(got, want)), trial
+        found += len(want)
+    assert found > 20
+
+
+# `nav.goal.goal_points` before this change (verbatim but the name): the whole image back-projected under the mask.
+def _reference_goal_points(depth, mask, K, T_cam, depth_min, depth_max):
+    d = np.asarray(depth, dtype=np.float64)
+    if d.ndim == 3:
+        d = d[..., 0]
+    m = np.asarray(mask, dtype=bool)
+    pts = backproject(d, K, T_cam, mask=m, depth_min=depth_min + 1e-3, depth_max=depth_max - 1e-3)
+    if len(pts) or not m.any():
+        return pts
+    near = m & (d <= depth_min + 1e-3)
+    if not near.any():
+        return np.zeros((0, 3))
+    return backproject(np.full_like(d, depth_min), K, T_cam, mask=near, depth_min=0.0)
+
+
+def test_goal_points_equal_the_whole_image_back_projection():
+    """Masks anywhere in the image (edges, empty), depth with near- and far-clipped pixels: the same points, bit for
+    bit, as back-projecting the whole image under the mask."""
+    from sdovon_mj.nav.goal import goal_points
+
+    rng = np.random.default_rng(4750)
+    K = intrinsics(64, 48, 79.0)
+    nonempty = 0
+    for trial in range(30):
+        depth = rng.uniform(0.0, 5.0, size=(48, 64, 1)).astype(np.float32)
+        depth[rng.random(depth.shape) < 0.15] = 5.0
+        if trial % 3 == 0:
+            depth[...] = 0.1  # everything at the near limit: the mask's ray stands in
+        mask = np.zeros((48, 64), bool)
+        if trial % 7:
+            r, c = rng.integers(-4, 48, 2)
+            mask[max(r, 0):r + int(rng.integers(1, 20)), max(c, 0):c + int(rng.integers(1, 30))] = True
+        T = pose_cv(np.append(rng.uniform(-2, 2, 2), 0.88), float(rng.uniform(0, 360)), float(rng.uniform(-30, 10)))
+        got = goal_points(depth, mask, K, T, 0.1, 5.0)
+        want = _reference_goal_points(depth, mask, K, T, 0.1, 5.0)
+        assert got.shape == want.shape and np.array_equal(got, want), trial
+        nonempty += len(got) > 0
+    assert nonempty > 10

@@ -14,6 +14,16 @@
 #define FREE_CELL 1
 #define OCCUPIED_CELL 2
 
+/* floor(v) as an integer, inline: at the x86-64 baseline (no SSE4.1) `floor` is a library call per sample. Exact for
+ * |v| < 2^63 (truncation toward zero, one less when that rounded up); NaN and larger values give some integer, and
+ * every caller then finds it off the grid, as numpy's floor(v).astype(int64) and Python's range test do. */
+static inline int64_t ifloor(double v) {
+    if (!(v > -9.2e18 && v < 9.2e18))
+        return INT64_MIN;
+    int64_t i = (int64_t)v;
+    return ((double)i > v) ? i - 1 : i;
+}
+
 /* ---- ray carving ---------------------------------------------------------------------------------------- */
 
 /* Mark FREE every cell a ray's samples fall in (unless OCCUPIED): ray i's samples j < count[i] sit at
@@ -26,10 +36,10 @@ void sdv_carve(int8_t *state, int64_t h, int64_t w, const double *ux, const doub
             const double tj = t[j];
             const double yy = camy + uyi * tj - oy;
             const double xx = camx + uxi * tj - ox;
-            const double fr = floor(yy / res), fc = floor(xx / res);
-            if (!(fr >= 0.0 && fr < (double)h && fc >= 0.0 && fc < (double)w))
+            const int64_t fr = ifloor(yy / res), fc = ifloor(xx / res);
+            if (!(fr >= 0 && fr < h && fc >= 0 && fc < w))
                 continue;
-            int8_t *s = state + (int64_t)fr * w + (int64_t)fc;
+            int8_t *s = state + fr * w + fc;
             if (*s != OCCUPIED_CELL)
                 *s = FREE_CELL;
         }
@@ -173,21 +183,19 @@ typedef struct {
 static double heur(const Grid *gr, double x, double y) {
     if (pow(gr->tx - x, 2.0) + pow(gr->ty - y, 2.0) <= gr->tol2)
         return 0.0;
-    const double col = floor((x - gr->ox) / gr->res), row = floor((y - gr->oy) / gr->res);
-    if (!((double)gr->r0 <= row && row < (double)(gr->r0 + gr->nr) && (double)gr->c0 <= col &&
-          col < (double)(gr->c0 + gr->nc)))
+    const int64_t col = ifloor((x - gr->ox) / gr->res), row = ifloor((y - gr->oy) / gr->res);
+    if (!(gr->r0 <= row && row < gr->r0 + gr->nr && gr->c0 <= col && col < gr->c0 + gr->nc))
         return INFINITY;
-    return gr->field[((int64_t)row - gr->r0) * gr->nc + ((int64_t)col - gr->c0)];
+    return gr->field[(row - gr->r0) * gr->nc + (col - gr->c0)];
 }
 
 static int step_free(const Grid *gr, double x, double y, const double *samples, int64_t n_samples) {
     for (int64_t i = 0; i < n_samples; i++) {
-        const double col = floor((x + samples[2 * i] - gr->ox) / gr->res);
-        const double row = floor((y + samples[2 * i + 1] - gr->oy) / gr->res);
-        if (!((double)gr->r0 <= row && row < (double)(gr->r0 + gr->nr) && (double)gr->c0 <= col &&
-              col < (double)(gr->c0 + gr->nc)))
+        const int64_t col = ifloor((x + samples[2 * i] - gr->ox) / gr->res);
+        const int64_t row = ifloor((y + samples[2 * i + 1] - gr->oy) / gr->res);
+        if (!(gr->r0 <= row && row < gr->r0 + gr->nr && gr->c0 <= col && col < gr->c0 + gr->nc))
             return 0;
-        if (!gr->mask[((int64_t)row - gr->r0) * gr->nc + ((int64_t)col - gr->c0)])
+        if (!gr->mask[(row - gr->r0) * gr->nc + (col - gr->c0)])
             return 0;
     }
     return 1;

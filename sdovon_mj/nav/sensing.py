@@ -40,11 +40,18 @@ class CategoryDetector:
         for c, n in zip(ids.tolist(), counts.tolist()):
             if n < need or not 0 <= c < len(self.labels):
                 continue
-            regions, k = ndimage.label(cat == c, structure=_EIGHT)
+            # labelled in the category's bounding box: no pixel of it lies outside, and the box keeps the image's
+            # raster order, so the regions and their numbers are the whole image's
+            mask = cat == c
+            rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+            win = (slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1))
+            regions, k = ndimage.label(mask[win], structure=_EIGHT)
             sizes = np.bincount(regions.ravel(), minlength=k + 1)
             for r in range(1, k + 1):
                 if sizes[r] >= need:
-                    out.append(Detection(mask=regions == r, label=self.labels[c], score=1.0, view_id=int(obs.view_id)))
+                    region = np.zeros(cat.shape, dtype=bool)
+                    region[win] = regions == r
+                    out.append(Detection(mask=region, label=self.labels[c], score=1.0, view_id=int(obs.view_id)))
         return out
 
     def detect_batch(self, observations: list[Observation]) -> list[list[Detection]]:
