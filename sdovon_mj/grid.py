@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from . import native
+
 NEIGHBOURS8 = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
@@ -71,10 +73,14 @@ def segment_free(mask: np.ndarray, frame: GridFrame, a: np.ndarray, b: np.ndarra
     res = frame.resolution
     step = res / 2.0 if step is None else step
     n = max(1, int(math.ceil(math.hypot(bx - ax, by - ay) / step)))
+    h, w = mask.shape
+    lib = native.library()
+    if lib is not None and mask.dtype == np.bool_ and mask.flags.c_contiguous:  # the same samples compiled
+        return bool(lib.sdv_segment_free(mask.ctypes.data, h, w, ax, ay, bx, by, float(frame.origin[0]),
+                                         float(frame.origin[1]), float(res), n))
     t = np.arange(n + 1, dtype=float) / n
     col = np.floor((ax + t * (bx - ax) - frame.origin[0]) / res).astype(np.intp)
     row = np.floor((ay + t * (by - ay) - frame.origin[1]) / res).astype(np.intp)
-    h, w = mask.shape
     if col.min() < 0 or row.min() < 0 or col.max() >= w or row.max() >= h:
         return False
     return bool(mask[row, col].all())

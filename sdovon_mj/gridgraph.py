@@ -83,6 +83,9 @@ def distance_field(mask: np.ndarray, sources: np.ndarray, resolution: float) -> 
     return out
 
 
+_NINE = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1)], dtype=np.int64)  # a cell and its 8 neighbours
+
+
 class GeodesicField:
     """Geodesic distance (m) on a grid to the nearest of a set of world XY targets: THE geodesic.
 
@@ -151,16 +154,15 @@ class GeodesicField:
             if segment_free(self.mask, self.frame, p, self.targets[k]):
                 best = float(eu[k])
                 break
-        rc = self.frame.to_cell(p[None])[0]
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                c = np.array([rc[0] + dr, rc[1] + dc])
-                if not self.frame.inside(c[None])[0] or not self.mask[c[0], c[1]]:
-                    continue
-                centre = self.frame.to_world(c[None])[0]
-                if (dr or dc) and not segment_free(self.mask, self.frame, p, centre):
-                    continue
-                best = min(best, float(self.field[c[0], c[1]] + np.linalg.norm(centre - p)))
+        # the 9 cells around p at once (to_world and inside are row by row: the values of one cell at a time)
+        cells = self.frame.to_cell(p[None])[0][None] + _NINE
+        ok = self.frame.inside(cells)
+        ok[ok] = self.mask[cells[ok, 0], cells[ok, 1]]
+        centres = self.frame.to_world(cells)
+        for k in np.flatnonzero(ok).tolist():
+            if k != 4 and not segment_free(self.mask, self.frame, p, centres[k]):  # 4: p's own cell
+                continue
+            best = min(best, float(self.field[cells[k, 0], cells[k, 1]] + np.linalg.norm(centres[k] - p)))
         return best
 
     def distances(self, xy: np.ndarray) -> np.ndarray:

@@ -391,3 +391,69 @@ def test_goal_points_equal_the_whole_image_back_projection():
         assert got.shape == want.shape and np.array_equal(got, want), trial
         nonempty += len(got) > 0
     assert nonempty > 10
+
+
+def _reference_geodesic_distance(gf, xy: np.ndarray) -> float:
+    """`GeodesicField.distance` before this change (verbatim but the name): the 9 cells one at a time."""
+    import math
+
+    from sdovon_mj.grid import segment_free
+
+    p = np.asarray(xy, dtype=float)[:2]
+    if len(gf.targets) == 0:
+        return math.inf
+    best = math.inf
+    eu = np.linalg.norm(gf.targets - p[None], axis=1)
+    for k in np.argsort(eu, kind="stable")[:8]:
+        if eu[k] >= best:
+            break
+        if segment_free(gf.mask, gf.frame, p, gf.targets[k]):
+            best = float(eu[k])
+            break
+    rc = gf.frame.to_cell(p[None])[0]
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            c = np.array([rc[0] + dr, rc[1] + dc])
+            if not gf.frame.inside(c[None])[0] or not gf.mask[c[0], c[1]]:
+                continue
+            centre = gf.frame.to_world(c[None])[0]
+            if (dr or dc) and not segment_free(gf.mask, gf.frame, p, centre):
+                continue
+            best = min(best, float(gf.field[c[0], c[1]] + np.linalg.norm(centre - p)))
+    return best
+
+
+def test_geodesic_distance_equals_the_cell_by_cell_reference():
+    """Points anywhere (on the mask, beside walls, at the grid's edge and off it) to targets behind walls and in
+    sight: the same distance, bit for bit, as testing the 9 cells one at a time."""
+    from sdovon_mj.gridgraph import GeodesicField
+
+    rng = np.random.default_rng(4752)
+    frame = GridFrame(np.array([0.31, -0.77]), 0.05, (50, 60))
+    mask = np.ones(frame.shape, bool)
+    mask[25, 5:] = False
+    mask[rng.random(frame.shape) < 0.05] = False
+    finite = 0
+    for trial in range(8):
+        gf = GeodesicField(mask, frame, rng.uniform([0.31, -0.77], [3.31, 1.73], size=(int(rng.integers(1, 6)), 2)))
+        for _ in range(60):
+            p = rng.uniform([0.2, -0.9], [3.45, 1.85])
+            got, want = gf.distance(p), _reference_geodesic_distance(gf, p)
+            assert got == want or (np.isinf(got) and np.isinf(want)), (trial, p)
+            finite += np.isfinite(got)
+    assert finite > 100
+
+
+def test_segment_image_equals_the_masked_lookup():
+    """Geom-id images with none (-1), other negative values and every geom: the table's segment ids as the masked
+    lookup gave them (int32, -1 where no geom)."""
+    from sdovon_mj.sim.model import segment_image
+
+    rng = np.random.default_rng(4753)
+    lut = rng.integers(-1, 100_500, size=300).astype(np.int64)
+    ids = rng.integers(-3, 300, size=(48, 64)).astype(np.int32)
+    want = np.full(ids.shape, -1, dtype=np.int32)
+    ok = ids >= 0
+    want[ok] = lut[ids[ok]]
+    got = segment_image(ids, lut)
+    assert got.dtype == np.int32 and np.array_equal(got, want)

@@ -94,6 +94,32 @@ def test_occupancy_carving_compiled_equals_python(python_only):
         assert (new.state == FREE).any() and (new.state == OCCUPIED).any()
 
 
+@needs_cc
+def test_segment_free_compiled_equals_python(python_only):
+    """Segments of every length and direction on a speckled mask (ends on and off the grid, on cell borders, zero
+    length, other sample steps): the same answer compiled and in numpy."""
+    from sdovon_mj.grid import segment_free
+
+    assert native.library() is not None
+    rng = np.random.default_rng(4751)
+    frame = GridFrame(np.array([-1.013, 0.52], dtype=np.float32), 0.05, (60, 70))
+    mask = rng.random(frame.shape) > 0.03
+    mask[20:25, :] = False
+    free = 0
+    for trial in range(3000):
+        a = rng.uniform(-1.3, 2.8, 2)
+        b = a + rng.normal(0, 0.6 if trial % 2 else 0.1, 2)
+        if trial % 10 == 0:
+            a = np.round(a / 0.05) * 0.05 + np.array([-1.013, 0.52])  # on cell borders
+        if trial % 50 == 0:
+            b = a.copy()
+        step = None if trial % 7 else 0.013
+        got = segment_free(mask, frame, a, b, step)
+        assert got == python_only(segment_free, mask, frame, a, b, step), trial
+        free += got
+    assert 100 < free < 2900  # both answers compared
+
+
 def _status_in(env_extra: dict, tmp_path) -> str:
     env = dict(os.environ, SDOVON_CACHE=str(tmp_path / "cache"), **env_extra)
     code = ("from sdovon_mj import native; from sdovon_mj.nav.control import lattice_plan; "

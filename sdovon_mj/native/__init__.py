@@ -1,7 +1,7 @@
 """Compiled inner loops of the agents (`kernels.c`), built on first use with the system C compiler and loaded by ctypes.
 
 Each kernel has a pure-Python reference beside its caller (the lattice planner in `nav/control.py`, the ray carving
-in `nav/frontier.py`) and computes exactly what it computes: same results, bit for bit (tests/test_native.py compares
+in `nav/frontier.py`, the free-segment test in `grid.py`) and computes exactly what it computes: same results, bit for bit (tests/test_native.py compares
 both). Where no compiler is found or the build fails, the callers run their Python form: slower, never different.
 `status()` says which one runs and why.
 
@@ -106,6 +106,8 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     d, i64, i32, p = ctypes.c_double, ctypes.c_int64, ctypes.c_int32, ctypes.c_void_p
     lib.sdv_carve.restype = None
     lib.sdv_carve.argtypes = [p, i64, i64, p, p, p, i64, p, d, d, d, d, d]
+    lib.sdv_segment_free.restype = i32
+    lib.sdv_segment_free.argtypes = [p, i64, i64, d, d, d, d, d, d, d, i64]
     lib.sdv_lattice.restype = i64
     lib.sdv_lattice.argtypes = [p, p, i64, i64, i64, i64, d, d, d, d, d, d, d, d, i64, p, p, i64, d, i64, i32, i32,
                                 i32, p]

@@ -46,6 +46,22 @@ void sdv_carve(int8_t *state, int64_t h, int64_t w, const double *ux, const doub
     }
 }
 
+/* ---- free segments -------------------------------------------------------------------------------------- */
+
+/* grid.py `segment_free`: whether samples k = 0..n of a -> b (at t = k / n) all lie on nonzero cells of the (h, w)
+ * mask, each cell floor((a + t * (b - a) - o) / res) per axis; a sample off the grid refuses the segment. */
+int32_t sdv_segment_free(const uint8_t *mask, int64_t h, int64_t w, double ax, double ay, double bx, double by,
+                         double ox, double oy, double res, int64_t n) {
+    const double dx = bx - ax, dy = by - ay;
+    for (int64_t k = 0; k <= n; k++) {
+        const double t = (double)k / (double)n;
+        const int64_t col = ifloor((ax + t * dx - ox) / res), row = ifloor((ay + t * dy - oy) / res);
+        if (!(col >= 0 && col < w && row >= 0 && row < h) || !mask[row * w + col])
+            return 0;
+    }
+    return 1;
+}
+
 /* ---- lattice A* ----------------------------------------------------------------------------------------- */
 
 typedef struct {

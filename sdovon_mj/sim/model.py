@@ -52,10 +52,10 @@ def geom_segment_ids(model: mujoco.MjModel) -> np.ndarray:
 
 def segment_image(geom_ids: np.ndarray, lut: np.ndarray) -> np.ndarray:
     """Map a geom-id image (-1 = none) to a segmentation-id image with lookup table `lut`."""
-    out = np.full(geom_ids.shape, -1, dtype=np.int32)
-    ok = geom_ids >= 0
-    out[ok] = lut[geom_ids[ok]]
-    return out
+    ext = np.empty(len(lut) + 1, dtype=np.int32)  # the table with -1 appended: every negative id reads it
+    ext[:-1] = lut
+    ext[-1] = -1
+    return ext.take(np.maximum(geom_ids, -1))
 
 
 def load_scene_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

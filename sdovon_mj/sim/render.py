@@ -286,10 +286,10 @@ class SceneRenderer:
         if n < 255:  # ids fit the red channel
             lut256 = np.full(256, -1, dtype=np.int32)
             lut256[: n + 1] = lut
-            return lut256[ids[..., 0]]
+            return lut256.take(ids[..., 0])
         seg = ids[..., 0].astype(np.int32) | (ids[..., 1].astype(np.int32) << 8) | (ids[..., 2].astype(np.int32) << 16)
         np.clip(seg, 0, n, out=seg)
-        return lut[seg]
+        return lut.take(seg)
 
     def _render_passes(self, rgb: bool, depth: bool, segmentation: bool) -> Frame:
         """Fallback through the public mujoco.Renderer API (one pass per image)."""
