@@ -457,3 +457,27 @@ def test_segment_image_equals_the_masked_lookup():
     want[ok] = lut[ids[ok]]
     got = segment_image(ids, lut)
     assert got.dtype == np.int32 and np.array_equal(got, want)
+
+
+def test_learned_scores_with_the_kernel_cache_equal_fresh_ones():
+    """The bundled model's pair scores asked in a sequence of overlapping column lists (as an agent asks them while it
+    sees more receptacles): each answer equals a fresh model's (no cached kernel column), bit for bit."""
+    from sdovon_mj.semantics.learned import LearnedModel, column_kernel, default_model
+
+    warm = default_model()
+    text = warm.to_json()
+    rooms = ["kitchen", "living_room", "bedroom", "bathroom", "garage", "dining room"]
+    recs = ["counter", "sofa", "bed", "bottom_cabinet", "shelf", "sink", "table", "fridge", "dresser", "desk"]
+    rng = np.random.default_rng(4754)
+    for trial in range(6):
+        rr = list(rng.choice(rooms, size=int(rng.integers(1, 5)), replace=False))
+        cc = list(rng.choice(recs, size=int(rng.integers(1, 8)), replace=False))
+        obj = str(rng.choice(["mug", "pillow", "toothbrush", "hammer"]))
+        got = warm.score_pairs(obj, rr, cc)
+        fresh = LearnedModel.from_json(text).score_pairs(obj, rr, cc)
+        assert np.array_equal(got, fresh), trial
+    head = warm.heads["pair"]
+    cols = list(head._kc)[:40]
+    from sdovon_mj.embeddings import embed_labels
+    want = column_kernel(head.column_vectors(), embed_labels(cols), head.temperature)
+    assert np.array_equal(head._kernel(cols, embed_labels(cols)), want)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +30,12 @@ CORRECT_FRACTION = 0.6  # "at least 6 of 10 annotators voted correct"
 
 def phrase(name: str) -> str:
     """Return a label as plain text for a language model: 'bottom_cabinet' -> 'bottom cabinet'."""
-    return " ".join(str(name).replace("_", " ").split()).lower()
+    return _phrase(name if isinstance(name, str) else str(name))
+
+
+@lru_cache(maxsize=1 << 16)
+def _phrase(name: str) -> str:  # a pure function of the text: the relevance scores ask it for every pair, every time
+    return " ".join(name.replace("_", " ").split()).lower()
 
 
 @dataclass

@@ -47,6 +47,7 @@ HEADS = ("pair", "room", "receptacle")
 WEIGHT_QUANTUM = 2.0 ** -24
 
 
+@lru_cache(maxsize=1 << 16)
 def pair_text(room: str, receptacle: str) -> str:
     """Return the phrase a room-receptacle pair is embedded as."""
     return f"{phrase(receptacle)} in the {phrase(room)}"
@@ -87,6 +88,7 @@ class Head:
 
     def __post_init__(self) -> None:
         self._col_vecs: np.ndarray | None = None
+        self._kc: dict[str, np.ndarray] = {}  # column text -> its column of the kernel (K,)
 
     def column_vectors(self) -> np.ndarray:
         """Return the embeddings of the training columns (K, 384)."""
@@ -99,9 +101,28 @@ class Head:
         if not columns:
             return np.zeros((feats.shape[0], 0))
         cvec = embed_labels(list(columns))
-        kc = column_kernel(self.column_vectors(), cvec, self.temperature)  # (K, C)
+        kc = self._kernel(list(columns), cvec)  # (K, C)
         out = self.bias + (feats @ self.weights) @ kc + self.beta * (zs @ cvec.T)
         return np.clip(out, 0.0, 1.0)
+
+    KERNEL_CACHE = 50_000  # columns kept (K floats each); past it the cache starts again
+
+    def _kernel(self, columns: list[str], cvec: np.ndarray) -> np.ndarray:
+        """Return `column_kernel` (K, len(columns)) of the training columns and these, each column computed once.
+
+        A column's values do not depend on which others are asked with it: the embeddings lie on the 2**-20 grid
+        (`embeddings.QUANTUM`), so each dot product of the matrix product is exact in float64 in any summation
+        order, and the rest of the kernel is elementwise.
+        """
+        missing = [j for j, c in enumerate(columns) if c not in self._kc]
+        if missing:
+            if len(self._kc) + len(missing) > self.KERNEL_CACHE:
+                self._kc.clear()
+                missing = list(range(len(columns)))
+            fresh = column_kernel(self.column_vectors(), cvec[missing], self.temperature)
+            for n, j in enumerate(missing):
+                self._kc[columns[j]] = fresh[:, n].copy()
+        return np.stack([self._kc[c] for c in columns], axis=1)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the head as JSON-ready data (arrays as little-endian float32 base64)."""
