@@ -481,3 +481,38 @@ def test_learned_scores_with_the_kernel_cache_equal_fresh_ones():
     from sdovon_mj.embeddings import embed_labels
     want = column_kernel(head.column_vectors(), embed_labels(cols), head.temperature)
     assert np.array_equal(head._kernel(cols, embed_labels(cols)), want)
+
+
+def test_fused_voxel_union_equals_np_insert():
+    """Voxel maps grown by random sorted key sets (fresh keys before, between and after the old ones, repeats of old
+    ones, heights known and not): keys, sums, counts and heights as np.insert built them, bit for bit."""
+    from sdovon_mj.perceive.fusion import _Fused
+
+    rng = np.random.default_rng(4755)
+    for trial in range(20):
+        f, ref = _Fused(voxel=0.05), {"keys": np.zeros(0, np.int64), "sums": np.zeros((0, 3)), "counts": np.zeros(0),
+                                      "heights": np.zeros(0)}
+        for _ in range(6):
+            k = np.unique(rng.integers(-50, 50, size=int(rng.integers(0, 30))))
+            s, c = rng.normal(size=(len(k), 3)), rng.integers(1, 5, size=len(k)).astype(float)
+            h = None if rng.random() < 0.3 else rng.uniform(0, 2, size=len(k))
+            f._union(k, s, c, h)
+            old = ref["keys"]  # the code before: np.insert of each array, then the sums added
+            pos = np.searchsorted(old, k)
+            hit = pos < len(old)
+            hit[hit] = old[pos[hit]] == k[hit]
+            fresh = np.nonzero(~hit)[0]
+            at = pos[fresh]
+            new_at = np.empty(len(k), dtype=np.int64)
+            new_at[fresh] = at + np.arange(len(fresh))
+            new_at[hit] = pos[hit] + np.searchsorted(at, pos[hit], side="right")
+            if len(fresh):
+                ref = {"keys": np.insert(old, at, k[fresh]), "sums": np.insert(ref["sums"], at, 0.0, axis=0),
+                       "counts": np.insert(ref["counts"], at, 0.0), "heights": np.insert(ref["heights"], at, np.nan)}
+            ref["sums"][new_at] += s
+            ref["counts"][new_at] += c
+            if h is not None:
+                ref["heights"][new_at] = np.fmax(ref["heights"][new_at], h)
+            for name, want in ref.items():
+                got = getattr(f, name)
+                assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=True), (trial, name)

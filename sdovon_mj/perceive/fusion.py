@@ -51,9 +51,12 @@ class _Chunk:
 
     __slots__ = ("data", "mins", "maxes", "_tree")
 
-    def __init__(self, points: np.ndarray) -> None:
+    def __init__(self, points: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.data = np.asarray(points, dtype=np.float64)
-        self.mins, self.maxes = self.data.min(axis=0), self.data.max(axis=0)  # the values cKDTree keeps
+        if bounds is None:
+            self.mins, self.maxes = self.data.min(axis=0), self.data.max(axis=0)  # the values cKDTree keeps
+        else:  # the points' own min and max, known: converting to float64 keeps the order, so they are the same
+            self.mins, self.maxes = (np.asarray(b, dtype=np.float64) for b in bounds)
         self._tree = None
 
     @property
@@ -100,6 +103,7 @@ class _Fused:
     chunks: list[_Chunk] = field(default_factory=list)
     lo: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
     hi: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
+    _label: str | None = field(default=None, repr=False, compare=False)  # `label`, until the votes change
 
     MAX_CHUNKS = 8
 
@@ -116,7 +120,9 @@ class _Fused:
     @property
     def label(self) -> str:
         """Return the label with the highest summed confidence (ties: alphabetical)."""
-        return min(self.label_votes.items(), key=lambda kv: (-kv[1], kv[0]))[0]
+        if self._label is None:  # read for every candidate of every match; the votes change only in absorb/merge
+            self._label = min(self.label_votes.items(), key=lambda kv: (-kv[1], kv[0]))[0]
+        return self._label
 
     @property
     def gt_id(self) -> int:
@@ -153,6 +159,7 @@ class _Fused:
         self.views.extend(other.views)
         for k, v in other.label_votes.items():
             self.label_votes[k] = self.label_votes.get(k, 0.0) + v
+        self._label = None
         for k, v in other.gt_votes.items():
             self.gt_votes[k] = self.gt_votes.get(k, 0) + v
 
@@ -175,11 +182,20 @@ class _Fused:
         new_at[fresh] = at + np.arange(len(fresh))
         ph = pos[hit]
         new_at[hit] = ph + np.searchsorted(at, ph, side="right")
-        if len(fresh):
-            self.keys = np.insert(old, at, k[fresh])
-            self.sums = np.insert(self.sums, at, 0.0, axis=0)
-            self.counts = np.insert(self.counts, at, 0.0)
-            self.heights = np.insert(self.heights, at, np.nan)
+        if len(fresh):  # np.insert's result for the four arrays, the slots computed once
+            n = len(old) + len(fresh)
+            moved = np.arange(len(old))
+            moved += np.searchsorted(at, moved, side="right")
+            keys = np.empty(n, dtype=old.dtype)
+            keys[moved] = old
+            keys[new_at[fresh]] = k[fresh]
+            sums = np.zeros((n,) + self.sums.shape[1:], dtype=self.sums.dtype)
+            sums[moved] = self.sums
+            counts = np.zeros(n, dtype=self.counts.dtype)
+            counts[moved] = self.counts
+            heights = np.full(n, np.nan, dtype=self.heights.dtype)
+            heights[moved] = self.heights
+            self.keys, self.sums, self.counts, self.heights = keys, sums, counts, heights
         self.sums[new_at] += s
         self.counts[new_at] += c
         if h is not None:  # a voxel was seen from as high as its highest observation (fmax: NaN is unknown)
@@ -200,11 +216,12 @@ class _Fused:
         self.hi = np.maximum(self.hi, phi)
         if len(self.chunks) >= self.MAX_CHUNKS:
             self.chunks = [_Chunk(self.points)]
-        self.chunks.append(_Chunk(p))
+        self.chunks.append(_Chunk(p, (plo, phi)))
         self.confidences.extend(float(x) for x in inst.confidences)
         self.views.extend(int(v) for v in inst.source_views)
         w = float(sum(inst.confidences)) if inst.confidences else 1.0
         self.label_votes[inst.label] = self.label_votes.get(inst.label, 0.0) + w
+        self._label = None
         self.gt_votes[int(inst.gt_id)] = self.gt_votes.get(int(inst.gt_id), 0) + 1
 
 
