@@ -516,3 +516,49 @@ def test_fused_voxel_union_equals_np_insert():
             for name, want in ref.items():
                 got = getattr(f, name)
                 assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=True), (trial, name)
+
+
+def test_backproject_detections_equals_the_whole_image_back_projection():
+    """Detections anywhere in a view (edges, empty masks, masks over invalid depth): the same instances, points and
+    view heights bit for bit, as back-projecting the whole image under each mask."""
+    from sdovon_mj.config import PerceiveConfig
+    from sdovon_mj.perceive.backproject import backproject_detections, make_instance, noisy_depth, voxel_downsample_heights
+    from sdovon_mj.records import Detection, Observation
+    from sdovon_mj.sim.camera import valid_depth
+
+    def reference(obs, dets, cfg, seed=0):
+        depth = noisy_depth(obs, cfg.depth_noise_sigma, seed)
+        K, T = np.asarray(obs.K, dtype=np.float64), np.asarray(obs.T_cam, dtype=np.float64)
+        valid = valid_depth(depth, cfg.depth_min, cfg.depth_max)
+        out = []
+        for det in dets:
+            pts = backproject(depth, K, T, mask=det.mask, depth_min=cfg.depth_min, depth_max=cfg.depth_max, valid=valid)
+            pts, vh = voxel_downsample_heights(pts, cfg.voxel_size, float(T[2, 3]))
+            if len(pts) < max(cfg.min_points, 1):
+                continue
+            out.append(make_instance(pts, det.label, [det.score], [obs.view_id], det.gt_id, view_height=vh))
+        return out
+
+    rng = np.random.default_rng(4756)
+    cfg = PerceiveConfig()
+    K = intrinsics(80, 60, 79.0)
+    made = 0
+    for trial in range(12):
+        depth = rng.uniform(0.05, 7.0, size=(60, 80)).astype(np.float32)
+        depth[rng.random(depth.shape) < 0.1] = 0.0
+        T = pose_cv(np.append(rng.uniform(-2, 2, 2), 0.88), float(rng.uniform(0, 360)), float(rng.uniform(-40, 10)))
+        obs = Observation(view_id=trial, rgb=np.zeros((60, 80, 3), np.uint8), depth=depth, K=K, T_cam=T)
+        dets = []
+        for n in range(int(rng.integers(1, 6))):
+            m = np.zeros((60, 80), bool)
+            if n % 4:
+                r, c = rng.integers(-5, 60, 2)
+                m[max(r, 0):r + int(rng.integers(1, 30)), max(c, 0):c + int(rng.integers(1, 40))] = True
+            dets.append(Detection(mask=m, label=f"thing{n}", score=0.9, view_id=trial))
+        got, want = backproject_detections(obs, dets, cfg, seed=trial), reference(obs, dets, cfg, seed=trial)
+        assert len(got) == len(want), trial
+        for a, b in zip(got, want):
+            assert a.label == b.label and np.array_equal(a.points, b.points) and np.array_equal(a.center, b.center)
+            assert np.array_equal(a.view_height, b.view_height, equal_nan=True)
+        made += len(got)
+    assert made > 10
