@@ -236,7 +236,9 @@ def record_cpu(dataset, args) -> None:
 
     import sdovon_mj
 
-    rec = {"code": str(Path(sdovon_mj.__file__).resolve().parents[1]), "agents": {}}
+    from sdovon_mj import native
+
+    rec = {"code": str(Path(sdovon_mj.__file__).resolve().parents[1]), "kernels": native.status(), "agents": {}}
     old = json.loads(Path(args.against).read_text()) if args.against else None
     print(f"\nCPU seconds in-process at {args.width}x{args.height} (this code: {rec['code']}):\n")
     print("| Agent | Episodes | Episodes/min (CPU) | First visit CPU (s) | Before: episodes/min (CPU) | "
@@ -289,6 +291,9 @@ def main() -> None:
     bundle = args.bundle or find_bundles(dataset)[0]
     print(f"dataset: {dataset}  MUJOCO_GL={os.environ.get('MUJOCO_GL')}  LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS')}  "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    from sdovon_mj import native
+
+    print(f"agent kernels: {native.status()}")
     if not args.no_env:
         env_steps(bundle, args.steps)
     if args.split is None or args.split:

@@ -480,3 +480,15 @@ class Looker(_Base):
     def end(self, view, ts) -> None:
         super().end(view, ts)
         self.info["frames"] = self.frames
+
+
+class KernelProbe(_Base):
+    """Not an attack: reports, from inside its sealed process, which form the compiled agent kernels load in there."""
+
+    name = "kernel-probe"
+
+    def end(self, view, ts) -> None:
+        super().end(view, ts)
+        from sdovon_mj import native
+
+        self.info["kernels"] = native.status()

@@ -16,7 +16,9 @@ never imported here: the evaluator builds them in their own process) learn nothi
 from __future__ import annotations
 
 import json
+import os
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -353,6 +355,18 @@ def test_an_agent_that_reads_no_colour_gets_none_and_the_same_depth(dataset):
         assert all(a[0] > 0 for a in fs) and all(c[0] == 0 for c in fb)  # colour in one, blank in the other
         assert [a[1] for a in fs] == [c[1] for c in fb]  # the same depth
     assert "no colour image" in blind[0]["knowledge"] and "no colour image" not in seeing[0]["knowledge"]
+
+
+@pytest.mark.skipif(shutil.which(os.environ.get("CC", "cc")) is None and shutil.which("gcc") is None,
+                    reason="no C compiler: the agent kernels run as Python everywhere")
+def test_a_sealed_agent_loads_the_compiled_kernels_the_evaluator_built(dataset):
+    """The sealed agent may not write the shared cache; the evaluator builds the kernels first and lets it read them,
+    so the built-in agents run at their compiled speed there too."""
+    from sdovon_mj import native
+
+    r = _run(dataset, spec("KernelProbe"), episodes=1)[0]
+    assert r["sealed"]
+    assert r["info"]["kernels"] == native.status() and r["info"]["kernels"].startswith("compiled ("), r["info"]
 
 
 def test_the_colour_declaration_crosses_the_protocol_as_a_boolean():

@@ -96,6 +96,10 @@ def run(args: argparse.Namespace) -> int:
             sm["videos"] = shot
         print(f"{label}: {sm['episodes']} episodes, {sm.get('episodes_per_minute', float('nan')):.1f} episodes/min "
               f"(per process, episodes only); {ran_as(sm)}" + (f"; videos: {', '.join(shot)}" if shot else ""))
+    from .. import native
+
+    # which form the built-in agents' inner loops ran in (the same actions either way; the speed differs)
+    print(f"agent kernels: {native.status()}")
     atomic_write_text(out / "tables.md", md)
     atomic_write_text(out / "summary.json", json.dumps(json_safe(summaries), indent=1, sort_keys=True) + "\n")
     print(md)
