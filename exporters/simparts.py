@@ -22,6 +22,7 @@ import numpy as np
 from sdovon_mj.errors import InputError
 from sdovon_mj.records import SceneVariant
 from sdovon_mj.sim import GROUP_CEILING, GROUP_OBJECT_COLLISION, GROUP_OBJECT_VISUAL, GROUP_SCENE, GROUP_SUPPORT
+from sdovon_mj.sim.articulation import part_joints
 from sdovon_mj.export import RunView
 
 import mujoco  # after sdovon_mj, whose package entry sets MUJOCO_GL
@@ -152,9 +153,20 @@ def _group_parts(model: mujoco.MjModel, geoms: np.ndarray, groups: tuple[int, ..
 
 
 def variant_parts(run: RunView, variant: SceneVariant) -> VariantParts:
-    """Compile a variant's MJCF with its settled qpos and return its scene, support and rigid bodies."""
+    """Compile a variant's MJCF with its settled qpos and return its scene, support and rigid bodies.
+
+    A variant with articulated scene pieces (issue 17: ``art_<id>`` bodies with hinge or slide joints) or an object
+    with child bodies is refused with an `InputError` naming the file: these formats hold neither.
+    """
     path = run.path(variant.mjcf)
     model, data = _variant_model(run, variant)
+    pieces = sorted({(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or "").split("/")[0]
+                     for j in part_joints(model)})
+    if pieces:  # their hinges and slides have no place in a static scene plus free rigid bodies: refused, not dropped
+        raise InputError(path, f"{len(pieces)} articulated scene piece(s) with hinge/slide joints ({', '.join(pieces[:8])}"
+                               f"{', ...' if len(pieces) > 8 else ''}): this format holds a static scene and single "
+                               f"rigid objects only; export the run as mjcf or habitat, which keep the joints and the "
+                               f"variant's joint state")
     scene: list[MeshPart] = []
     support: list[MeshPart] = []
     for grp, part in _group_parts(model, np.flatnonzero(model.geom_bodyid == 0), (GROUP_SCENE, GROUP_CEILING, GROUP_SUPPORT)):

@@ -73,6 +73,24 @@ def test_mjcf_bundle_keeps_joints_and_state(run: Path) -> None:
     assert any(abs(val - model.qpos0[model.jnt_qposadr[j]]) > 1e-3 for j, val in zip(part_joints(model), [state[n] for n in names]))
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("fmt", ["usd", "urdf"])
+def test_static_formats_refuse_articulated_pieces_by_name(run: Path, tmp_path: Path, fmt: str) -> None:
+    """USD and URDF hold a static scene and single rigid objects: a variant with articulated pieces is refused with an
+    error naming its MJCF, the pieces and the formats that keep them, and nothing is written (was: pieces dropped)."""
+    v = load_json(run / "run" / VARIANT, SceneVariant)
+    pieces = sorted({n.split("/")[0] for n in v.articulation})
+    out = tmp_path / fmt
+    proc = subprocess.run([sys.executable, "-m", "sdovon_mj.cli", "export", str(run / "run"), "--format", fmt, "--out",
+                           str(out)], cwd=REPO, capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")})
+    said = proc.stdout + proc.stderr
+    assert proc.returncode != 0, said[-2000:]
+    assert "articulated scene piece" in said and "mjcf or habitat" in said and pieces[0] in said, said[-2000:]
+    assert "apt_0000_v000" in said  # the variant's file is named
+    assert not list(out.rglob("*.usd*")) and not list(out.rglob("*.urdf")), sorted(out.rglob("*"))
+
+
 def _instances(run: Path) -> tuple[Path, dict]:
     sd = run / "habitat" / "data" / "scene_datasets" / "sdovon"
     inst = json.loads((sd / "scenes" / "apt_0000_v000.scene_instance.json").read_text(encoding="utf-8"))
