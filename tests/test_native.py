@@ -134,10 +134,13 @@ def _status_in(env_extra: dict, tmp_path) -> str:
 
 def test_a_failing_build_falls_back_to_python_and_says_why(tmp_path):
     """CC names a compiler that fails: the planner still plans (its Python form) and `status` names the failure."""
-    out = _status_in({"CC": "false"}, tmp_path)
+    bad = tmp_path / "badcc"
+    bad.write_text("#!/bin/sh\necho 'badcc: no compiling today' >&2\nexit 1\n", encoding="utf-8")
+    bad.chmod(0o755)
+    out = _status_in({"CC": str(bad)}, tmp_path)
     n, status = out.splitlines()
     assert int(n) > 0
-    assert status.startswith("python: ") and "failed" in status, status
+    assert status.startswith("python: ") and "badcc failed" in status and "no compiling today" in status, status
     assert not list((tmp_path / "cache").rglob("*.so"))  # nothing half-built left to load
 
 
