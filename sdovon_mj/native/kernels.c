@@ -1,7 +1,7 @@
-/* Compiled forms of two agent inner loops (sdovon_mj/native/__init__.py builds and loads this file).
+/* Compiled forms of three inner loops (sdovon_mj/native/__init__.py builds and loads this file).
  *
  * Each function computes exactly what its Python reference computes (nav/control.py `lattice_plan`,
- * nav/frontier.py `OccupancyMap.integrate`'s ray carving): the same IEEE double operations in the same order
+ * nav/frontier.py `OccupancyMap.integrate`'s ray carving, grid.py `segment_free`): the same IEEE double operations in the same order
  * (built with -ffp-contract=off, so no fused multiply-add, and -fno-builtin-pow, so `pow` is the C library's as in
  * Python's `x ** 2`), Python's round-half-even (`nearbyint`), and the same tie-breaking of the search queue. The
  * tests compare both forms on many inputs. Plain C99, no Python headers: loaded with ctypes.
