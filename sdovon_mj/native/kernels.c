@@ -78,7 +78,6 @@ typedef struct {
     int64_t ng;       /* -g: ties go to the deeper node */
     int64_t counter;  /* then to the earlier push */
     int64_t node;
-    int64_t g;        /* the g this entry was pushed with */
 } Entry;
 
 typedef struct {
@@ -196,22 +195,31 @@ typedef struct {
     double tx, ty, tol2;     /* the target (m) and the squared tolerance (m^2) */
 } Grid;
 
-static double heur(const Grid *gr, double x, double y) {
-    if (pow(gr->tx - x, 2.0) + pow(gr->ty - y, 2.0) <= gr->tol2)
-        return 0.0;
-    const int64_t col = ifloor((x - gr->ox) / gr->res), row = ifloor((y - gr->oy) / gr->res);
+/* Whether (x, y) is within the tolerance of the target (Python: ``(tx - x) ** 2 + (ty - y) ** 2 <= tol2``). */
+static int arrived(const Grid *gr, double x, double y) {
+    return pow(gr->tx - x, 2.0) + pow(gr->ty - y, 2.0) <= gr->tol2;
+}
+
+/* The window's flat index of the cell at world offsets (dx, dy) from the frame origin, floored per axis; -1 when the
+ * cell lies outside the window (Python: ``floor(dx / res)``, ``floor(dy / res)`` and the window's range test). */
+static int64_t window_cell(const Grid *gr, double dx, double dy) {
+    const int64_t col = ifloor(dx / gr->res), row = ifloor(dy / gr->res);
     if (!(gr->r0 <= row && row < gr->r0 + gr->nr && gr->c0 <= col && col < gr->c0 + gr->nc))
-        return INFINITY;
-    return gr->field[(row - gr->r0) * gr->nc + (col - gr->c0)];
+        return -1;
+    return (row - gr->r0) * gr->nc + (col - gr->c0);
+}
+
+static double heur(const Grid *gr, double x, double y) {
+    if (arrived(gr, x, y))
+        return 0.0;
+    const int64_t cell = window_cell(gr, x - gr->ox, y - gr->oy);
+    return cell < 0 ? INFINITY : gr->field[cell];
 }
 
 static int step_free(const Grid *gr, double x, double y, const double *samples, int64_t n_samples) {
     for (int64_t i = 0; i < n_samples; i++) {
-        const int64_t col = ifloor((x + samples[2 * i] - gr->ox) / gr->res);
-        const int64_t row = ifloor((y + samples[2 * i + 1] - gr->oy) / gr->res);
-        if (!(gr->r0 <= row && row < gr->r0 + gr->nr && gr->c0 <= col && col < gr->c0 + gr->nc))
-            return 0;
-        if (!gr->mask[(row - gr->r0) * gr->nc + (col - gr->c0)])
+        const int64_t cell = window_cell(gr, x + samples[2 * i] - gr->ox, y + samples[2 * i + 1] - gr->oy);
+        if (cell < 0 || !gr->mask[cell])
             return 0;
     }
     return 1;
@@ -235,18 +243,18 @@ int64_t sdv_lattice(const double *field, const uint8_t *mask, int64_t r0, int64_
     int64_t start = node_of(&s, (int64_t)nearbyint(x0 * 100.0), (int64_t)nearbyint(y0 * 100.0), 0);
     if (start < 0) { result = -2; goto done; }
     s.nodes[start].x = x0; s.nodes[start].y = y0; s.nodes[start].g = 0;
-    Entry e0 = {weight * h0, 0, 0, start, 0};
+    Entry e0 = {weight * h0, 0, 0, start};
     if (heap_push(&s, e0)) { result = -2; goto done; }
     int64_t counter = 0, expanded = 0;
     while (s.hn > 0 && expanded < max_nodes) {
         const Entry top = heap_pop(&s);
-        const int64_t g = top.g;
+        const int64_t g = -top.ng;
         if (s.nodes[top.node].g < g)
             continue;
         expanded++;
         const double x = s.nodes[top.node].x, y = s.nodes[top.node].y;
         const int64_t k = s.nodes[top.node].k;
-        if (pow(tx - x, 2.0) + pow(ty - y, 2.0) <= tol2) {
+        if (arrived(&gr, x, y)) {
             int64_t n = 0;
             for (int64_t i = top.node; s.nodes[i].parent >= 0; i = s.nodes[i].parent)
                 n++;
@@ -276,7 +284,7 @@ int64_t sdv_lattice(const double *field, const uint8_t *mask, int64_t r0, int64_
                 Node *p = &s.nodes[nd];
                 p->g = g + 1; p->parent = top.node; p->act = sa[i]; p->x = sx[i]; p->y = sy[i];
                 counter++;
-                Entry e = {(double)(g + 1) + weight * hs, -(g + 1), counter, nd, g + 1};
+                Entry e = {(double)(g + 1) + weight * hs, -(g + 1), counter, nd};
                 if (heap_push(&s, e)) { result = -2; goto done; }
             }
         }
