@@ -86,6 +86,18 @@ def segment_free(mask: np.ndarray, frame: GridFrame, a: np.ndarray, b: np.ndarra
     return bool(mask[row, col].all())
 
 
+def true_box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
+    """Return the half-open bounding box (row0, row1, col0, col1) of a 2-D array's nonzero cells; None when none is.
+
+    The window work on a mask can be cut to without changing any result that only its nonzero cells decide."""
+    m = np.asarray(mask)
+    rows = np.flatnonzero(m.any(axis=1))
+    if not len(rows):
+        return None
+    cols = np.flatnonzero(m.any(axis=0))
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
 def erode(mask: np.ndarray, radius: float, resolution: float) -> np.ndarray:
     """Return the cells whose disc of `radius` (m) lies inside `mask` (off-grid counts as blocked)."""
     blocked = ~np.asarray(mask, dtype=bool)

@@ -353,19 +353,33 @@ def test_category_detections_equal_the_whole_image_labelling():
     assert found > 20
 
 
-# `nav.goal.goal_points` before this change (verbatim but the name): the whole image back-projected under the mask.
+# `sim.camera.backproject` before it cut masked images to the mask's bounding box (verbatim but the name).
+def _reference_backproject(depth, K, T_cam, mask=None, depth_min=0.0, depth_max=np.inf, valid=None):
+    from sdovon_mj.sim.camera import valid_depth
+
+    valid = valid_depth(depth, depth_min, depth_max) if valid is None else valid
+    valid = valid & mask if mask is not None else valid
+    v, u = np.nonzero(valid)
+    z = depth[v, u].astype(np.float64)
+    x = (u + 0.5 - K[0, 2]) * z / K[0, 0]
+    y = (v + 0.5 - K[1, 2]) * z / K[1, 1]
+    pc = np.stack([x, y, z], axis=1)
+    return pc @ T_cam[:3, :3].T + T_cam[:3, 3]
+
+
+# `nav.goal.goal_points` (verbatim but the name) over the whole-image back-projection.
 def _reference_goal_points(depth, mask, K, T_cam, depth_min, depth_max):
     d = np.asarray(depth, dtype=np.float64)
     if d.ndim == 3:
         d = d[..., 0]
     m = np.asarray(mask, dtype=bool)
-    pts = backproject(d, K, T_cam, mask=m, depth_min=depth_min + 1e-3, depth_max=depth_max - 1e-3)
+    pts = _reference_backproject(d, K, T_cam, mask=m, depth_min=depth_min + 1e-3, depth_max=depth_max - 1e-3)
     if len(pts) or not m.any():
         return pts
     near = m & (d <= depth_min + 1e-3)
     if not near.any():
         return np.zeros((0, 3))
-    return backproject(np.full_like(d, depth_min), K, T_cam, mask=near, depth_min=0.0)
+    return _reference_backproject(np.full_like(d, depth_min), K, T_cam, mask=near, depth_min=0.0)
 
 
 def test_goal_points_equal_the_whole_image_back_projection():
@@ -532,7 +546,8 @@ def test_backproject_detections_equals_the_whole_image_back_projection():
         valid = valid_depth(depth, cfg.depth_min, cfg.depth_max)
         out = []
         for det in dets:
-            pts = backproject(depth, K, T, mask=det.mask, depth_min=cfg.depth_min, depth_max=cfg.depth_max, valid=valid)
+            pts = _reference_backproject(depth, K, T, mask=det.mask, depth_min=cfg.depth_min, depth_max=cfg.depth_max,
+                                         valid=valid)
             pts, vh = voxel_downsample_heights(pts, cfg.voxel_size, float(T[2, 3]))
             if len(pts) < max(cfg.min_points, 1):
                 continue

@@ -16,7 +16,7 @@ from .. import native
 from ..actions import MOVE_FORWARD, TURN_LEFT, TURN_RIGHT
 from ..gridgraph import distance_field
 from .astar import plan
-from ..grid import GridFrame, segment_free
+from ..grid import GridFrame, segment_free, true_box
 
 
 def _pose(ts) -> tuple[np.ndarray, float]:
@@ -191,9 +191,7 @@ def lattice_plan(pos: np.ndarray, yaw: float, target: np.ndarray, tolerance: flo
     # is inf (`distance_field`) and `free` is False, exactly what a cell outside the box gives, so the plan is the
     # same while a 40 m map's 800 x 800 cells are no longer listed on every call.
     mb = np.asarray(mask, dtype=bool)
-    rows, cols = np.flatnonzero(mb.any(axis=1)), np.flatnonzero(mb.any(axis=0))
-    r0, r1 = (int(rows[0]), int(rows[-1]) + 1) if len(rows) else (0, 0)
-    c0, c1 = (int(cols[0]), int(cols[-1]) + 1) if len(cols) else (0, 0)
+    r0, r1, c0, c1 = true_box(mb) or (0, 0, 0, 0)
     fw = np.ascontiguousarray(field[r0:r1, c0:c1] / step)
     mw = np.ascontiguousarray(mb[r0:r1, c0:c1])
     tol2 = tolerance * tolerance

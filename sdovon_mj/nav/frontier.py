@@ -23,7 +23,7 @@ from ..actions import TURN_LEFT
 from ..config import AgentConfig
 from ..records import Observation
 from ..sim.camera import backproject, pose_cv
-from ..grid import GridFrame, dilate, nearest_true
+from ..grid import GridFrame, dilate, nearest_true, true_box
 from ..gridgraph import cell_graph
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
@@ -152,11 +152,11 @@ class OccupancyMap:
         # free are never traversable); the distance transform no longer runs over the whole 40 m map per call.
         free = self.state == FREE
         trav = np.zeros(self.frame.shape, dtype=bool)
-        rows, cols = np.flatnonzero(free.any(axis=1)), np.flatnonzero(free.any(axis=0))
-        if len(rows):
+        box = true_box(free)
+        if box is not None:
             m = int(math.ceil(self.agent.radius / self.frame.resolution)) + 2
-            r0, r1 = max(0, int(rows[0]) - m), int(rows[-1]) + m + 1
-            c0, c1 = max(0, int(cols[0]) - m), int(cols[-1]) + m + 1
+            r0, r1 = max(0, box[0] - m), box[1] + m
+            c0, c1 = max(0, box[2] - m), box[3] + m
             occ = self.state[r0:r1, c0:c1] == OCCUPIED
             trav[r0:r1, c0:c1] = free[r0:r1, c0:c1] & ~dilate(occ, self.agent.radius, self.frame.resolution)
         return trav if self.blocked is None else trav & ~self.blocked
@@ -164,14 +164,14 @@ class OccupancyMap:
     def frontiers(self, min_cells: int = 4) -> list[np.ndarray]:
         """Return clusters (each (N, 2) cells) of traversable cells next to unknown cells."""
         trav = self.traversable()
-        rows, cols = np.flatnonzero(trav.any(axis=1)), np.flatnonzero(trav.any(axis=0))
-        if len(rows) == 0:
+        box = true_box(trav)
+        if box is None:
             return []
         # Computed in the traversable cells' bounding box (frontier cells are traversable), the unknown cells one
         # cell around it (all a 3x3 dilation reads; the map's edge counts as known, as before): a component's cells
         # and the raster order that numbers the components are the whole map's, so are the clusters and their order.
         h, w = self.state.shape
-        r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+        r0, r1, c0, c1 = box
         R0, R1, C0, C1 = max(0, r0 - 1), min(h, r1 + 1), max(0, c0 - 1), min(w, c1 + 1)
         near_unknown = ndimage.binary_dilation(self.state[R0:R1, C0:C1] == UNKNOWN, structure=np.ones((3, 3), bool))
         fr = trav[r0:r1, c0:c1] & near_unknown[r0 - R0:r1 - R0, c0 - C0:c1 - C0]

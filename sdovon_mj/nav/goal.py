@@ -44,23 +44,17 @@ def goal_points(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, T_cam: np.nd
     depth_min, depth_max : float
         The sensor's range, metres.
     """
+    d = np.asarray(depth, dtype=np.float64)
+    if d.ndim == 3:
+        d = d[..., 0]
     m = np.asarray(mask, dtype=bool)
-    rows, cols = np.flatnonzero(m.any(axis=1)), np.flatnonzero(m.any(axis=0))
-    if not len(rows):
-        return np.zeros((0, 3))
-    # the mask's bounding box: pixels outside it are masked out, so the window gives the full image's points
-    win = (slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1))
-    at = (int(rows[0]), int(cols[0]))
-    d = np.asarray(depth)
-    d = np.asarray(d[..., 0] if d.ndim == 3 else d)[win].astype(np.float64)
-    m = m[win]
-    pts = backproject(d, K, T_cam, mask=m, depth_min=depth_min + 1e-3, depth_max=depth_max - 1e-3, origin=at)
-    if len(pts):
+    pts = backproject(d, K, T_cam, mask=m, depth_min=depth_min + 1e-3, depth_max=depth_max - 1e-3)
+    if len(pts) or not m.any():
         return pts
     near = m & (d <= depth_min + 1e-3)
     if not near.any():
         return np.zeros((0, 3))
-    return backproject(np.full_like(d, depth_min), K, T_cam, mask=near, depth_min=0.0, origin=at)
+    return backproject(np.full_like(d, depth_min), K, T_cam, mask=near, depth_min=0.0)
 
 
 def mask_bearing(mask: np.ndarray, K: np.ndarray, T_cam: np.ndarray) -> np.ndarray:

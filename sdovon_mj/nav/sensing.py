@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from ..grid import true_box
 from ..records import Detection, Observation
 
 _EIGHT = np.ones((3, 3), bool)
@@ -43,8 +44,8 @@ class CategoryDetector:
             # labelled in the category's bounding box: no pixel of it lies outside, and the box keeps the image's
             # raster order, so the regions and their numbers are the whole image's
             mask = cat == c
-            rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-            win = (slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1))
+            r0, r1, c0, c1 = true_box(mask)  # never None: category c has n >= 1 pixels
+            win = (slice(r0, r1), slice(c0, c1))
             regions, k = ndimage.label(mask[win], structure=_EIGHT)
             sizes = np.bincount(regions.ravel(), minlength=k + 1)
             for r in range(1, k + 1):

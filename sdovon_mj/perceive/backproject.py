@@ -144,14 +144,7 @@ def backproject_detections(obs: Observation, detections: list[Detection], cfg: P
         mask = np.asarray(det.mask, dtype=bool)
         if mask.shape != depth.shape:
             raise ValueError(f"detection mask {mask.shape} does not match depth {depth.shape} in view {obs.view_id}")
-        # the mask's bounding box: every pixel outside it is masked out, so the window gives the same points
-        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-        if len(rows):
-            win = (slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1))
-            pts = backproject(depth[win], K, T, mask=mask[win], depth_min=cfg.depth_min, depth_max=cfg.depth_max,
-                              valid=valid[win], origin=(int(rows[0]), int(cols[0])))
-        else:
-            pts = np.zeros((0, 3))
+        pts = backproject(depth, K, T, mask=mask, depth_min=cfg.depth_min, depth_max=cfg.depth_max, valid=valid)
         # per voxel, how high the camera was above it: an up-facing surface is only seen from above
         pts, vh = voxel_downsample_heights(pts, cfg.voxel_size, float(T[2, 3]))
         if len(pts) < max(cfg.min_points, 1):

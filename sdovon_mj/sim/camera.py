@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from ..grid import true_box
+
 # OpenCV camera axes (x right, y down, z forward) expressed in MuJoCo camera axes (x right, y up,
 # z backward): flip y and z.
 CV_FROM_MJ = np.diag([1.0, -1.0, -1.0])
@@ -53,8 +55,7 @@ def valid_depth(depth: np.ndarray, depth_min: float = 0.0, depth_max: float = np
 
 
 def backproject(depth: np.ndarray, K: np.ndarray, T_cam: np.ndarray, mask: np.ndarray | None = None,
-                depth_min: float = 0.0, depth_max: float = np.inf, valid: np.ndarray | None = None,
-                origin: tuple[int, int] = (0, 0)) -> np.ndarray:
+                depth_min: float = 0.0, depth_max: float = np.inf, valid: np.ndarray | None = None) -> np.ndarray:
     """Return world points (N, 3) of the valid depth pixels (optionally inside `mask`).
 
     Parameters
@@ -71,16 +72,19 @@ def backproject(depth: np.ndarray, K: np.ndarray, T_cam: np.ndarray, mask: np.nd
         Valid depth range (exclusive), metres.
     valid : (H, W) bool, optional
         `valid_depth(depth, depth_min, depth_max)` already computed (several masks of one image).
-    origin : (int, int)
-        Row and column of the image's first pixel in the camera's full image: `depth` (and the masks) may be a
-        window of it (the same points as the full image with everything outside the window masked out).
     """
+    r0 = c0 = 0
+    if mask is not None:  # only the mask's bounding box: every pixel outside it is masked out, the points are the same
+        r0, r1, c0, c1 = true_box(mask) or (0, 0, 0, 0)
+        win = (slice(r0, r1), slice(c0, c1))
+        depth, mask = depth[win], np.asarray(mask)[win]
+        valid = None if valid is None else valid[win]
     valid = valid_depth(depth, depth_min, depth_max) if valid is None else valid
     valid = valid & mask if mask is not None else valid
     v, u = np.nonzero(valid)
     z = depth[v, u].astype(np.float64)
-    if origin != (0, 0):
-        v, u = v + int(origin[0]), u + int(origin[1])
+    if r0 or c0:
+        v, u = v + r0, u + c0
     x = (u + 0.5 - K[0, 2]) * z / K[0, 0]
     y = (v + 0.5 - K[1, 2]) * z / K[1, 1]
     pc = np.stack([x, y, z], axis=1)
