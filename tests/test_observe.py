@@ -331,6 +331,38 @@ def test_lit_pass_draws_what_shows_through_glass(monkeypatch):
     assert not np.array_equal(a.rgb, no_red.rgb)  # and it shows through the pane in the lit image
 
 
+@pytest.mark.parametrize("how", ["close", "collect"])
+def test_closing_one_renderer_leaves_another_intact(how):
+    """Closing (or dropping) a renderer while another one's GL context is current frees its own GL objects, not the
+    other's: the other renderer's next frames are the same as before (mujoco.Renderer.close frees by GL name in the
+    current context; without making its own current first the other's framebuffer went and its frames changed)."""
+    import gc
+
+    import mujoco
+
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    model = mujoco.MjModel.from_xml_string(GLASS)
+    T = pose_cv(np.array([0.0, 0.0, 1.0]), 0.0, 0.0)
+    keep = SceneRenderer(model, width=96, height=72, hfov=60.0, groups=(0,))
+    try:
+        before = keep.render(T, rgb=True, depth=True, segmentation=True)
+        other = SceneRenderer(model, width=96, height=72, hfov=60.0, groups=(0,))
+        other.render(T, rgb=True, depth=True, segmentation=True)
+        keep.render(T, rgb=True, depth=True, segmentation=True)  # the kept renderer's context is current
+        if how == "close":
+            other.close()
+        else:
+            del other
+            gc.collect()
+        after = keep.render(T, rgb=True, depth=True, segmentation=True)
+    finally:
+        keep.close()
+    assert np.array_equal(before.rgb, after.rgb) and np.array_equal(before.depth, after.depth)
+    assert np.array_equal(before.segmentation, after.segmentation)
+
+
 # ---------------------------------------------------------------------------------------------- stage + CLI
 
 def test_observe_scene_writes_everything_deterministically(two_storey, tmp_path):

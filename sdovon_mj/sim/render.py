@@ -314,11 +314,26 @@ class SceneRenderer:
         return Frame(out_rgb, out_depth, out_seg)
 
     def close(self) -> None:
-        """Free the GL context (idempotent)."""
-        if getattr(self, "_renderer", None) is not None:
-            self._renderer.close()
+        """Free the GL context (idempotent; also when the renderer is garbage-collected).
+
+        The context is made current first: mujoco.Renderer.close frees its textures, buffers and framebuffer by
+        their GL names in whichever context is current, and another live renderer's objects carry the same names
+        (each context counts from 1), so closing one renderer while another was current used to delete the other's
+        framebuffer and meshes: its next frames came out wrong, without an error (tests/test_render.py).
+        """
+        r = getattr(self, "_renderer", None)
+        if r is not None:
+            if getattr(r, "_gl_context", None) is not None:
+                r._gl_context.make_current()
+            r.close()
             self._renderer = None  # type: ignore[assignment]
         _LIVE.discard(self)
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # interpreter teardown: EGL may already be gone
+            pass
 
     def __enter__(self) -> "SceneRenderer":
         return self
