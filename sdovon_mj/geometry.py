@@ -1,4 +1,4 @@
-"""Small shared geometry: convex polygons in world XY, point-in-polygon tests and quaternions.
+"""Small shared geometry: convex polygons in world XY, point-in-polygon tests, axis-aligned boxes and quaternions.
 
 One home for the geometry every stage uses (like `records`, it depends on numpy only; scipy, shapely,
 matplotlib and mujoco are imported lazily by the functions that need them):
@@ -151,6 +151,35 @@ def points_in_convex_polygon(polygon: np.ndarray, points: np.ndarray, tol: float
 
 # ----------------------------------------------------------------------------------------------
 # Quaternions (wxyz)
+
+
+def axis_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the per-axis min and max of (N, 3) points: the values of ``points.min(axis=0)`` and ``.max(axis=0)``,
+    read along contiguous rows of the transpose (numpy reduces a 3-wide axis 0 an element at a time, some ten times
+    slower). Min and max are exact, so the values are the same; only a zero's sign may differ where -0.0 and 0.0
+    both occur: for box tests (comparisons, where the two are equal), not for bounds that are written out."""
+    t = np.ascontiguousarray(np.asarray(points).reshape(-1, 3).T)
+    return t.min(axis=1), t.max(axis=1)
+
+
+def boxes_apart(lo: np.ndarray, hi: np.ndarray, box_lo: np.ndarray, box_hi: np.ndarray) -> np.ndarray:
+    """Return, per box (rows of `lo` and `hi`, (F, 3) each), whether it lies wholly past the box (`box_lo`, `box_hi`)
+    on some axis: ``np.any(lo > box_hi, axis=1) | np.any(hi < box_lo, axis=1)``, axis by axis (a 3-wide reduction
+    is numpy's slow path)."""
+    out = lo[:, 0] > box_hi[0]
+    for d in range(3):
+        if d:
+            out |= lo[:, d] > box_hi[d]
+        out |= hi[:, d] < box_lo[d]
+    return out
+
+
+def in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Return, per (N, 3) point, whether ``lo <= p <= hi`` on every axis (``np.all(..., axis=1)``, axis by axis)."""
+    out = (points[:, 0] >= lo[0]) & (points[:, 0] <= hi[0])
+    for d in (1, 2):
+        out &= (points[:, d] >= lo[d]) & (points[:, d] <= hi[d])
+    return out
 
 
 def axis_quat(axis: int, angle: float) -> np.ndarray:

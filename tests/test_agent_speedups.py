@@ -14,11 +14,12 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy import ndimage
 
 from sdovon_mj.actions import MOVE_FORWARD, TURN_LEFT, TURN_RIGHT
 from sdovon_mj.config import AgentConfig, NavConfig
-from sdovon_mj.geometry import points_in_polygon
+from sdovon_mj.geometry import axis_bounds, boxes_apart, in_box, points_in_polygon
 from sdovon_mj.grid import GridFrame
 from sdovon_mj.nav.control import goal_field, lattice_plan
 from sdovon_mj.nav.frontier import FREE, OCCUPIED, OccupancyMap
@@ -497,11 +498,18 @@ def test_learned_scores_with_the_kernel_cache_equal_fresh_ones():
     assert np.array_equal(head._kernel(cols, embed_labels(cols)), want)
 
 
-def test_fused_voxel_union_equals_np_insert():
+@pytest.mark.parametrize("form", ["compiled", "python"])
+def test_fused_voxel_union_equals_np_insert(form, monkeypatch):
     """Voxel maps grown by random sorted key sets (fresh keys before, between and after the old ones, repeats of old
-    ones, heights known and not): keys, sums, counts and heights as np.insert built them, bit for bit."""
+    ones, signed zeros in the sums, heights known and not): keys, sums, counts and heights as np.insert built them,
+    byte for byte, in the compiled merge (`native.sdv_union`) and the Python form."""
+    from sdovon_mj import native
     from sdovon_mj.perceive.fusion import _Fused
 
+    if form == "python":
+        monkeypatch.setattr(native, "library", lambda: None)
+    elif native.library() is None:
+        pytest.skip(f"no compiled kernels here: {native.status()}")
     rng = np.random.default_rng(4755)
     for trial in range(20):
         f, ref = _Fused(voxel=0.05), {"keys": np.zeros(0, np.int64), "sums": np.zeros((0, 3)), "counts": np.zeros(0),
@@ -509,6 +517,8 @@ def test_fused_voxel_union_equals_np_insert():
         for _ in range(6):
             k = np.unique(rng.integers(-50, 50, size=int(rng.integers(0, 30))))
             s, c = rng.normal(size=(len(k), 3)), rng.integers(1, 5, size=len(k)).astype(float)
+            s[rng.random(s.shape) < 0.1] = 0.0
+            s[rng.random(s.shape) < 0.1] = -0.0
             h = None if rng.random() < 0.3 else rng.uniform(0, 2, size=len(k))
             f._union(k, s, c, h)
             old = ref["keys"]  # the code before: np.insert of each array, then the sums added
@@ -529,7 +539,7 @@ def test_fused_voxel_union_equals_np_insert():
                 ref["heights"][new_at] = np.fmax(ref["heights"][new_at], h)
             for name, want in ref.items():
                 got = getattr(f, name)
-                assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=True), (trial, name)
+                assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), (trial, name)
 
 
 def test_backproject_detections_equals_the_whole_image_back_projection():
@@ -577,3 +587,111 @@ def test_backproject_detections_equals_the_whole_image_back_projection():
             assert np.array_equal(a.view_height, b.view_height, equal_nan=True)
         made += len(got)
     assert made > 10
+
+
+def test_axis_by_axis_box_helpers_equal_numpys_reductions():
+    """geometry.axis_bounds, boxes_apart and in_box give numpy's 3-wide reductions' values, points on box faces and
+    coincident boxes included."""
+    rng = np.random.default_rng(4750)
+    for n in (1, 2, 7, 500):
+        p = np.round(rng.normal(size=(n, 3)) * 10.0, 1)
+        lo, hi = axis_bounds(p)
+        assert np.array_equal(lo, p.min(axis=0)) and np.array_equal(hi, p.max(axis=0))
+        boxes_lo = np.round(rng.normal(size=(40, 3)) * 10.0, 1)
+        boxes_hi = boxes_lo + np.round(rng.uniform(0.0, 5.0, (40, 3)), 1)
+        boxes_lo[0], boxes_hi[0] = lo, hi
+        expect = np.any(boxes_lo > hi, axis=1) | np.any(boxes_hi < lo, axis=1)
+        assert np.array_equal(boxes_apart(boxes_lo, boxes_hi, lo, hi), expect)
+        for b_lo, b_hi in zip(boxes_lo[:5], boxes_hi[:5]):
+            assert np.array_equal(in_box(p, b_lo, b_hi), np.all((p >= b_lo) & (p <= b_hi), axis=1))
+
+
+def test_voxel_stats_equals_the_unique_and_bincount_reference():
+    """perceive.backproject.voxel_stats by one stable sort: the keys, sums, counts and view-height maxima of the
+    np.unique + bincount form it replaced (kept here verbatim), byte for byte, NaN heights and empty input included."""
+    from sdovon_mj.perceive.backproject import voxel_keys, voxel_stats
+
+    def reference(points, voxel, values=None):
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        keys = voxel_keys(p, voxel)
+        uniq, inv, counts = np.unique(keys, return_inverse=True, return_counts=True)
+        inv = inv.reshape(-1)
+        sums = np.zeros((len(uniq), 3))
+        for d in range(3):
+            sums[:, d] = np.bincount(inv, weights=p[:, d], minlength=len(uniq))
+        vmax = None
+        if values is not None:
+            v = np.asarray(values, dtype=np.float64).reshape(-1)
+            vmax = np.full(len(uniq), np.nan)
+            if len(v):
+                order = np.argsort(inv, kind="stable")
+                starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+                vmax = np.fmax.reduceat(v[order], starts)
+        return uniq, sums, counts.astype(np.float64), vmax
+
+    rng = np.random.default_rng(4751)
+    for n in (0, 1, 2, 5, 300, 4000):
+        p = (rng.uniform(-0.3, 0.3, (n, 3)) + rng.uniform(-20, 20, 3)).astype(rng.choice([np.float32, np.float64]))
+        heights = rng.uniform(0.0, 2.0, n)
+        heights[rng.random(n) < 0.3] = np.nan
+        for values in (None, heights):
+            for got, want in zip(voxel_stats(p, 0.02, values), reference(p, 0.02, values)):
+                assert (got is None) == (want is None)
+                if got is not None:
+                    assert got.dtype == want.dtype and got.shape == want.shape and got.tobytes() == want.tobytes()
+
+
+def test_walking_windows_equal_the_one_dijkstra_per_window_reference():
+    """semantics.regions' walking windows, Dijkstra run WALK_BATCH centres per call and labels read from (cell,
+    instance) pairs: the cells, weights and label sets of one Dijkstra call and one np.isin per window (the form it
+    replaced, kept here verbatim), on a walled floor with a doorway, more centres than one batch, some on walls."""
+    from scipy.sparse.csgraph import dijkstra
+
+    from sdovon_mj.gridgraph import graph_of
+    from sdovon_mj.records import Instance, NavMap
+    from sdovon_mj.semantics import regions
+
+    def reference(navmap, space, centres, r, pflat, idx, labels):
+        h, w = space.shape
+        res = float(navmap.resolution)
+        g, index = graph_of(space)
+        nodes_rc = np.argwhere(space)
+        out = []
+        for ci, cj in navmap.frame.to_cell(centres):
+            if not (0 <= ci < h and 0 <= cj < w) or not space[ci, cj]:
+                continue
+            dist = dijkstra(g, directed=True, indices=int(index[ci, cj]), limit=r / res + 1e-9) * res
+            near = np.flatnonzero(np.isfinite(dist) & (dist <= r))
+            rr, cc = nodes_rc[near, 0], nodes_rc[near, 1]
+            hit = np.isin(pflat, rr * w + cc)
+            labs = tuple(sorted(set(labels[idx[hit]]) - {""}))
+            out.append((rr, cc, 1.0 - (dist[near] / r) ** 2, labs))
+        return out
+
+    rng = np.random.default_rng(4752)
+    res = 0.05
+    free = np.ones((70, 150), dtype=bool)
+    free[:2], free[-2:], free[:, :2], free[:, -2:] = False, False, False, False
+    free[:, 74:77] = False
+    free[25:45, 74:77] = True  # the doorway
+    insts = []
+    for k, label in enumerate(["bed", "sofa", "toilet", "sink", "table", "chair", "lamp"]):
+        lo = rng.uniform([0.2, 0.2], [6.5, 2.8])
+        pts = np.column_stack([rng.uniform(lo, lo + rng.uniform(0.3, 1.0, 2), (300, 2)), rng.uniform(0, 1, 300)])
+        insts.append(Instance(id=k, label=label, points=(pts - pts.mean(axis=0)).astype(np.float32),
+                              center=pts.mean(axis=0)))
+    navmap = NavMap(floor=0, height=0.0, origin=np.zeros(2), resolution=res, navigable=free, free=free)
+    pts, idx = regions._points_xy(insts)
+    pc = navmap.frame.to_cell(pts)
+    pflat = pc[:, 0] * free.shape[1] + pc[:, 1]
+    labels = np.array([i.label for i in insts] + [""], dtype=object)
+    space = free.copy()
+    space[pc[:, 0], pc[:, 1]] = True
+    centres = regions.window_centres(navmap, 0.3)
+    assert len(centres) > 2 * regions.WALK_BATCH
+    got = regions._walking_windows(navmap, space, centres, 1.2, pflat, idx, labels)
+    want = reference(navmap, space, centres, 1.2, pflat, idx, labels)
+    assert len(got) == len(want) and len(got) < len(centres)  # centres on the wall have no window
+    for (a_r, a_c, a_w, a_l), (b_r, b_c, b_w, b_l) in zip(got, want):
+        assert np.array_equal(a_r, b_r) and np.array_equal(a_c, b_c) and a_w.tobytes() == b_w.tobytes() and a_l == b_l
+    assert any(w[3] for w in got)

@@ -1,5 +1,5 @@
 """The compiled agent kernels (sdovon_mj/native) compute exactly what their Python forms compute: the lattice planner's
-action lists and the occupancy map's ray carving, compared on random inputs with the kernels on and off; where the
+action lists, the occupancy map's ray carving and fusion's overlap counts, compared on random inputs with the kernels on and off; where the
 library cannot be built (a failing compiler) or is turned off, the Python forms run and say so.
 """
 
@@ -18,6 +18,7 @@ from sdovon_mj.config import AgentConfig, NavConfig
 from sdovon_mj.grid import GridFrame
 from sdovon_mj.nav.control import lattice_plan
 from sdovon_mj.nav.frontier import FREE, OCCUPIED, OccupancyMap
+from sdovon_mj.perceive.fusion import _Chunk, _Fused
 from sdovon_mj.sim.camera import intrinsics, pose_cv
 
 needs_cc = pytest.mark.skipif(shutil.which(os.environ.get("CC", "cc")) is None and shutil.which("gcc") is None,
@@ -130,6 +131,39 @@ def _status_in(env_extra: dict, tmp_path) -> str:
     run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     return run.stdout
+
+
+@needs_cc
+def test_fusion_overlap_compiled_equals_kd_tree(python_only, monkeypatch):
+    """Fused instances of 1-8 chunks (raw and voxel-rounded points, centimetres to tens of metres across, far from
+    the origin), query points anywhere near them and placed at the radius from a chunk point (exactly on an axis,
+    and a few ulps either side along random directions): the compiled cell search gives scipy's KD-tree answer
+    every time, and the points on the radius go through its fallback to the KD-tree."""
+    assert native.library() is not None
+    rng = np.random.default_rng(4748)
+    asked, fallbacks = [], 0
+    tree = _Chunk.tree
+    monkeypatch.setattr(_Chunk, "tree", property(lambda c: asked.append(1) or tree.fget(c)))
+    for _ in range(150):
+        f = _Fused(voxel=0.02)
+        scale, off = rng.choice([0.05, 0.4, 3.0, 30.0]), rng.uniform(-60.0, 60.0, 3)
+        for _ in range(rng.integers(1, 9)):
+            pts = off + rng.uniform(0.0, scale, (rng.integers(1, 1500), 3))
+            f.chunks.append(_Chunk(np.round(pts / 0.01) * 0.01 if rng.random() < 0.4 else pts))
+        r = float(rng.choice([0.01, 0.025, 0.1]))
+        every = np.concatenate([c.data for c in f.chunks])
+        near = every[rng.integers(0, len(every), 60)]
+        unit = rng.normal(size=(30, 3))
+        unit /= np.linalg.norm(unit, axis=1)[:, None]
+        q = np.concatenate([off + rng.uniform(-0.2, scale + 0.2, (rng.integers(1, 700), 3)),
+                            near[:30] + np.array([r, 0.0, 0.0]),
+                            near[30:] + unit * (r * rng.choice([1.0, 1 - 1e-15, 1 + 1e-15, 1 - 1e-11], 30))[:, None]])
+        q = rng.permutation(q).astype(rng.choice([np.float32, np.float64]))
+        before = len(asked)
+        got = f.overlap(q, r)
+        fallbacks += len(asked) - before
+        assert got == python_only(f.overlap, q, r)
+    assert fallbacks  # points on the radius were asked of the KD-tree by the compiled path
 
 
 def test_a_failing_build_falls_back_to_python_and_says_why(tmp_path):

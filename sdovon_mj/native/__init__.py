@@ -1,7 +1,8 @@
 """Compiled inner loops of the agents (`kernels.c`), built on first use with the system C compiler and loaded by ctypes.
 
 Each kernel has a pure-Python reference beside its caller (the lattice planner in `nav/control.py`, the ray carving
-in `nav/frontier.py`, the free-segment test in `grid.py`) and computes exactly what it computes: same results, bit for bit (tests/test_native.py compares
+in `nav/frontier.py`, the free-segment test in `grid.py`, fusion's overlap test and voxel union in
+`perceive/fusion.py`) and computes exactly what it computes: same results, bit for bit (tests/test_native.py compares
 both). Where no compiler is found or the build fails, the callers run their Python form: slower, never different.
 `status()` says which one runs and why.
 
@@ -111,4 +112,8 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.sdv_lattice.restype = i64
     lib.sdv_lattice.argtypes = [p, p, i64, i64, i64, i64, d, d, d, d, d, d, d, d, i64, p, p, i64, d, i64, i32, i32,
                                 i32, p]
+    lib.sdv_near_any.restype = None
+    lib.sdv_near_any.argtypes = [p, i64, p, p, p, p, i64, d, d, d, d, i64, i64, i64, d, d]
+    lib.sdv_union.restype = i64
+    lib.sdv_union.argtypes = [p, p, p, p, i64, p, p, p, i64, p, p, p, p, p]
     return lib

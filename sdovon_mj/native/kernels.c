@@ -295,3 +295,91 @@ done:
     free(s.heap);
     return result;
 }
+
+/* ---- fusion's overlap test ------------------------------------------------------------------------------ */
+
+/* perceive/fusion.py `_Fused.overlap` asks, per query point, whether a point of a chunk lies within the overlap
+ * radius r; scipy's cKDTree answers "some point at squared distance d < r*r" (its leaf test). The chunk's points
+ * come sorted by the key (ix * ny + iy) * nz + iz of their cell floor((p - o) / h), with h > r, so every point within
+ * r of q sits in one of the 27 cells around q's. For each query point i with todo[i] set this writes state[i]:
+ * 1 when some point lies at squared distance below `lo` (todo[i] is then cleared), else 2 when one lies below `hi`,
+ * else 0. The caller sets lo and hi a relative 1e-9 either side of r*r, far wider than the few roundings by which
+ * cKDTree's own sums can differ from these: 1 and 0 are cKDTree's answers for sure, 2 it asks cKDTree. */
+void sdv_near_any(const double *q, int64_t nq, uint8_t *todo, int8_t *state, const double *pts, const int64_t *keys,
+                  int64_t n, double ox, double oy, double oz, double h, int64_t nx, int64_t ny, int64_t nz, double lo,
+                  double hi) {
+    for (int64_t i = 0; i < nq; i++) {
+        if (!todo[i])
+            continue;
+        const double qx = q[3 * i], qy = q[3 * i + 1], qz = q[3 * i + 2];
+        const int64_t cx = ifloor((qx - ox) / h), cy = ifloor((qy - oy) / h), cz = ifloor((qz - oz) / h);
+        int8_t st = 0;
+        if (cx >= -1 && cx <= nx && cy >= -1 && cy <= ny && cz >= -1 && cz <= nz) {
+            const int64_t z0 = cz > 0 ? cz - 1 : 0, z1 = cz + 1 < nz ? cz + 1 : nz - 1;
+            for (int64_t ix = (cx > 0 ? cx - 1 : 0); ix <= cx + 1 && ix < nx && st != 1; ix++) {
+                for (int64_t iy = (cy > 0 ? cy - 1 : 0); iy <= cy + 1 && iy < ny && st != 1; iy++) {
+                    const int64_t first = (ix * ny + iy) * nz + z0, last = (ix * ny + iy) * nz + z1;
+                    int64_t a = 0, b = n; /* the first key >= first */
+                    while (a < b) {
+                        const int64_t m = a + (b - a) / 2;
+                        if (keys[m] < first)
+                            a = m + 1;
+                        else
+                            b = m;
+                    }
+                    for (int64_t j = a; j < n && keys[j] <= last; j++) {
+                        const double dx = pts[3 * j] - qx, dy = pts[3 * j + 1] - qy, dz = pts[3 * j + 2] - qz;
+                        const double d = dx * dx + dy * dy + dz * dz;
+                        if (d < lo) {
+                            st = 1;
+                            break;
+                        }
+                        if (d < hi)
+                            st = 2;
+                    }
+                }
+            }
+        }
+        state[i] = st;
+        if (st == 1)
+            todo[i] = 0;
+    }
+}
+
+/* ---- fusion's voxel union ------------------------------------------------------------------------------- */
+
+/* perceive/fusion.py `_Fused._union`: merge sorted unique old keys ok (no) with sorted unique new keys nk (nn) into
+ * uk, writing per union voxel its sums (3 per voxel) and counts: old + new where both hold the voxel, 0.0 + new
+ * where only the new do (the zeros the Python form starts a fresh voxel from), old where only the old do; its
+ * view heights: the old one, NaN for a fresh voxel (the caller then takes fmax with the new heights, as before);
+ * and each new key's slot in new_at. Returns the union's size (out arrays hold no + nn). */
+int64_t sdv_union(const int64_t *ok, const double *os, const double *oc, const double *oh, int64_t no,
+                  const int64_t *nk, const double *ns, const double *nc, int64_t nn, int64_t *uk, double *us,
+                  double *uc, double *uh, int64_t *new_at) {
+    int64_t i = 0, j = 0, u = 0;
+    while (i < no || j < nn) {
+        if (j >= nn || (i < no && ok[i] < nk[j])) {
+            uk[u] = ok[i];
+            us[3 * u] = os[3 * i]; us[3 * u + 1] = os[3 * i + 1]; us[3 * u + 2] = os[3 * i + 2];
+            uc[u] = oc[i];
+            uh[u] = oh[i];
+            i++;
+        } else if (i >= no || nk[j] < ok[i]) {
+            uk[u] = nk[j];
+            us[3 * u] = 0.0 + ns[3 * j]; us[3 * u + 1] = 0.0 + ns[3 * j + 1]; us[3 * u + 2] = 0.0 + ns[3 * j + 2];
+            uc[u] = 0.0 + nc[j];
+            uh[u] = NAN;
+            new_at[j++] = u;
+        } else {
+            uk[u] = ok[i];
+            us[3 * u] = os[3 * i] + ns[3 * j]; us[3 * u + 1] = os[3 * i + 1] + ns[3 * j + 1];
+            us[3 * u + 2] = os[3 * i + 2] + ns[3 * j + 2];
+            uc[u] = oc[i] + nc[j];
+            uh[u] = oh[i];
+            new_at[j++] = u;
+            i++;
+        }
+        u++;
+    }
+    return u;
+}

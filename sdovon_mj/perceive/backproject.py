@@ -29,10 +29,20 @@ def voxel_stats(points: np.ndarray, voxel: float, values: np.ndarray | None = No
     """Return sorted voxel keys, per-voxel point sums (n, 3), counts (n,) and the per-voxel max of `values` (NaN ignored; None without values)."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     keys = voxel_keys(p, voxel)
-    uniq, inv, counts = np.unique(keys, return_inverse=True, return_counts=True)
-    inv = inv.reshape(-1)
+    # np.unique(keys, return_inverse=True, return_counts=True) by one stable sort, whose order the values' maxima
+    # reuse (sorting by the inverse, as they did, is the same permutation: the inverse ranks the keys)
+    order = np.argsort(keys, kind="stable")
+    sk = keys[order]
+    first = np.empty(len(sk), dtype=bool)
+    first[:1] = True
+    np.not_equal(sk[1:], sk[:-1], out=first[1:])
+    starts = np.flatnonzero(first)
+    uniq = sk[starts]
+    counts = np.diff(np.append(starts, len(sk)))
+    inv = np.empty(len(sk), dtype=np.int64)
+    inv[order] = np.cumsum(first) - 1
     sums = np.zeros((len(uniq), 3))
-    for d in range(3):
+    for d in range(3):  # bincount adds each voxel's points in their input order, as before
         sums[:, d] = np.bincount(inv, weights=p[:, d], minlength=len(uniq))
     vmax = None
     if values is not None:
@@ -41,8 +51,6 @@ def voxel_stats(points: np.ndarray, voxel: float, values: np.ndarray | None = No
             raise ValueError(f"voxel_stats: {len(v)} values for {len(p)} points")
         vmax = np.full(len(uniq), np.nan)
         if len(v):
-            order = np.argsort(inv, kind="stable")
-            starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
             vmax = np.fmax.reduceat(v[order], starts)
     return uniq, sums, counts.astype(np.float64), vmax
 

@@ -24,8 +24,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import native
 from ..config import PerceiveConfig, with_fusion_preset
 from ..embeddings import embed_labels
+from ..geometry import axis_bounds, boxes_apart
 from ..records import Instance
 from .backproject import make_instance, voxel_stats
 
@@ -46,28 +48,43 @@ def query_points(points: np.ndarray) -> np.ndarray:
 
 
 class _Chunk:
-    """Points a fused instance's overlap test searches, with their box; the KD-tree is built on the first query
-    that reaches the box (many chunks are never searched: a query point outside the box has no neighbour there)."""
+    """Points a fused instance's overlap test searches, with their box; the search structures (a cell index for the
+    compiled test, a KD-tree for scipy's) are built on the first query that reaches the box (many chunks are never
+    searched: a query point outside the box has no neighbour there)."""
 
-    __slots__ = ("data", "mins", "maxes", "_tree")
+    __slots__ = ("data", "mins", "maxes", "_tree", "_cells")
 
     def __init__(self, points: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.data = np.asarray(points, dtype=np.float64)
         if bounds is None:
-            self.mins, self.maxes = self.data.min(axis=0), self.data.max(axis=0)  # the values cKDTree keeps
+            self.mins, self.maxes = axis_bounds(self.data)
         else:  # the points' own min and max, known: converting to float64 keeps the order, so they are the same
             self.mins, self.maxes = (np.asarray(b, dtype=np.float64) for b in bounds)
         self._tree = None
+        self._cells = None
 
     @property
     def tree(self):  # noqa: ANN201 - scipy's cKDTree
-        """Return the chunk's KD-tree (built once)."""
+        """Return the chunk's KD-tree (built once, on the points in their own order)."""
         if self._tree is None:
             from scipy.spatial import cKDTree
 
             # sliding-midpoint build: half the time of the balanced one, and the queries are as exact
             self._tree = cKDTree(self.data, balanced_tree=False, compact_nodes=False)
         return self._tree
+
+    def cells(self, radius: float) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """Return the cell index of `native.sdv_near_any` for `radius`: (cell size h, the points sorted by cell key
+        (N, 3), their keys (N,), the grid's cell counts (3,)); cells of h = 1.01 * radius, so that a point within
+        the radius of a query lies in the query's cell or a neighbour whatever the rounding of the division."""
+        if self._cells is None or self._cells[0] != radius:
+            h = radius * 1.01
+            c = np.floor((self.data - self.mins) / h).astype(np.int64)
+            n = axis_bounds(c)[1] + 1
+            key = (c[:, 0] * n[1] + c[:, 1]) * n[2] + c[:, 2]
+            order = np.argsort(key, kind="stable")
+            self._cells = (radius, h, np.ascontiguousarray(self.data[order]), np.ascontiguousarray(key[order]), n)
+        return self._cells[1:]
 
 
 def label_similarity(a: str, b: str, mode: str = "minilm") -> float:
@@ -104,13 +121,17 @@ class _Fused:
     lo: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
     hi: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     _label: str | None = field(default=None, repr=False, compare=False)  # `label`, until the votes change
+    _points: np.ndarray | None = field(default=None, repr=False, compare=False)  # `points`, until the voxels change
 
     MAX_CHUNKS = 8
 
     @property
     def points(self) -> np.ndarray:
-        """Return the voxel-mean points (world)."""
-        return self.sums / self.counts[:, None]
+        """Return the voxel-mean points (world; read-only: kept until the voxel map changes)."""
+        if self._points is None:  # read for every probe and merge of consolidation, and by a merge's chunk
+            self._points = self.sums / self.counts[:, None]
+            self._points.setflags(write=False)
+        return self._points
 
     @property
     def view_height(self) -> np.ndarray | None:
@@ -134,6 +155,9 @@ class _Fused:
         if len(points) == 0:
             return 0.0
         points = query_points(points)  # an evenly strided subset estimates the fraction
+        lib = native.library()
+        if lib is not None:
+            return self._overlap_cells(lib, points, radius)
         todo = np.ones(len(points), dtype=bool)
         # A point farther than the radius from a chunk's box (on one axis) has no neighbour in that chunk:
         # it is not queried there (the margin keeps every point that could be within the radius). The boxes of
@@ -149,6 +173,39 @@ class _Fused:
             d, _ = self.chunks[c].tree.query(points[idx], k=1, distance_upper_bound=radius)
             todo[idx[np.isfinite(d)]] = False
         return float(1.0 - np.count_nonzero(todo) / len(points))
+
+    def _overlap_cells(self, lib, points: np.ndarray, radius: float) -> float:  # noqa: ANN001 - the ctypes library
+        """`overlap` by the compiled cell search, the same count: a point the kernel finds well inside the radius
+        cKDTree finds too (its leaf test is d < r*r on the same squared distance, and the roundings by which its
+        pruning could pass over a leaf are some 1e-15 of r*r), one well outside it cannot find; the few within a
+        relative 1e-9 of the radius are asked of the chunk's KD-tree, as before."""
+        q = np.ascontiguousarray(points, dtype=np.float64)
+        n = len(q)
+        todo = np.ones(n, dtype=np.uint8)
+        state = np.zeros(n, dtype=np.int8)
+        r2 = radius * radius
+        margin = box_margin(radius)
+        q_lo, q_hi = axis_bounds(q)
+        q_lo, q_hi = q_lo - margin, q_hi + margin
+        unsure = []
+        for chunk in reversed(self.chunks):
+            if (chunk.mins > q_hi).any() or (chunk.maxes < q_lo).any():
+                continue  # no query point within the radius of the chunk's box
+            h, pts, keys, dims = chunk.cells(radius)
+            state.fill(0)
+            o = chunk.mins
+            lib.sdv_near_any(q.ctypes.data, n, todo.ctypes.data, state.ctypes.data, pts.ctypes.data, keys.ctypes.data,
+                             len(keys), float(o[0]), float(o[1]), float(o[2]), h, int(dims[0]), int(dims[1]),
+                             int(dims[2]), r2 * (1.0 - 1e-9), r2 * (1.0 + 1e-9))
+            u = np.flatnonzero(state == 2)
+            if len(u):
+                unsure.append((chunk, u))
+        for chunk, idx in unsure:
+            idx = idx[todo[idx] != 0]
+            if len(idx):
+                d, _ = chunk.tree.query(q[idx], k=1, distance_upper_bound=radius)
+                todo[idx[np.isfinite(d)]] = 0
+        return float(1.0 - np.count_nonzero(todo) / n)
 
     def merge(self, other: "_Fused") -> None:
         """Absorb another fused instance (points, votes, confidences)."""
@@ -170,6 +227,11 @@ class _Fused:
         voxels are inserted in place, then the new sums added. A voxel's sum is old + new, as the
         bincount over the concatenation that this replaces gave (0 + old is old: a sum is never -0).
         """
+        self._points = None
+        lib = native.library()
+        if lib is not None and self.sums.dtype == np.float64 and self.counts.dtype == np.float64:
+            self._union_compiled(lib, k, s, c, h)
+            return
         old = self.keys
         pos = np.searchsorted(old, k)
         hit = pos < len(old)
@@ -201,6 +263,24 @@ class _Fused:
         if h is not None:  # a voxel was seen from as high as its highest observation (fmax: NaN is unknown)
             self.heights[new_at] = np.fmax(self.heights[new_at], h)
 
+    def _union_compiled(self, lib, k: np.ndarray, s: np.ndarray, c: np.ndarray,  # noqa: ANN001 - ctypes library
+                        h: np.ndarray | None) -> None:
+        """`_union` in one compiled merge pass (`native.sdv_union`): the same arrays, the same additions."""
+        ok = np.ascontiguousarray(self.keys, dtype=np.int64)
+        os_, oc, oh = (np.ascontiguousarray(a, dtype=np.float64) for a in (self.sums, self.counts, self.heights))
+        nk = np.ascontiguousarray(k, dtype=np.int64)
+        ns = np.ascontiguousarray(s, dtype=np.float64).reshape(-1, 3)
+        nc = np.ascontiguousarray(c, dtype=np.float64)
+        cap = len(ok) + len(nk)
+        uk, us = np.empty(cap, dtype=np.int64), np.empty((cap, 3))
+        uc, uh, new_at = np.empty(cap), np.empty(cap), np.empty(len(nk), dtype=np.int64)
+        n = lib.sdv_union(ok.ctypes.data, os_.ctypes.data, oc.ctypes.data, oh.ctypes.data, len(ok), nk.ctypes.data,
+                          ns.ctypes.data, nc.ctypes.data, len(nk), uk.ctypes.data, us.ctypes.data, uc.ctypes.data,
+                          uh.ctypes.data, new_at.ctypes.data)
+        self.keys, self.sums, self.counts, self.heights = uk[:n], us[:n], uc[:n], uh[:n]
+        if h is not None:  # as in `_union`
+            self.heights[new_at] = np.fmax(self.heights[new_at], h)
+
     def absorb(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
         """Merge a new instance's points (voxel union) and bookkeeping.
 
@@ -228,7 +308,7 @@ class _Fused:
 def _world(inst: Instance) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return an instance's world points (N, 3) and their per-axis min and max (3,)."""
     p = inst.world_points
-    return p, p.min(axis=0), p.max(axis=0)
+    return (p, *axis_bounds(p))
 
 
 class InstanceFuser:
@@ -256,7 +336,7 @@ class InstanceFuser:
         p, p_lo, p_hi = world if world is not None else _world(inst)
         lo, hi = p_lo - self.cfg.overlap_radius, p_hi + self.cfg.overlap_radius
         flo, fhi = bounds if bounds is not None else self._bounds()
-        return p, ~(np.any(flo > hi, axis=1) | np.any(fhi < lo, axis=1))
+        return p, ~boxes_apart(flo, fhi, lo, hi)
 
     def similarity(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
                    bounds: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -317,8 +397,10 @@ class InstanceFuser:
         margin = box_margin(self.cfg.overlap_radius)
         lo = np.array([self.fused[j].lo for j in cands]) - margin
         hi = np.array([self.fused[j].hi for j in cands]) + margin
-        outside = ~((q[None] >= lo[:, None]) & (q[None] <= hi[:, None])).all(axis=2)
-        return [float(1.0 - int(n) / len(q)) for n in np.count_nonzero(outside, axis=1)]
+        inside = (q[:, 0] >= lo[:, 0, None]) & (q[:, 0] <= hi[:, 0, None])  # (candidates, points), axis by axis
+        for d in (1, 2):
+            inside &= (q[:, d] >= lo[:, d, None]) & (q[:, d] <= hi[:, d, None])
+        return [float(1.0 - int(len(q) - n) / len(q)) for n in np.count_nonzero(inside, axis=1)]
 
     def add_view(self, instances: list[Instance]) -> list[int]:
         """Associate one view's instances with the map as it was before the view; return the fused index of each."""
@@ -389,7 +471,7 @@ class InstanceFuser:
                         keys = list(settled)
                         slo = np.array([settled[k].lo for k in keys])
                         shi = np.array([settled[k].hi for k in keys])
-                        for n in np.flatnonzero(~(np.any(slo > hi, axis=1) | np.any(shi < lo, axis=1))):
+                        for n in np.flatnonzero(~boxes_apart(slo, shi, lo, hi)):
                             recheck.setdefault(keys[n], []).append(target)
                     break
                 settled[key] = small

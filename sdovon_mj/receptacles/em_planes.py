@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..config import ReceptacleConfig
-from ..geometry import convex_hull_ccw, points_in_polygon, polygon_area, shapely_polygon
+from ..geometry import axis_bounds, boxes_apart, convex_hull_ccw, in_box, points_in_polygon, polygon_area, shapely_polygon
 from ..records import Instance, ReceptaclePlane
 
 
@@ -320,18 +320,20 @@ def detect_planes(instance: Instance, cfg: ReceptacleConfig, first_id: int = 0,
 
 
 def _nearby_points(instances: list[Instance], inst: Instance, margin: float,
-                   bounds: list[np.ndarray] | None = None) -> np.ndarray:
-    """Return the points of the other instances inside inst's box grown by margin (bounds: each instance's (2, 3) box, computed when not given)."""
+                   bounds: np.ndarray | None = None) -> np.ndarray:
+    """Return the points of the other instances inside inst's box grown by margin (bounds: (N, 2, 3), each instance's box, computed when not given)."""
     if bounds is None:
-        bounds = [o.bounds for o in instances]
-    own = inst.bounds
+        bounds = np.array([axis_bounds(o.world_points) for o in instances]).reshape(-1, 2, 3)
+    own = axis_bounds(inst.world_points)
     lo, hi = own[0] - margin, own[1] + margin
     out = []
-    for other, b in zip(instances, bounds):
-        if other.id == inst.id or np.any(b[0] > hi) or np.any(b[1] < lo):
+    boxes = np.asarray(bounds, dtype=float).reshape(-1, 2, 3)
+    for k in np.flatnonzero(~boxes_apart(boxes[:, 0], boxes[:, 1], lo, hi)):  # the others in index order, as before
+        other = instances[k]
+        if other.id == inst.id:
             continue
         p = other.world_points
-        out.append(p[np.all((p >= lo) & (p <= hi), axis=1)])
+        out.append(p[in_box(p, lo, hi)])
     return np.concatenate(out) if out else np.zeros((0, 3))
 
 
@@ -341,7 +343,7 @@ def find_receptacle_planes(instances: list[Instance], cfg: ReceptacleConfig, lab
 
     recs = receptacle_instances(instances, cfg.labels if labels is None else labels)
     out: list[ReceptaclePlane] = []
-    bounds = [o.bounds for o in instances]  # once per scene, not once per receptacle and instance
+    bounds = np.array([axis_bounds(o.world_points) for o in instances]).reshape(-1, 2, 3)  # once per scene (box tests)
     for inst in sorted(recs, key=lambda i: i.id):
         obstacles = _nearby_points(instances, inst, cfg.min_clearance, bounds)
         out.extend(detect_planes(inst, cfg, first_id=len(out), obstacles=obstacles))

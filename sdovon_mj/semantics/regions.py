@@ -251,6 +251,9 @@ def _windows(insts: Sequence[Instance], navmap: NavMap, r: float, d: float, wall
     return out
 
 
+WALK_BATCH = 16  # window centres per Dijkstra call (16 distance rows of the floor's cells at a time)
+
+
 def _walking_windows(navmap: NavMap, space: np.ndarray, centres: np.ndarray, r: float, pflat: np.ndarray,
                      idx: np.ndarray, labels: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]]:
     """Return the windows of `_windows` with walking distance: cells within r walk of the centre, weight 1 - (walk/r)^2.
@@ -278,16 +281,25 @@ def _walking_windows(navmap: NavMap, space: np.ndarray, centres: np.ndarray, r: 
     res = float(navmap.resolution)
     g, index = graph_of(space)
     nodes_rc = np.argwhere(space)  # node k is the k-th True cell in row-major order (cell_graph)
+    # the instances standing on each cell, once: (cell, instance) pairs instead of every point per window
+    pairs = np.unique(pflat.astype(np.int64) * (len(labels) + 1) + idx)
+    pair_cell, pair_inst = pairs // (len(labels) + 1), pairs % (len(labels) + 1)
+    starts = [int(index[ci, cj]) for ci, cj in navmap.frame.to_cell(centres)
+              if 0 <= ci < h and 0 <= cj < w and space[ci, cj]]  # centred on a wall or outside: no window
     out = []
-    for ci, cj in navmap.frame.to_cell(centres):
-        if not (0 <= ci < h and 0 <= cj < w) or not space[ci, cj]:
-            continue  # centred on a wall or outside: no window
-        dist = dijkstra(g, directed=True, indices=int(index[ci, cj]), limit=r / res + 1e-9) * res
-        near = np.flatnonzero(np.isfinite(dist) & (dist <= r))
-        rr, cc = nodes_rc[near, 0], nodes_rc[near, 1]
-        hit = np.isin(pflat, rr * w + cc)
-        labs = tuple(sorted(set(labels[idx[hit]]) - {""}))
-        out.append((rr, cc, 1.0 - (dist[near] / r) ** 2, labs))
+    in_window = np.zeros(h * w, dtype=bool)
+    for b in range(0, len(starts), WALK_BATCH):
+        # one call per batch: scipy checks and converts the graph once per call, then runs each start on its own
+        dists = dijkstra(g, directed=True, indices=starts[b : b + WALK_BATCH], limit=r / res + 1e-9)
+        for dist in dists.reshape(-1, g.shape[0]):
+            dist = dist * res
+            near = np.flatnonzero(np.isfinite(dist) & (dist <= r))
+            rr, cc = nodes_rc[near, 0], nodes_rc[near, 1]
+            flat = rr * w + cc
+            in_window[flat] = True
+            labs = tuple(sorted(set(labels[pair_inst[in_window[pair_cell]]]) - {""}))
+            in_window[flat] = False
+            out.append((rr, cc, 1.0 - (dist[near] / r) ** 2, labs))
     return out
 
 
