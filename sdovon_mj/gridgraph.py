@@ -15,6 +15,7 @@ import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from . import native
 from .grid import GridFrame, segment_free
 
 # (drow, dcol, cost in cells); a diagonal needs both orthogonal neighbours free (no corner cutting).
@@ -68,19 +69,58 @@ def distance_field(mask: np.ndarray, sources: np.ndarray, resolution: float) -> 
     nav = np.asarray(mask, dtype=bool)
     out = np.full(nav.shape, np.inf)
     src = np.atleast_2d(np.asarray(sources, dtype=np.int64)).reshape(-1, 2)
-    g, index = graph_of(nav)
     h, w = nav.shape
     inside = (src[:, 0] >= 0) & (src[:, 0] < h) & (src[:, 1] >= 0) & (src[:, 1] < w)
     src = src[inside]
-    nodes = np.unique(index[src[:, 0], src[:, 1]]) if len(src) else np.zeros(0, dtype=np.int64)
-    nodes = nodes[nodes >= 0]
-    if len(nodes) == 0:
+    src = src[nav[src[:, 0], src[:, 1]]]  # sources off the mask are no nodes
+    if len(src) == 0:
         return out
+    cells = grid_distances(nav, src[:, 0] * w + src[:, 1])
+    if cells is not None:  # no graph to build: the kernel walks the mask
+        return cells * float(resolution)
+    g, index = graph_of(nav)
+    nodes = np.unique(index[src[:, 0], src[:, 1]])
     # The graph holds both directions of every edge: a directed search gives the undirected distances
     # (byte-identical) without scipy transposing the graph on every call.
     d = dijkstra(g, directed=True, indices=nodes, min_only=True)
     out[nav] = d * float(resolution)
     return out
+
+
+def grid_distances(mask: np.ndarray, sources: np.ndarray, limit: float = np.inf) -> np.ndarray | None:
+    """Return the (H, W) distances in cells over `cell_graph(mask)` from the nearest of the flat source cells (those
+    on the mask), inf where unreached or past `limit` cells; None where the compiled kernels are not available.
+
+    The compiled search (native ``sdv_grid_dijkstra``) walks the grid itself. Its values are scipy's Dijkstra's on
+    the graph, byte for byte: a cell's distance is the least of fl(d(u) + cost) over its neighbours u, and that
+    least value does not depend on the order in which either queue settles equal keys (tests/test_native.py).
+    """
+    lib = native.library()
+    if lib is None:
+        return None
+    nav = np.ascontiguousarray(mask, dtype=np.uint8)
+    h, w = nav.shape
+    src = np.asarray(sources, dtype=np.int64).reshape(-1)
+    src = np.ascontiguousarray(np.unique(src[nav.reshape(-1)[src] != 0]))
+    dist = np.full(h * w, np.inf)
+    if lib.sdv_grid_dijkstra(nav.ctypes.data, h, w, src.ctypes.data, len(src), float(limit), dist.ctypes.data):
+        raise MemoryError("grid Dijkstra: out of memory")
+    return dist.reshape(h, w)
+
+
+def node_distances(mask: np.ndarray, cell: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Return the distances in cells from `cell` (on the mask) to every node of `cell_graph(mask)`, and its index
+    map: what ``dijkstra(g, indices=index[cell])`` gives with ``g, index = cell_graph(mask)``, byte for byte (the
+    compiled search when available: no graph is built)."""
+    nav = np.asarray(mask, dtype=bool)
+    h, w = nav.shape
+    cells = grid_distances(nav, np.array([int(cell[0]) * w + int(cell[1])]))
+    if cells is None:
+        g, index = cell_graph(nav)
+        return dijkstra(g, indices=int(index[cell[0], cell[1]])), index
+    index = np.full((h, w), -1, dtype=np.int64)
+    index[nav] = np.arange(int(nav.sum()))
+    return cells[nav], index
 
 
 _NINE = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1)], dtype=np.int64)  # a cell and its 8 neighbours

@@ -641,11 +641,18 @@ def test_voxel_stats_equals_the_unique_and_bincount_reference():
                     assert got.dtype == want.dtype and got.shape == want.shape and got.tobytes() == want.tobytes()
 
 
-def test_walking_windows_equal_the_one_dijkstra_per_window_reference():
-    """semantics.regions' walking windows, Dijkstra run WALK_BATCH centres per call and labels read from (cell,
-    instance) pairs: the cells, weights and label sets of one Dijkstra call and one np.isin per window (the form it
-    replaced, kept here verbatim), on a walled floor with a doorway, more centres than one batch, some on walls."""
+@pytest.mark.parametrize("form", ["compiled", "python"])
+def test_walking_windows_equal_the_one_dijkstra_per_window_reference(form, monkeypatch):
+    """semantics.regions' walking windows, by the compiled grid search or scipy's Dijkstra WALK_BATCH centres per
+    call, labels read from (cell, instance) pairs: the cells, weights and label sets of one scipy call and one np.isin
+    per window (the form it replaced, kept here verbatim), on a walled floor with a doorway, more centres than one
+    batch, some on walls."""
     from scipy.sparse.csgraph import dijkstra
+
+    from sdovon_mj import native
+
+    if form == "python":
+        monkeypatch.setattr(native, "library", lambda: None)
 
     from sdovon_mj.gridgraph import graph_of
     from sdovon_mj.records import Instance, NavMap

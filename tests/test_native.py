@@ -181,3 +181,39 @@ def test_a_failing_build_falls_back_to_python_and_says_why(tmp_path):
 def test_native_off_runs_python(tmp_path):
     out = _status_in({"SDOVON_NATIVE": "off"}, tmp_path)
     assert out.splitlines()[1] == "python: turned off (SDOVON_NATIVE=off)"
+
+
+@needs_cc
+def test_grid_dijkstra_equals_scipys(python_only):
+    """Random masks (open floors, walls with gaps, scattered obstacles, corner-only contacts), one to many sources,
+    sources off the mask: `distance_field` and limited `grid_distances` give scipy's Dijkstra's values on the cell
+    graph, byte for byte (each cell the least fl(d + cost) over its neighbours, whatever the queues' tie order)."""
+    from scipy import ndimage
+    from scipy.sparse.csgraph import dijkstra
+
+    from sdovon_mj.gridgraph import distance_field, graph_of, grid_distances
+
+    assert native.library() is not None
+    rng = np.random.default_rng(4753)
+    for trial in range(60):
+        h, w = (int(x) for x in rng.integers(5, 90, 2))
+        mask = rng.random((h, w)) > rng.uniform(0.0, 0.45)
+        if trial % 3 == 0:
+            mask = ndimage.binary_opening(mask)
+        if trial % 4 == 1:
+            mask[:, w // 2] = False
+            mask[rng.integers(0, h, 2), w // 2] = True
+        n = int(rng.integers(1, 12))
+        src = np.column_stack([rng.integers(-2, h + 2, n), rng.integers(-2, w + 2, n)])
+        res = float(rng.choice([0.05, 0.1, 0.037]))
+        got = distance_field(mask, src, res)
+        want = python_only(distance_field, mask, src, res)
+        assert got.tobytes() == want.tobytes(), trial
+        on = [(r, c) for r, c in src if 0 <= r < h and 0 <= c < w and mask[r, c]]
+        if on:
+            g, index = graph_of(mask)
+            limit = float(rng.uniform(2.0, 30.0))
+            d = dijkstra(g, directed=True, indices=int(index[on[0]]), limit=limit)
+            full = np.full(h * w, np.inf)
+            full[np.flatnonzero(mask)] = d
+            assert grid_distances(mask, np.array([on[0][0] * w + on[0][1]]), limit).reshape(-1).tobytes() == full.tobytes()

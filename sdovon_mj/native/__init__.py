@@ -2,7 +2,7 @@
 
 Each kernel has a pure-Python reference beside its caller (the lattice planner in `nav/control.py`, the ray carving
 in `nav/frontier.py`, the free-segment test in `grid.py`, fusion's overlap test and voxel union in
-`perceive/fusion.py`) and computes exactly what it computes: same results, bit for bit (tests/test_native.py compares
+`perceive/fusion.py`, the grid Dijkstra of `gridgraph.py`) and computes exactly what it computes: same results, bit for bit (tests/test_native.py compares
 both). Where no compiler is found or the build fails, the callers run their Python form: slower, never different.
 `status()` says which one runs and why.
 
@@ -116,4 +116,6 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.sdv_near_any.argtypes = [p, i64, p, p, p, p, i64, d, d, d, d, i64, i64, i64, d, d]
     lib.sdv_union.restype = i64
     lib.sdv_union.argtypes = [p, p, p, p, i64, p, p, p, i64, p, p, p, p, p]
+    lib.sdv_grid_dijkstra.restype = i32
+    lib.sdv_grid_dijkstra.argtypes = [p, i64, i64, p, i64, d, p]
     return lib

@@ -383,3 +383,94 @@ int64_t sdv_union(const int64_t *ok, const double *os, const double *oc, const d
     }
     return u;
 }
+
+/* ---- grid Dijkstra -------------------------------------------------------------------------------------- */
+
+typedef struct {
+    double d;
+    int64_t v;
+} HeapItem;
+
+static void dheap_push(HeapItem *hp, int64_t *n, double d, int64_t v) {
+    int64_t i = (*n)++;
+    while (i > 0) {
+        const int64_t p = (i - 1) / 2;
+        if (hp[p].d <= d)
+            break;
+        hp[i] = hp[p];
+        i = p;
+    }
+    hp[i].d = d;
+    hp[i].v = v;
+}
+
+static HeapItem dheap_pop(HeapItem *hp, int64_t *n) {
+    const HeapItem top = hp[0], last = hp[--(*n)];
+    int64_t i = 0;
+    for (;;) {
+        int64_t c = 2 * i + 1;
+        if (c >= *n)
+            break;
+        if (c + 1 < *n && hp[c + 1].d < hp[c].d)
+            c++;
+        if (hp[c].d >= last.d)
+            break;
+        hp[i] = hp[c];
+        i = c;
+    }
+    if (*n > 0)
+        hp[i] = last;
+    return top;
+}
+
+/* gridgraph.py `cell_graph` searched from the source cells src (flat indices on the (h, w) mask): 4 straight steps of
+ * cost 1 and 4 diagonal ones of cost sqrt(2), a diagonal only when both cells it passes beside are on the mask. dist
+ * (h * w, the caller's inf) gets each cell's distance in cells; with a finite `limit` a step longer than it is not
+ * taken (scipy's `limit`). Every cell's distance is the least of fl(dist[u] + cost) over its neighbours u: the same
+ * double sums scipy's Dijkstra keeps, whatever order equal keys leave either queue in. Returns -1 out of memory. */
+int32_t sdv_grid_dijkstra(const uint8_t *mask, int64_t h, int64_t w, const int64_t *src, int64_t nsrc, double limit,
+                          double *dist) {
+    static const int dr[8] = {0, 1, 1, 1, 0, -1, -1, -1}, dc[8] = {1, 1, 0, -1, -1, -1, 0, 1};
+    const double diag = sqrt(2.0);
+    int64_t cap = 4 * nsrc + 1024, n = 0;
+    HeapItem *hp = malloc((size_t)cap * sizeof(HeapItem));
+    if (!hp)
+        return -1;
+    for (int64_t k = 0; k < nsrc; k++) {
+        const int64_t v = src[k];
+        if (dist[v] > 0.0) {
+            dist[v] = 0.0;
+            dheap_push(hp, &n, 0.0, v);
+        }
+    }
+    while (n > 0) {
+        const HeapItem it = dheap_pop(hp, &n);
+        if (it.d > dist[it.v])
+            continue; /* a stale entry */
+        const int64_t r = it.v / w, c = it.v % w;
+        for (int k = 0; k < 8; k++) {
+            const int64_t rr = r + dr[k], cc = c + dc[k];
+            if (rr < 0 || rr >= h || cc < 0 || cc >= w || !mask[rr * w + cc])
+                continue;
+            const int diagonal = dr[k] != 0 && dc[k] != 0;
+            if (diagonal && !(mask[rr * w + c] && mask[r * w + cc]))
+                continue;
+            const double nd = it.d + (diagonal ? diag : 1.0);
+            if (nd > limit || !(nd < dist[rr * w + cc]))
+                continue;
+            dist[rr * w + cc] = nd;
+            if (n == cap) {
+                cap *= 2;
+                HeapItem *grown = realloc(hp, (size_t)cap * sizeof(HeapItem));
+                if (!grown) {
+                    free(hp);
+                    return -1;
+                }
+                hp = grown;
+            }
+            dheap_push(hp, &n, nd, rr * w + cc);
+        }
+    }
+    free(hp);
+    return 0;
+}

@@ -16,7 +16,6 @@ from typing import Generator
 
 import numpy as np
 from scipy import ndimage
-from scipy.sparse.csgraph import dijkstra
 
 from .. import native
 from ..actions import TURN_LEFT
@@ -24,7 +23,7 @@ from ..config import AgentConfig
 from ..records import Observation
 from ..sim.camera import backproject, pose_cv
 from ..grid import GridFrame, dilate, nearest_true, true_box
-from ..gridgraph import cell_graph
+from ..gridgraph import node_distances
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 
@@ -285,14 +284,13 @@ class Explorer:
             if not clusters:
                 occ.stop_reason = "no frontiers"
                 return
-            g, index = cell_graph(trav)
             rc = frame.to_cell(pos[None])[0]
             if not (frame.inside(rc[None])[0] and trav[rc[0], rc[1]]):
                 rc = nearest_true(trav, rc)  # standing at the rim of the planning map
                 if rc is None or np.linalg.norm(frame.to_world(rc[None])[0] - pos) > 0.5:
                     occ.stop_reason = "off the planning map"
                     return
-            dist = dijkstra(g, indices=int(index[rc[0], rc[1]]))
+            dist, index = node_distances(trav, rc)
             best, best_d = None, math.inf
             for cells in clusters:
                 xy = frame.to_world(cells)

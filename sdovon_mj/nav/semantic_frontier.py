@@ -118,9 +118,7 @@ class SemanticFrontierAgent(ReceptacleAStar):
         return {lab: max(rel.pair_score(category, r, lab) for r in rel.regions) for lab in labels}
 
     def _run(self, env) -> Generator[int, object, None]:
-        from scipy.sparse.csgraph import dijkstra
-
-        from ..gridgraph import cell_graph
+        from ..gridgraph import node_distances
         from ..grid import nearest_true
 
         category = str(self.ts.observation["objectgoal_text"])
@@ -180,8 +178,7 @@ class SemanticFrontierAgent(ReceptacleAStar):
                 rc = near if near is not None else rc
             if not clusters or not trav[rc[0], rc[1]]:
                 break
-            g, index = cell_graph(trav)
-            dist = dijkstra(g, indices=int(index[rc[0], rc[1]]))
+            dist, index = node_distances(trav, rc)
             scores = self._scores(category, [lab for _xy, lab in seen])
             seen_xy = np.array([q for q, _lab in seen], dtype=float).reshape(-1, 2)
             best, best_u = None, -1.0

@@ -26,7 +26,7 @@ import io
 import re
 from functools import lru_cache
 from pathlib import Path
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 from scipy import ndimage
@@ -273,34 +273,48 @@ def _walking_windows(navmap: NavMap, space: np.ndarray, centres: np.ndarray, r: 
     labels : ndarray of str, shape (n_instances + 1,)
         Normalised instance labels ('' last).
     """
-    from scipy.sparse.csgraph import dijkstra
-
-    from ..gridgraph import graph_of
-
     h, w = space.shape
     res = float(navmap.resolution)
-    g, index = graph_of(space)
     nodes_rc = np.argwhere(space)  # node k is the k-th True cell in row-major order (cell_graph)
     # the instances standing on each cell, once: (cell, instance) pairs instead of every point per window
     pairs = np.unique(pflat.astype(np.int64) * (len(labels) + 1) + idx)
     pair_cell, pair_inst = pairs // (len(labels) + 1), pairs % (len(labels) + 1)
-    starts = [int(index[ci, cj]) for ci, cj in navmap.frame.to_cell(centres)
-              if 0 <= ci < h and 0 <= cj < w and space[ci, cj]]  # centred on a wall or outside: no window
+    cells = np.array([ci * w + cj for ci, cj in navmap.frame.to_cell(centres)
+                      if 0 <= ci < h and 0 <= cj < w and space[ci, cj]], dtype=np.int64)  # a wall or outside: none
     out = []
     in_window = np.zeros(h * w, dtype=bool)
-    for b in range(0, len(starts), WALK_BATCH):
-        # one call per batch: scipy checks and converts the graph once per call, then runs each start on its own
-        dists = dijkstra(g, directed=True, indices=starts[b : b + WALK_BATCH], limit=r / res + 1e-9)
-        for dist in dists.reshape(-1, g.shape[0]):
-            dist = dist * res
-            near = np.flatnonzero(np.isfinite(dist) & (dist <= r))
-            rr, cc = nodes_rc[near, 0], nodes_rc[near, 1]
-            flat = rr * w + cc
-            in_window[flat] = True
-            labs = tuple(sorted(set(labels[pair_inst[in_window[pair_cell]]]) - {""}))
-            in_window[flat] = False
-            out.append((rr, cc, 1.0 - (dist[near] / r) ** 2, labs))
+    for dist in _walk_distances(space, cells, r / res + 1e-9):
+        dist = dist * res
+        near = np.flatnonzero(np.isfinite(dist) & (dist <= r))
+        rr, cc = nodes_rc[near, 0], nodes_rc[near, 1]
+        flat = rr * w + cc
+        in_window[flat] = True
+        labs = tuple(sorted(set(labels[pair_inst[in_window[pair_cell]]]) - {""}))
+        in_window[flat] = False
+        out.append((rr, cc, 1.0 - (dist[near] / r) ** 2, labs))
     return out
+
+
+def _walk_distances(space: np.ndarray, cells: np.ndarray, limit: float) -> Iterator[np.ndarray]:
+    """Yield, per start cell (flat index on `space`), its distances in cells to every node of the floor's cell graph,
+    inf past `limit` (scipy's Dijkstra with ``limit``): the compiled grid search where available (the same values,
+    `gridgraph.grid_distances`), else scipy, WALK_BATCH starts per call (it checks and converts the graph once per
+    call, then runs each start on its own)."""
+    from scipy.sparse.csgraph import dijkstra
+
+    from ..gridgraph import graph_of, grid_distances
+
+    for k in range(len(cells)):
+        d = grid_distances(space, cells[k : k + 1], limit)
+        if d is None:  # no compiled kernels (the same for every start): scipy from the first
+            break
+        yield d[space]
+    else:
+        return
+    g, index = graph_of(space)
+    flat_index = index.reshape(-1)
+    for b in range(0, len(cells), WALK_BATCH):
+        yield from dijkstra(g, directed=True, indices=flat_index[cells[b : b + WALK_BATCH]], limit=limit).reshape(-1, g.shape[0])
 
 
 class _Vocab:
