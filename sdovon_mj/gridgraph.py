@@ -87,9 +87,11 @@ def distance_field(mask: np.ndarray, sources: np.ndarray, resolution: float) -> 
     return out
 
 
-def grid_distances(mask: np.ndarray, sources: np.ndarray, limit: float = np.inf) -> np.ndarray | None:
+def grid_distances(mask: np.ndarray, sources: np.ndarray, limit: float = np.inf,
+                   start: np.ndarray | None = None) -> np.ndarray | None:
     """Return the (H, W) distances in cells over `cell_graph(mask)` from the nearest of the flat source cells (those
-    on the mask), inf where unreached or past `limit` cells; None where the compiled kernels are not available.
+    on the mask; `start`: each source's own starting distance in cells, default 0), inf where unreached or past
+    `limit` cells; None where the compiled kernels are not available.
 
     The compiled search (native ``sdv_grid_dijkstra``) walks the grid itself. Its values are scipy's Dijkstra's on
     the graph, byte for byte: a cell's distance is the least of fl(d(u) + cost) over its neighbours u, and that
@@ -101,9 +103,15 @@ def grid_distances(mask: np.ndarray, sources: np.ndarray, limit: float = np.inf)
     nav = np.ascontiguousarray(mask, dtype=np.uint8)
     h, w = nav.shape
     src = np.asarray(sources, dtype=np.int64).reshape(-1)
-    src = np.ascontiguousarray(np.unique(src[nav.reshape(-1)[src] != 0]))
+    on = nav.reshape(-1)[src] != 0
+    init = None
+    if start is None:
+        src = np.ascontiguousarray(np.unique(src[on]))
+    else:
+        src, init = np.ascontiguousarray(src[on]), np.ascontiguousarray(np.asarray(start, dtype=np.float64)[on])
     dist = np.full(h * w, np.inf)
-    if lib.sdv_grid_dijkstra(nav.ctypes.data, h, w, src.ctypes.data, len(src), float(limit), dist.ctypes.data):
+    if lib.sdv_grid_dijkstra(nav.ctypes.data, h, w, src.ctypes.data, None if init is None else init.ctypes.data,
+                             len(src), float(limit), dist.ctypes.data):
         raise MemoryError("grid Dijkstra: out of memory")
     return dist.reshape(h, w)
 
@@ -174,6 +182,10 @@ class GeodesicField:
         first = np.ones(len(order), dtype=bool)
         first[1:] = kn[order][1:] != kn[order][:-1]
         src_nodes, src_offs = kn[order][first], offs[order][first]
+        cells_d = grid_distances(self.mask, np.flatnonzero(self.mask.reshape(-1))[src_nodes], start=src_offs + 1e-9)
+        if cells_d is not None:  # the virtual source's search, compiled: each target cell starts at its edge's cost
+            self.field[self.mask] = cells_d[self.mask] * frame.resolution
+            return
         indptr = np.concatenate([g.indptr, [g.indptr[-1] + len(src_nodes)]])
         indices = np.concatenate([g.indices, src_nodes])
         data = np.concatenate([g.data, src_offs + 1e-9])

@@ -117,5 +117,5 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.sdv_union.restype = i64
     lib.sdv_union.argtypes = [p, p, p, p, i64, p, p, p, i64, p, p, p, p, p]
     lib.sdv_grid_dijkstra.restype = i32
-    lib.sdv_grid_dijkstra.argtypes = [p, i64, i64, p, i64, d, p]
+    lib.sdv_grid_dijkstra.argtypes = [p, i64, i64, p, p, i64, d, p]
     return lib

@@ -425,11 +425,12 @@ static HeapItem dheap_pop(HeapItem *hp, int64_t *n) {
 
 /* gridgraph.py `cell_graph` searched from the source cells src (flat indices on the (h, w) mask): 4 straight steps of
  * cost 1 and 4 diagonal ones of cost sqrt(2), a diagonal only when both cells it passes beside are on the mask. dist
- * (h * w, the caller's inf) gets each cell's distance in cells; with a finite `limit` a step longer than it is not
- * taken (scipy's `limit`). Every cell's distance is the least of fl(dist[u] + cost) over its neighbours u: the same
+ * (h * w, the caller's inf) gets each cell's distance in cells, a source starting at init[k] (0 when init is NULL:
+ * GeodesicField's virtual source reaches its targets' cells at their offsets); with a finite `limit` a step longer
+ * than it is not taken (scipy's `limit`). Every cell's distance is the least of fl(dist[u] + cost) over its neighbours u: the same
  * double sums scipy's Dijkstra keeps, whatever order equal keys leave either queue in. Returns -1 out of memory. */
-int32_t sdv_grid_dijkstra(const uint8_t *mask, int64_t h, int64_t w, const int64_t *src, int64_t nsrc, double limit,
-                          double *dist) {
+int32_t sdv_grid_dijkstra(const uint8_t *mask, int64_t h, int64_t w, const int64_t *src, const double *init,
+                          int64_t nsrc, double limit, double *dist) {
     static const int dr[8] = {0, 1, 1, 1, 0, -1, -1, -1}, dc[8] = {1, 1, 0, -1, -1, -1, 0, 1};
     const double diag = sqrt(2.0);
     int64_t cap = 4 * nsrc + 1024, n = 0;
@@ -438,9 +439,10 @@ int32_t sdv_grid_dijkstra(const uint8_t *mask, int64_t h, int64_t w, const int64
         return -1;
     for (int64_t k = 0; k < nsrc; k++) {
         const int64_t v = src[k];
-        if (dist[v] > 0.0) {
-            dist[v] = 0.0;
-            dheap_push(hp, &n, 0.0, v);
+        const double d0 = init ? init[k] : 0.0;
+        if (d0 < dist[v]) {
+            dist[v] = d0;
+            dheap_push(hp, &n, d0, v);
         }
     }
     while (n > 0) {
