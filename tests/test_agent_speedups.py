@@ -702,3 +702,32 @@ def test_walking_windows_equal_the_one_dijkstra_per_window_reference(form, monke
     for (a_r, a_c, a_w, a_l), (b_r, b_c, b_w, b_l) in zip(got, want):
         assert np.array_equal(a_r, b_r) and np.array_equal(a_c, b_c) and a_w.tobytes() == b_w.tobytes() and a_l == b_l
     assert any(w[3] for w in got)
+
+
+def test_plan_cells_equals_the_undirected_search_reference():
+    """nav.astar.plan_cells searches the symmetric cell graph directed: the same cell paths as the undirected
+    search it replaced (scipy then also scans the transpose), on random masks, starts, goals and tolerances."""
+    from sdovon_mj.nav import astar
+
+    rng = np.random.default_rng(4756)
+    calls = []
+    real = astar.dijkstra
+
+    def undirected(g, directed=True, **kw):  # the code before: directed=False
+        calls.append(directed)
+        return real(g, directed=False, **kw)
+
+    for trial in range(60):
+        h, w = (int(x) for x in rng.integers(6, 70, 2))
+        mask = rng.random((h, w)) > rng.uniform(0.0, 0.4)
+        start = (int(rng.integers(0, h)), int(rng.integers(0, w)))
+        goal = (int(rng.integers(0, h)), int(rng.integers(0, w)))
+        tol = float(rng.choice([0.0, 1.5, 4.0]))
+        got = astar.plan_cells(mask, start, goal, tol)
+        astar.dijkstra = undirected
+        try:
+            want = astar.plan_cells(mask, start, goal, tol)
+        finally:
+            astar.dijkstra = real
+        assert got == want, trial
+    assert calls and all(calls)  # the new form asks for the directed search

@@ -136,7 +136,10 @@ def plan_cells(mask: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
     if not near.any():
         return None
     cand = np.stack([rr[near], cc[near]], axis=1)
-    dist, pred = dijkstra(g, directed=False, indices=s, return_predecessors=True)
+    # The graph holds both directions of every edge: the directed search settles and relaxes exactly as the
+    # undirected one (which also scans the transpose, relaxing nothing more), distances and predecessors alike,
+    # without scipy transposing the graph on every call.
+    dist, pred = dijkstra(g, directed=True, indices=s, return_predecessors=True)
     dc = dist[index[cand[:, 0], cand[:, 1]]]
     if not np.isfinite(dc).any():
         return None
