@@ -112,10 +112,14 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.sdv_lattice.restype = i64
     lib.sdv_lattice.argtypes = [p, p, i64, i64, i64, i64, d, d, d, d, d, d, d, d, i64, p, p, i64, d, i64, i32, i32,
                                 i32, p]
-    lib.sdv_near_any.restype = None
+    lib.sdv_near_any.restype = i64
     lib.sdv_near_any.argtypes = [p, i64, p, p, p, p, i64, d, d, d, d, i64, i64, i64, d, d]
     lib.sdv_union.restype = i64
     lib.sdv_union.argtypes = [p, p, p, p, i64, p, p, p, i64, p, p, p, p, p]
     lib.sdv_grid_dijkstra.restype = i32
     lib.sdv_grid_dijkstra.argtypes = [p, i64, i64, p, p, i64, d, p]
+    lib.sdv_grid_reach.restype = i64
+    lib.sdv_cells.restype = i32
+    lib.sdv_cells.argtypes = [p, i64, d, d, d, d, p, p, p]
+    lib.sdv_grid_reach.argtypes = [p, i64, i64, i64, d, p, p, p]
     return lib

@@ -1,10 +1,13 @@
-/* Compiled forms of three inner loops (sdovon_mj/native/__init__.py builds and loads this file).
+/* Compiled forms of the agents' and perception's inner loops (sdovon_mj/native/__init__.py builds and loads this file).
  *
- * Each function computes exactly what its Python reference computes (nav/control.py `lattice_plan`,
- * nav/frontier.py `OccupancyMap.integrate`'s ray carving, grid.py `segment_free`): the same IEEE double operations in the same order
- * (built with -ffp-contract=off, so no fused multiply-add, and -fno-builtin-pow, so `pow` is the C library's as in
- * Python's `x ** 2`), Python's round-half-even (`nearbyint`), and the same tie-breaking of the search queue. The
- * tests compare both forms on many inputs. Plain C99, no Python headers: loaded with ctypes.
+ * Each function gives exactly what its Python reference gives. Three compute the same IEEE double operations in the
+ * same order (nav/control.py `lattice_plan`, nav/frontier.py `OccupancyMap.integrate`'s ray carving, grid.py
+ * `segment_free`; built with -ffp-contract=off, so no fused multiply-add, and -fno-builtin-pow, so `pow` is the C
+ * library's as in Python's `x ** 2`), with Python's round-half-even (`nearbyint`) and the same tie-breaking of the
+ * search queue. fusion.py's voxel union makes the same additions. Two give the same answers by an argument written
+ * beside them: the overlap test (decided only away from the radius, else scipy's KD-tree is asked) and the grid
+ * Dijkstra (a cell's distance is the least fl(d + cost) over its neighbours, whatever the queue order). The tests
+ * compare both forms on many inputs. Plain C99, no Python headers: loaded with ctypes.
  */
 #include <math.h>
 #include <stdint.h>
@@ -303,11 +306,12 @@ done:
  * come sorted by the key (ix * ny + iy) * nz + iz of their cell floor((p - o) / h), with h > r, so every point within
  * r of q sits in one of the 27 cells around q's. For each query point i with todo[i] set this writes state[i]:
  * 1 when some point lies at squared distance below `lo` (todo[i] is then cleared), else 2 when one lies below `hi`,
- * else 0. The caller sets lo and hi a relative 1e-9 either side of r*r, far wider than the few roundings by which
+ * else 0 (points without todo keep their state); returns how many got 2. The caller sets lo and hi a relative 1e-9 either side of r*r, far wider than the few roundings by which
  * cKDTree's own sums can differ from these: 1 and 0 are cKDTree's answers for sure, 2 it asks cKDTree. */
-void sdv_near_any(const double *q, int64_t nq, uint8_t *todo, int8_t *state, const double *pts, const int64_t *keys,
-                  int64_t n, double ox, double oy, double oz, double h, int64_t nx, int64_t ny, int64_t nz, double lo,
-                  double hi) {
+int64_t sdv_near_any(const double *q, int64_t nq, uint8_t *todo, int8_t *state, const double *pts,
+                     const int64_t *keys, int64_t n, double ox, double oy, double oz, double h, int64_t nx, int64_t ny,
+                     int64_t nz, double lo, double hi) {
+    int64_t unsure = 0;
     for (int64_t i = 0; i < nq; i++) {
         if (!todo[i])
             continue;
@@ -343,7 +347,9 @@ void sdv_near_any(const double *q, int64_t nq, uint8_t *todo, int8_t *state, con
         state[i] = st;
         if (st == 1)
             todo[i] = 0;
+        unsure += st == 2;
     }
+    return unsure;
 }
 
 /* ---- fusion's voxel union ------------------------------------------------------------------------------- */
@@ -475,4 +481,129 @@ int32_t sdv_grid_dijkstra(const uint8_t *mask, int64_t h, int64_t w, const int64
     }
     free(hp);
     return 0;
+}
+
+/* The cells within `limit` of one start cell by the search of `sdv_grid_dijkstra`, without a full-grid answer: their
+ * flat indices into cells and distances (in cells) into d, in the order they were settled; returns their count, -1
+ * out of memory. dist (h * w) is scratch that holds inf on entry and again on return. */
+int64_t sdv_grid_reach(const uint8_t *mask, int64_t h, int64_t w, int64_t start, double limit, double *dist,
+                       int64_t *cells, double *d) {
+    static const int dr[8] = {0, 1, 1, 1, 0, -1, -1, -1}, dc[8] = {1, 1, 0, -1, -1, -1, 0, 1};
+    const double diag = sqrt(2.0);
+    int64_t cap = 1024, n = 0, found = 0, touched_n = 0, touched_cap = 1024;
+    HeapItem *hp = malloc((size_t)cap * sizeof(HeapItem));
+    int64_t *touched = malloc((size_t)touched_cap * sizeof(int64_t));
+    int64_t status = 0;
+    if (!hp || !touched) {
+        free(hp);
+        free(touched);
+        return -1;
+    }
+    dist[start] = 0.0;
+    touched[touched_n++] = start;
+    dheap_push(hp, &n, 0.0, start);
+    while (n > 0) {
+        const HeapItem it = dheap_pop(hp, &n);
+        if (it.d > dist[it.v])
+            continue;
+        cells[found] = it.v;
+        d[found++] = it.d;
+        const int64_t r = it.v / w, c = it.v % w;
+        for (int k = 0; k < 8; k++) {
+            const int64_t rr = r + dr[k], cc = c + dc[k];
+            if (rr < 0 || rr >= h || cc < 0 || cc >= w || !mask[rr * w + cc])
+                continue;
+            const int diagonal = dr[k] != 0 && dc[k] != 0;
+            if (diagonal && !(mask[rr * w + c] && mask[r * w + cc]))
+                continue;
+            const double nd = it.d + (diagonal ? diag : 1.0);
+            const int64_t v = rr * w + cc;
+            if (nd > limit || !(nd < dist[v]))
+                continue;
+            if (dist[v] == INFINITY) {
+                if (touched_n == touched_cap) {
+                    int64_t *grown = realloc(touched, (size_t)(touched_cap *= 2) * sizeof(int64_t));
+                    if (!grown) {
+                        status = -1;
+                        goto done;
+                    }
+                    touched = grown;
+                }
+                touched[touched_n++] = v;
+            }
+            dist[v] = nd;
+            if (n == cap) {
+                HeapItem *grown = realloc(hp, (size_t)(cap *= 2) * sizeof(HeapItem));
+                if (!grown) {
+                    status = -1;
+                    goto done;
+                }
+                hp = grown;
+            }
+            dheap_push(hp, &n, nd, v);
+        }
+    }
+done:
+    for (int64_t k = 0; k < touched_n; k++)
+        dist[touched[k]] = INFINITY;
+    free(hp);
+    free(touched);
+    return status ? status : found;
+}
+
+/* The cell index `sdv_near_any` searches: each point's cell floor((p - o) / h) per axis (o: the points' minimum), the
+ * grid's cell counts into dims, and the points and their keys (ix * ny + iy) * nz + iz sorted by key into spts and
+ * skeys (a stable LSD radix sort, 11 bits a pass). Returns -1 out of memory, else 0. */
+int32_t sdv_cells(const double *pts, int64_t n, double ox, double oy, double oz, double h, double *spts,
+                  int64_t *skeys, int64_t *dims) {
+    int64_t *c = malloc((size_t)(3 * n + 1) * sizeof(int64_t));
+    int64_t *key = malloc((size_t)(n + 1) * sizeof(int64_t)), *key2 = malloc((size_t)(n + 1) * sizeof(int64_t));
+    int64_t *idx = malloc((size_t)(n + 1) * sizeof(int64_t)), *idx2 = malloc((size_t)(n + 1) * sizeof(int64_t));
+    int64_t *count = malloc(2049 * sizeof(int64_t));
+    int32_t status = 0;
+    if (!c || !key || !key2 || !idx || !idx2 || !count) {
+        status = -1;
+        goto done;
+    }
+    int64_t mx = 0, my = 0, mz = 0;
+    for (int64_t i = 0; i < n; i++) {
+        c[3 * i] = ifloor((pts[3 * i] - ox) / h);
+        c[3 * i + 1] = ifloor((pts[3 * i + 1] - oy) / h);
+        c[3 * i + 2] = ifloor((pts[3 * i + 2] - oz) / h);
+        if (c[3 * i] > mx) mx = c[3 * i];
+        if (c[3 * i + 1] > my) my = c[3 * i + 1];
+        if (c[3 * i + 2] > mz) mz = c[3 * i + 2];
+    }
+    dims[0] = mx + 1;
+    dims[1] = my + 1;
+    dims[2] = mz + 1;
+    int64_t kmax = 0;
+    for (int64_t i = 0; i < n; i++) {
+        key[i] = (c[3 * i] * dims[1] + c[3 * i + 1]) * dims[2] + c[3 * i + 2];
+        idx[i] = i;
+        if (key[i] > kmax) kmax = key[i];
+    }
+    for (int shift = 0; shift < 64 && (kmax >> shift) > 0; shift += 11) {
+        memset(count, 0, 2049 * sizeof(int64_t));
+        for (int64_t i = 0; i < n; i++)
+            count[((key[i] >> shift) & 0x7FF) + 1]++;
+        for (int b = 0; b < 2048; b++)
+            count[b + 1] += count[b];
+        for (int64_t i = 0; i < n; i++) {
+            const int64_t at = count[(key[i] >> shift) & 0x7FF]++;
+            key2[at] = key[i];
+            idx2[at] = idx[i];
+        }
+        int64_t *t = key; key = key2; key2 = t;
+        t = idx; idx = idx2; idx2 = t;
+    }
+    for (int64_t i = 0; i < n; i++) {
+        skeys[i] = key[i];
+        spts[3 * i] = pts[3 * idx[i]];
+        spts[3 * i + 1] = pts[3 * idx[i] + 1];
+        spts[3 * i + 2] = pts[3 * idx[i] + 2];
+    }
+done:
+    free(c); free(key); free(key2); free(idx); free(idx2); free(count);
+    return status;
 }

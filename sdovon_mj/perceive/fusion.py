@@ -52,7 +52,7 @@ class _Chunk:
     compiled test, a KD-tree for scipy's) are built on the first query that reaches the box (many chunks are never
     searched: a query point outside the box has no neighbour there)."""
 
-    __slots__ = ("data", "mins", "maxes", "_tree", "_cells")
+    __slots__ = ("data", "mins", "maxes", "box", "_tree", "_cells")
 
     def __init__(self, points: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.data = np.asarray(points, dtype=np.float64)
@@ -60,6 +60,7 @@ class _Chunk:
             self.mins, self.maxes = axis_bounds(self.data)
         else:  # the points' own min and max, known: converting to float64 keeps the order, so they are the same
             self.mins, self.maxes = (np.asarray(b, dtype=np.float64) for b in bounds)
+        self.box = (*self.mins.tolist(), *self.maxes.tolist())  # as floats: the per-query box test in plain Python
         self._tree = None
         self._cells = None
 
@@ -73,18 +74,21 @@ class _Chunk:
             self._tree = cKDTree(self.data, balanced_tree=False, compact_nodes=False)
         return self._tree
 
-    def cells(self, radius: float) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        """Return the cell index of `native.sdv_near_any` for `radius`: (cell size h, the points sorted by cell key
-        (N, 3), their keys (N,), the grid's cell counts (3,)); cells of h = 1.01 * radius, so that a point within
+    def cells(self, radius: float) -> tuple:
+        """Return the cell index of `native.sdv_near_any` for `radius` as its arguments after the query's: (the
+        points sorted by cell key (N, 3), their keys (N,), N, the grid's origin x, y, z, cell size h, cell counts
+        nx, ny, nz), the arrays as addresses (kept alive here). Cells of h = 1.01 * radius, so that a point within
         the radius of a query lies in the query's cell or a neighbour whatever the rounding of the division."""
         if self._cells is None or self._cells[0] != radius:
             h = radius * 1.01
-            c = np.floor((self.data - self.mins) / h).astype(np.int64)
-            n = axis_bounds(c)[1] + 1
-            key = (c[:, 0] * n[1] + c[:, 1]) * n[2] + c[:, 2]
-            order = np.argsort(key, kind="stable")
-            self._cells = (radius, h, np.ascontiguousarray(self.data[order]), np.ascontiguousarray(key[order]), n)
-        return self._cells[1:]
+            data = np.ascontiguousarray(self.data)
+            pts, keys, n = np.empty_like(data), np.empty(len(data), dtype=np.int64), np.zeros(3, dtype=np.int64)
+            if native.library().sdv_cells(data.ctypes.data, len(data), *self.mins.tolist(), h, pts.ctypes.data,
+                                          keys.ctypes.data, n.ctypes.data):
+                raise MemoryError("fusion: out of memory building a chunk's cell index")
+            args = (pts.ctypes.data, keys.ctypes.data, len(keys), *self.mins.tolist(), h, *n.tolist())
+            self._cells = (radius, args, pts, keys)
+        return self._cells[1]
 
 
 def label_similarity(a: str, b: str, mode: str = "minilm") -> float:
@@ -184,22 +188,20 @@ class _Fused:
         todo = np.ones(n, dtype=np.uint8)
         state = np.zeros(n, dtype=np.int8)
         r2 = radius * radius
+        lo, hi = r2 * (1.0 - 1e-9), r2 * (1.0 + 1e-9)
         margin = box_margin(radius)
         q_lo, q_hi = axis_bounds(q)
-        q_lo, q_hi = q_lo - margin, q_hi + margin
+        x0, y0, z0 = (q_lo - margin).tolist()
+        x1, y1, z1 = (q_hi + margin).tolist()
+        head = (q.ctypes.data, n, todo.ctypes.data, state.ctypes.data)
+        near_any = lib.sdv_near_any
         unsure = []
         for chunk in reversed(self.chunks):
-            if (chunk.mins > q_hi).any() or (chunk.maxes < q_lo).any():
+            bx0, by0, bz0, bx1, by1, bz1 = chunk.box
+            if bx0 > x1 or by0 > y1 or bz0 > z1 or bx1 < x0 or by1 < y0 or bz1 < z0:
                 continue  # no query point within the radius of the chunk's box
-            h, pts, keys, dims = chunk.cells(radius)
-            state.fill(0)
-            o = chunk.mins
-            lib.sdv_near_any(q.ctypes.data, n, todo.ctypes.data, state.ctypes.data, pts.ctypes.data, keys.ctypes.data,
-                             len(keys), float(o[0]), float(o[1]), float(o[2]), h, int(dims[0]), int(dims[1]),
-                             int(dims[2]), r2 * (1.0 - 1e-9), r2 * (1.0 + 1e-9))
-            u = np.flatnonzero(state == 2)
-            if len(u):
-                unsure.append((chunk, u))
+            if near_any(*head, *chunk.cells(radius), lo, hi):  # points without todo keep their state: see below
+                unsure.append((chunk, np.flatnonzero(state == 2)))
         for chunk, idx in unsure:
             idx = idx[todo[idx] != 0]
             if len(idx):

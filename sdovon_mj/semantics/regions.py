@@ -275,7 +275,6 @@ def _walking_windows(navmap: NavMap, space: np.ndarray, centres: np.ndarray, r: 
     """
     h, w = space.shape
     res = float(navmap.resolution)
-    nodes_rc = np.argwhere(space)  # node k is the k-th True cell in row-major order (cell_graph)
     # the instances standing on each cell, once: (cell, instance) pairs instead of every point per window
     pairs = np.unique(pflat.astype(np.int64) * (len(labels) + 1) + idx)
     pair_cell, pair_inst = pairs // (len(labels) + 1), pairs % (len(labels) + 1)
@@ -283,38 +282,53 @@ def _walking_windows(navmap: NavMap, space: np.ndarray, centres: np.ndarray, r: 
                       if 0 <= ci < h and 0 <= cj < w and space[ci, cj]], dtype=np.int64)  # a wall or outside: none
     out = []
     in_window = np.zeros(h * w, dtype=bool)
-    for dist in _walk_distances(space, cells, r / res + 1e-9):
+    for flat, dist in _walk_reach(space, cells, r / res + 1e-9):
         dist = dist * res
-        near = np.flatnonzero(np.isfinite(dist) & (dist <= r))
-        rr, cc = nodes_rc[near, 0], nodes_rc[near, 1]
-        flat = rr * w + cc
+        keep = dist <= r
+        flat, dist = flat[keep], dist[keep]
+        rr, cc = flat // w, flat % w
         in_window[flat] = True
         labs = tuple(sorted(set(labels[pair_inst[in_window[pair_cell]]]) - {""}))
         in_window[flat] = False
-        out.append((rr, cc, 1.0 - (dist[near] / r) ** 2, labs))
+        out.append((rr, cc, 1.0 - (dist / r) ** 2, labs))
     return out
 
 
-def _walk_distances(space: np.ndarray, cells: np.ndarray, limit: float) -> Iterator[np.ndarray]:
-    """Yield, per start cell (flat index on `space`), its distances in cells to every node of the floor's cell graph,
-    inf past `limit` (scipy's Dijkstra with ``limit``): the compiled grid search where available (the same values,
-    `gridgraph.grid_distances`), else scipy, WALK_BATCH starts per call (it checks and converts the graph once per
-    call, then runs each start on its own)."""
+def _walk_reach(space: np.ndarray, cells: np.ndarray, limit: float) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Yield, per start cell (flat index on `space`), the cells its walk reaches within `limit` cells (flat indices,
+    ascending: the cell graph's node order) and their distances in cells: scipy's Dijkstra with ``limit`` on the
+    floor's cell graph. Compiled where available (native ``sdv_grid_reach``: the same values, see
+    `gridgraph.grid_distances`, and only the cells reached are touched), else scipy, WALK_BATCH starts per call (it
+    checks and converts the graph once per call, then runs each start on its own)."""
+    from .. import native
+
+    lib = native.library()
+    if lib is not None:
+        mask = np.ascontiguousarray(space, dtype=np.uint8)
+        h, w = mask.shape
+        scratch = np.full(h * w, np.inf)
+        n = int(mask.sum())
+        reached, dist = np.empty(n, dtype=np.int64), np.empty(n)
+        for start in cells.tolist():
+            k = lib.sdv_grid_reach(mask.ctypes.data, h, w, start, float(limit), scratch.ctypes.data,
+                                   reached.ctypes.data, dist.ctypes.data)
+            if k < 0:
+                raise MemoryError("walking windows: out of memory")
+            order = np.argsort(reached[:k], kind="stable")
+            yield reached[:k][order], dist[:k][order]
+        return
     from scipy.sparse.csgraph import dijkstra
 
-    from ..gridgraph import graph_of, grid_distances
+    from ..gridgraph import graph_of
 
-    for k in range(len(cells)):
-        d = grid_distances(space, cells[k : k + 1], limit)
-        if d is None:  # no compiled kernels (the same for every start): scipy from the first
-            break
-        yield d[space]
-    else:
-        return
     g, index = graph_of(space)
+    nodes = np.flatnonzero(np.asarray(space).reshape(-1))  # node k's flat cell
     flat_index = index.reshape(-1)
     for b in range(0, len(cells), WALK_BATCH):
-        yield from dijkstra(g, directed=True, indices=flat_index[cells[b : b + WALK_BATCH]], limit=limit).reshape(-1, g.shape[0])
+        rows = dijkstra(g, directed=True, indices=flat_index[cells[b : b + WALK_BATCH]], limit=limit)
+        for d in rows.reshape(-1, g.shape[0]):
+            ok = np.isfinite(d)
+            yield nodes[ok], d[ok]
 
 
 class _Vocab:
