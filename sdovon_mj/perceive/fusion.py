@@ -126,6 +126,7 @@ class _Fused:
     hi: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     _label: str | None = field(default=None, repr=False, compare=False)  # `label`, until the votes change
     _points: np.ndarray | None = field(default=None, repr=False, compare=False)  # `points`, until the voxels change
+    _probe_world: tuple | None = field(default=None, repr=False, compare=False)  # `probe`'s world, likewise
 
     MAX_CHUNKS = 8
 
@@ -136,6 +137,14 @@ class _Fused:
             self._points = self.sums / self.counts[:, None]
             self._points.setflags(write=False)
         return self._points
+
+    def probe(self) -> tuple[Instance, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Return this instance as consolidation tests it: an Instance of its points (as float32, centred at 0)
+        and its (world points, their min, their max), the latter kept until the voxel map changes."""
+        inst = Instance(id=-1, label=self.label, points=self.points.astype(np.float32), center=np.zeros(3))
+        if self._probe_world is None:
+            self._probe_world = _world(inst)
+        return inst, self._probe_world
 
     @property
     def view_height(self) -> np.ndarray | None:
@@ -229,7 +238,7 @@ class _Fused:
         voxels are inserted in place, then the new sums added. A voxel's sum is old + new, as the
         bincount over the concatenation that this replaces gave (0 + old is old: a sum is never -0).
         """
-        self._points = None
+        self._points = self._probe_world = None
         lib = native.library()
         if lib is not None and self.sums.dtype == np.float64 and self.counts.dtype == np.float64:
             self._union_compiled(lib, k, s, c, h)
@@ -371,6 +380,8 @@ class InstanceFuser:
         cfg = self.cfg
         if not self.fused:
             return -1
+        if bounds is None:
+            bounds = self._bounds()
         p, near = self._near(inst, world, bounds)
         if allowed is not None:
             near &= allowed
@@ -379,7 +390,8 @@ class InstanceFuser:
             return -1
         q = query_points(p)
         sems = [self._label_sim(inst.label, self.fused[j].label) for j in cands]
-        bound = np.array([cfg.k_sem * sem + cfg.k_geo * b for sem, b in zip(sems, self._overlap_bounds(q, cands))])
+        bound = np.array([cfg.k_sem * sem + cfg.k_geo * b
+                          for sem, b in zip(sems, self._overlap_bounds(q, cands, bounds))])
         best_j, best = -1, -np.inf
         for k in np.lexsort((cands, -bound)):  # highest bound first, then lowest index
             if bound[k] < max(best, cfg.phi_min):
@@ -390,15 +402,15 @@ class InstanceFuser:
                 best_j, best = j, phi
         return best_j if best >= cfg.phi_min else -1
 
-    def _overlap_bounds(self, q: np.ndarray, cands: np.ndarray) -> list[float]:
+    def _overlap_bounds(self, q: np.ndarray, cands: np.ndarray, bounds: tuple[np.ndarray, np.ndarray]) -> list[float]:
         """Return, per candidate fused instance, an upper bound on its `_Fused.overlap` of the query points `q`: the
-        fraction of them within its box widened by the overlap test's margin (a point outside it is outside every
-        chunk's box), all candidates tested at once."""
+        fraction of them within its box (from `bounds`, the map's `_bounds`) widened by the overlap test's margin (a
+        point outside it is outside every chunk's box), all candidates tested at once."""
         if len(q) == 0:
             return [0.0] * len(cands)
         margin = box_margin(self.cfg.overlap_radius)
-        lo = np.array([self.fused[j].lo for j in cands]) - margin
-        hi = np.array([self.fused[j].hi for j in cands]) + margin
+        lo = bounds[0][cands] - margin
+        hi = bounds[1][cands] + margin
         inside = (q[:, 0] >= lo[:, 0, None]) & (q[:, 0] <= hi[:, 0, None])  # (candidates, points), axis by axis
         for d in (1, 2):
             inside &= (q[:, d] >= lo[:, d, None]) & (q[:, d] <= hi[:, d, None])
@@ -452,12 +464,12 @@ class InstanceFuser:
                         continue
                     only = np.zeros(len(self.fused), dtype=bool)
                     only[grown] = True
-                probe = Instance(id=-1, label=small.label, points=small.points.astype(np.float32), center=np.zeros(3))
+                probe, world = small.probe()
                 # Only merge into a bigger instance (never itself), so every pass strictly shrinks the list.
                 allowed = (sizes > sizes[i]) | ((sizes == sizes[i]) & (index > i))
                 if only is not None:
                     allowed &= only
-                j = self.best_match(probe, bounds=bounds, allowed=allowed)
+                j = self.best_match(probe, world, bounds=bounds, allowed=allowed)
                 if j >= 0:
                     target = self.fused[j]
                     target.merge(small)
