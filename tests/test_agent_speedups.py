@@ -606,10 +606,18 @@ def test_axis_by_axis_box_helpers_equal_numpys_reductions():
             assert np.array_equal(in_box(p, b_lo, b_hi), np.all((p >= b_lo) & (p <= b_hi), axis=1))
 
 
-def test_voxel_stats_equals_the_unique_and_bincount_reference():
-    """perceive.backproject.voxel_stats by one stable sort: the keys, sums, counts and view-height maxima of the
-    np.unique + bincount form it replaced (kept here verbatim), byte for byte, NaN heights and empty input included."""
+@pytest.mark.parametrize("form", ["compiled", "python"])
+def test_voxel_stats_equals_the_unique_and_bincount_reference(form, monkeypatch):
+    """perceive.backproject.voxel_stats, compiled (native sdv_voxel_stats) and by one stable numpy sort: the keys,
+    sums, counts and view-height maxima of the np.unique + bincount form it replaced (kept here verbatim), byte for
+    byte, NaN heights, signed zeros, points on voxel faces and empty input included."""
+    from sdovon_mj import native
     from sdovon_mj.perceive.backproject import voxel_keys, voxel_stats
+
+    if form == "python":
+        monkeypatch.setattr(native, "library", lambda: None)
+    elif native.library() is None:
+        pytest.skip(f"no compiled kernels here: {native.status()}")
 
     def reference(points, voxel, values=None):
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
@@ -632,6 +640,9 @@ def test_voxel_stats_equals_the_unique_and_bincount_reference():
     rng = np.random.default_rng(4751)
     for n in (0, 1, 2, 5, 300, 4000):
         p = (rng.uniform(-0.3, 0.3, (n, 3)) + rng.uniform(-20, 20, 3)).astype(rng.choice([np.float32, np.float64]))
+        if n > 10:
+            p[: n // 4] = np.round(p[: n // 4] / 0.02) * 0.02  # on voxel faces
+            p[n // 4 : n // 4 + 3] = -0.0
         heights = rng.uniform(0.0, 2.0, n)
         heights[rng.random(n) < 0.3] = np.nan
         for values in (None, heights):
@@ -731,3 +742,28 @@ def test_plan_cells_equals_the_undirected_search_reference():
             astar.dijkstra = real
         assert got == want, trial
     assert calls and all(calls)  # the new form asks for the directed search
+
+
+def test_category_image_compiled_equals_the_numpy_form(monkeypatch):
+    """ObservationBuilder.category_image in one compiled pass (native sdv_category): the numpy form's image for
+    segment ids of instances, placed objects, unlabelled ids between them, ids past the table and -1."""
+    from sdovon_mj import native
+    from sdovon_mj.knowledge import Knowledge
+    from sdovon_mj.sim.model import OBJECT_ID_BASE
+    from sdovon_mj.suite.observation import ObservationBuilder, Vocabulary
+
+    if native.library() is None:
+        pytest.skip(f"no compiled kernels here: {native.status()}")
+    vocab = Vocabulary(goal_categories=("cup", "book"), labels=("cup", "book", "table", "sofa"))
+    labels = {0: "table", 3: "sofa", 7: "lamp", OBJECT_ID_BASE + 0: "cup", OBJECT_ID_BASE + 4: "book"}
+    builder = ObservationBuilder(Knowledge(), vocab, labels)
+    rng = np.random.default_rng(4757)
+    pool = np.array([-1, 0, 1, 3, 5, 7, 8, 40, OBJECT_ID_BASE - 1, OBJECT_ID_BASE, OBJECT_ID_BASE + 2,
+                     OBJECT_ID_BASE + 4, OBJECT_ID_BASE + 5, OBJECT_ID_BASE + 999], dtype=np.int32)
+    seg = pool[rng.integers(0, len(pool), (48, 64))]
+    got = builder.category_image(seg)
+    with monkeypatch.context() as m:
+        m.setattr(native, "library", lambda: None)
+        want = builder.category_image(seg)
+    assert got.dtype == want.dtype == np.int16 and np.array_equal(got, want)
+    assert set(np.unique(got).tolist()) == {-1, 0, 1, 2, 3}

@@ -607,3 +607,76 @@ done:
     free(c); free(key); free(key2); free(idx); free(idx2); free(count);
     return status;
 }
+
+/* perceive/backproject.py `voxel_stats` without its values: each point's voxel key (floor(p / voxel) + 2^20 per
+ * axis, 21 bits each, as `voxel_keys`), the points' order sorted by key (a stable LSD radix sort, 11 bits a pass:
+ * equal keys keep their input order, as numpy's stable argsort), and per voxel its key, the start of its run in
+ * that order, its point count and its sums, each added from 0.0 in input order as numpy's bincount adds them.
+ * Returns the number of voxels, -1 out of memory. */
+int64_t sdv_voxel_stats(const double *p, int64_t n, double voxel, int64_t *order, int64_t *uniq, int64_t *starts,
+                        double *counts, double *sums) {
+    const int64_t off = (int64_t)1 << 20;
+    int64_t *key = malloc((size_t)(n + 1) * sizeof(int64_t)), *key2 = malloc((size_t)(n + 1) * sizeof(int64_t));
+    int64_t *idx = malloc((size_t)(n + 1) * sizeof(int64_t)), *idx2 = malloc((size_t)(n + 1) * sizeof(int64_t));
+    int64_t *count = malloc(2049 * sizeof(int64_t));
+    int64_t m = -1;
+    if (!key || !key2 || !idx || !idx2 || !count)
+        goto done;
+    uint64_t all = 0;
+    for (int64_t i = 0; i < n; i++) {
+        const int64_t kx = ifloor(p[3 * i] / voxel) + off, ky = ifloor(p[3 * i + 1] / voxel) + off;
+        const int64_t kz = ifloor(p[3 * i + 2] / voxel) + off;
+        key[i] = (int64_t)(((uint64_t)kx << 42) | ((uint64_t)ky << 21) | (uint64_t)kz);
+        idx[i] = i;
+        all |= (uint64_t)key[i];
+    }
+    if ((int64_t)all < 0) { /* a key off the 21-bit range (a point some 20 km out): the caller's numpy form */
+        m = -2;
+        goto done;
+    }
+    for (int shift = 0; shift < 64 && (all >> shift) > 0; shift += 11) {
+        memset(count, 0, 2049 * sizeof(int64_t));
+        for (int64_t i = 0; i < n; i++)
+            count[((key[i] >> shift) & 0x7FF) + 1]++;
+        for (int b = 0; b < 2048; b++)
+            count[b + 1] += count[b];
+        for (int64_t i = 0; i < n; i++) {
+            const int64_t at = count[(key[i] >> shift) & 0x7FF]++;
+            key2[at] = key[i];
+            idx2[at] = idx[i];
+        }
+        int64_t *t = key; key = key2; key2 = t;
+        t = idx; idx = idx2; idx2 = t;
+    }
+    m = 0;
+    for (int64_t i = 0; i < n; i++) {
+        order[i] = idx[i];
+        if (i == 0 || key[i] != key[i - 1]) {
+            uniq[m] = key[i];
+            starts[m] = i;
+            counts[m] = 0.0;
+            sums[3 * m] = 0.0; sums[3 * m + 1] = 0.0; sums[3 * m + 2] = 0.0;
+            m++;
+        }
+        const double *q = p + 3 * idx[i];
+        counts[m - 1] += 1.0;
+        sums[3 * (m - 1)] += q[0]; sums[3 * (m - 1) + 1] += q[1]; sums[3 * (m - 1) + 2] += q[2];
+    }
+done:
+    free(key); free(key2); free(idx); free(idx2); free(count);
+    return m;
+}
+
+/* suite/observation.py `ObservationBuilder.category_image`: per pixel, segment id s (instance ids 0..inst_n-1, object
+ * ids from base) to its row of lut (instance ids first, then objects), the last row for anything else. */
+void sdv_category(const int32_t *seg, int64_t n, int64_t inst_n, int64_t base, const int16_t *lut, int64_t n_lut,
+                  int16_t *out) {
+    const int64_t none = n_lut - 1;
+    for (int64_t i = 0; i < n; i++) {
+        const int64_t s = seg[i];
+        int64_t key = s >= base ? s - base + inst_n : s;
+        if (s < 0 || key >= none || (s < base && s >= inst_n))
+            key = none;
+        out[i] = lut[key];
+    }
+}

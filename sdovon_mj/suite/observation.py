@@ -28,6 +28,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from .. import native
 from ..actions import ACTION_NAMES
 from ..config import AgentConfig, NavConfig
 from ..errors import InputError
@@ -172,6 +173,14 @@ class ObservationBuilder:
 
     def category_image(self, segment_ids: np.ndarray) -> np.ndarray:
         """Return the (H, W) int16 category image of a segmentation-id image (-1: nothing labelled)."""
+        lib = native.library()
+        if lib is not None and isinstance(segment_ids, np.ndarray) and segment_ids.dtype == np.int32:
+            s = np.ascontiguousarray(segment_ids)  # one compiled pass, the same rows of the table as below
+            out = np.empty(s.shape, np.int16)
+            lut = np.ascontiguousarray(self._lut, dtype=np.int16)
+            lib.sdv_category(s.ctypes.data, s.size, self._inst_n, OBJECT_ID_BASE, lut.ctypes.data, len(lut),
+                             out.ctypes.data)
+            return out
         s = np.asarray(segment_ids, np.int64)
         none = len(self._lut) - 1
         key = np.where(s >= OBJECT_ID_BASE, s - OBJECT_ID_BASE + self._inst_n, s)
