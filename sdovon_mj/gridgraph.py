@@ -98,8 +98,8 @@ def grid_distances(mask: np.ndarray, sources: np.ndarray, limit: float = np.inf,
     least value does not depend on the order in which either queue settles equal keys (tests/test_native.py).
     """
     lib = native.library()
-    if lib is None:
-        return None
+    if lib is None or (start is not None and not np.all((np.asarray(start) >= 0.0) & (np.asarray(start) < 1.0))):
+        return None  # the compiled search queues its sources first: their starts must lie within one step
     nav = np.ascontiguousarray(mask, dtype=np.uint8)
     h, w = nav.shape
     src = np.asarray(sources, dtype=np.int64).reshape(-1)

@@ -392,163 +392,135 @@ int64_t sdv_union(const int64_t *ok, const double *os, const double *oc, const d
 
 /* ---- grid Dijkstra -------------------------------------------------------------------------------------- */
 
+/* Cells queued by distance. Every step costs at least 1, so a cell whose distance lies in [k, k + 1) is final once the
+ * cells below k are done: bucket k is taken in any order, and a step from it lands in bucket k + 1 or k + 2 (costs 1
+ * and sqrt(2) < 2). Four rotating buckets hold the live ones. */
 typedef struct {
-    double d;
-    int64_t v;
-} HeapItem;
+    int64_t *v;
+    int64_t n, cap;
+} Bucket;
 
-static void dheap_push(HeapItem *hp, int64_t *n, double d, int64_t v) {
-    int64_t i = (*n)++;
-    while (i > 0) {
-        const int64_t p = (i - 1) / 2;
-        if (hp[p].d <= d)
-            break;
-        hp[i] = hp[p];
-        i = p;
+static int bucket_push(Bucket *b, int64_t v) {
+    if (b->n == b->cap) {
+        const int64_t cap = b->cap ? 2 * b->cap : 256;
+        int64_t *grown = realloc(b->v, (size_t)cap * sizeof(int64_t));
+        if (!grown)
+            return -1;
+        b->v = grown;
+        b->cap = cap;
     }
-    hp[i].d = d;
-    hp[i].v = v;
+    b->v[b->n++] = v;
+    return 0;
 }
 
-static HeapItem dheap_pop(HeapItem *hp, int64_t *n) {
-    const HeapItem top = hp[0], last = hp[--(*n)];
-    int64_t i = 0;
-    for (;;) {
-        int64_t c = 2 * i + 1;
-        if (c >= *n)
-            break;
-        if (c + 1 < *n && hp[c + 1].d < hp[c].d)
-            c++;
-        if (hp[c].d >= last.d)
-            break;
-        hp[i] = hp[c];
-        i = c;
+static int list_push(int64_t **a, int64_t *n, int64_t *cap, int64_t v) {
+    if (*n == *cap) {
+        const int64_t c = *cap ? 2 * *cap : 1024;
+        int64_t *grown = realloc(*a, (size_t)c * sizeof(int64_t));
+        if (!grown)
+            return -1;
+        *a = grown;
+        *cap = c;
     }
-    if (*n > 0)
-        hp[i] = last;
-    return top;
+    (*a)[(*n)++] = v;
+    return 0;
 }
 
-/* gridgraph.py `cell_graph` searched from the source cells src (flat indices on the (h, w) mask): 4 straight steps of
- * cost 1 and 4 diagonal ones of cost sqrt(2), a diagonal only when both cells it passes beside are on the mask. dist
- * (h * w, the caller's inf) gets each cell's distance in cells, a source starting at init[k] (0 when init is NULL:
- * GeodesicField's virtual source reaches its targets' cells at their offsets); with a finite `limit` a step longer
- * than it is not taken (scipy's `limit`). Every cell's distance is the least of fl(dist[u] + cost) over its neighbours u: the same
- * double sums scipy's Dijkstra keeps, whatever order equal keys leave either queue in. Returns -1 out of memory. */
-int32_t sdv_grid_dijkstra(const uint8_t *mask, int64_t h, int64_t w, const int64_t *src, const double *init,
-                          int64_t nsrc, double limit, double *dist) {
+/* gridgraph.py `cell_graph` searched from nsrc source cells src (flat indices on the (h, w) mask, each starting at
+ * init[k] in [0, 1), 0 when init is NULL: GeodesicField's virtual source reaches its targets' cells at their offsets):
+ * 4 straight steps of cost 1 and 4 diagonal ones of cost sqrt(2), a diagonal only when both cells it passes beside
+ * are on the mask; a step to a distance past `limit` is not taken (scipy's `limit`). dist (h * w, inf on entry) gets
+ * each reached cell's distance in cells. Each is the least fl(d(u) + cost) over its neighbours u, as in scipy's
+ * Dijkstra: that least value does not depend on the order in which equal or near keys are settled. When out is given
+ * the settled cells and their distances are written to out and out_d in settling order; when touched is given, every
+ * cell whose dist was set is listed there (the caller restores inf). Returns the number settled, -1 out of memory. */
+static int64_t grid_search(const uint8_t *mask, int64_t h, int64_t w, const int64_t *src, const double *init,
+                           int64_t nsrc, double limit, double *dist, int64_t *out, double *out_d, int64_t **touched,
+                           int64_t *n_touched, int64_t *cap_touched) {
     static const int dr[8] = {0, 1, 1, 1, 0, -1, -1, -1}, dc[8] = {1, 1, 0, -1, -1, -1, 0, 1};
     const double diag = sqrt(2.0);
-    int64_t cap = 4 * nsrc + 1024, n = 0;
-    HeapItem *hp = malloc((size_t)cap * sizeof(HeapItem));
-    if (!hp)
+    Bucket bk[4] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    uint8_t *done = calloc((size_t)(h * w), 1);
+    int64_t settled = 0, live = 0;
+    if (!done)
         return -1;
     for (int64_t k = 0; k < nsrc; k++) {
         const int64_t v = src[k];
         const double d0 = init ? init[k] : 0.0;
-        if (d0 < dist[v]) {
-            dist[v] = d0;
-            dheap_push(hp, &n, d0, v);
-        }
+        if (!(d0 < dist[v]))
+            continue;
+        if (touched && dist[v] == INFINITY && list_push(touched, n_touched, cap_touched, v))
+            goto oom;
+        dist[v] = d0;
+        if (bucket_push(&bk[0], v))
+            goto oom;
+        live++;
     }
-    while (n > 0) {
-        const HeapItem it = dheap_pop(hp, &n);
-        if (it.d > dist[it.v])
-            continue; /* a stale entry */
-        const int64_t r = it.v / w, c = it.v % w;
-        for (int k = 0; k < 8; k++) {
-            const int64_t rr = r + dr[k], cc = c + dc[k];
-            if (rr < 0 || rr >= h || cc < 0 || cc >= w || !mask[rr * w + cc])
-                continue;
-            const int diagonal = dr[k] != 0 && dc[k] != 0;
-            if (diagonal && !(mask[rr * w + c] && mask[r * w + cc]))
-                continue;
-            const double nd = it.d + (diagonal ? diag : 1.0);
-            if (nd > limit || !(nd < dist[rr * w + cc]))
-                continue;
-            dist[rr * w + cc] = nd;
-            if (n == cap) {
-                cap *= 2;
-                HeapItem *grown = realloc(hp, (size_t)cap * sizeof(HeapItem));
-                if (!grown) {
-                    free(hp);
-                    return -1;
-                }
-                hp = grown;
+    for (int64_t k = 0; live > 0; k++) {
+        Bucket *b = &bk[k & 3];
+        for (int64_t i = 0; i < b->n; i++) { /* steps from here land in buckets k + 1 and k + 2, never in this one */
+            const int64_t v = b->v[i];
+            live--;
+            if (done[v])
+                continue; /* queued again at a smaller distance and settled then */
+            done[v] = 1;
+            const double dv = dist[v];
+            if (out) {
+                out[settled] = v;
+                out_d[settled] = dv;
             }
-            dheap_push(hp, &n, nd, rr * w + cc);
+            settled++;
+            const int64_t r = v / w, c = v % w;
+            for (int q = 0; q < 8; q++) {
+                const int64_t rr = r + dr[q], cc = c + dc[q];
+                if (rr < 0 || rr >= h || cc < 0 || cc >= w || !mask[rr * w + cc])
+                    continue;
+                const int diagonal = dr[q] != 0 && dc[q] != 0;
+                if (diagonal && !(mask[rr * w + c] && mask[r * w + cc]))
+                    continue;
+                const double nd = dv + (diagonal ? diag : 1.0);
+                const int64_t u = rr * w + cc;
+                if (nd > limit || !(nd < dist[u]))
+                    continue;
+                if (touched && dist[u] == INFINITY && list_push(touched, n_touched, cap_touched, u))
+                    goto oom;
+                dist[u] = nd;
+                if (bucket_push(&bk[(int64_t)nd & 3], u))
+                    goto oom;
+                live++;
+            }
         }
+        b->n = 0;
     }
-    free(hp);
-    return 0;
+    for (int q = 0; q < 4; q++)
+        free(bk[q].v);
+    free(done);
+    return settled;
+oom:
+    for (int q = 0; q < 4; q++)
+        free(bk[q].v);
+    free(done);
+    return -1;
 }
 
-/* The cells within `limit` of one start cell by the search of `sdv_grid_dijkstra`, without a full-grid answer: their
- * flat indices into cells and distances (in cells) into d, in the order they were settled; returns their count, -1
- * out of memory. dist (h * w) is scratch that holds inf on entry and again on return. */
+/* `grid_search` from the sources into the caller's dist (h * w, inf on entry). Returns 0, or -1 out of memory. */
+int32_t sdv_grid_dijkstra(const uint8_t *mask, int64_t h, int64_t w, const int64_t *src, const double *init,
+                          int64_t nsrc, double limit, double *dist) {
+    return grid_search(mask, h, w, src, init, nsrc, limit, dist, NULL, NULL, NULL, NULL, NULL) < 0 ? -1 : 0;
+}
+
+/* The cells within `limit` of one start cell by `grid_search`, without a full-grid answer: their flat indices into
+ * cells and distances (in cells) into d, in settling order; returns their count, -1 out of memory. dist (h * w) is
+ * scratch that holds inf on entry and again on return. */
 int64_t sdv_grid_reach(const uint8_t *mask, int64_t h, int64_t w, int64_t start, double limit, double *dist,
                        int64_t *cells, double *d) {
-    static const int dr[8] = {0, 1, 1, 1, 0, -1, -1, -1}, dc[8] = {1, 1, 0, -1, -1, -1, 0, 1};
-    const double diag = sqrt(2.0);
-    int64_t cap = 1024, n = 0, found = 0, touched_n = 0, touched_cap = 1024;
-    HeapItem *hp = malloc((size_t)cap * sizeof(HeapItem));
-    int64_t *touched = malloc((size_t)touched_cap * sizeof(int64_t));
-    int64_t status = 0;
-    if (!hp || !touched) {
-        free(hp);
-        free(touched);
-        return -1;
-    }
-    dist[start] = 0.0;
-    touched[touched_n++] = start;
-    dheap_push(hp, &n, 0.0, start);
-    while (n > 0) {
-        const HeapItem it = dheap_pop(hp, &n);
-        if (it.d > dist[it.v])
-            continue;
-        cells[found] = it.v;
-        d[found++] = it.d;
-        const int64_t r = it.v / w, c = it.v % w;
-        for (int k = 0; k < 8; k++) {
-            const int64_t rr = r + dr[k], cc = c + dc[k];
-            if (rr < 0 || rr >= h || cc < 0 || cc >= w || !mask[rr * w + cc])
-                continue;
-            const int diagonal = dr[k] != 0 && dc[k] != 0;
-            if (diagonal && !(mask[rr * w + c] && mask[r * w + cc]))
-                continue;
-            const double nd = it.d + (diagonal ? diag : 1.0);
-            const int64_t v = rr * w + cc;
-            if (nd > limit || !(nd < dist[v]))
-                continue;
-            if (dist[v] == INFINITY) {
-                if (touched_n == touched_cap) {
-                    int64_t *grown = realloc(touched, (size_t)(touched_cap *= 2) * sizeof(int64_t));
-                    if (!grown) {
-                        status = -1;
-                        goto done;
-                    }
-                    touched = grown;
-                }
-                touched[touched_n++] = v;
-            }
-            dist[v] = nd;
-            if (n == cap) {
-                HeapItem *grown = realloc(hp, (size_t)(cap *= 2) * sizeof(HeapItem));
-                if (!grown) {
-                    status = -1;
-                    goto done;
-                }
-                hp = grown;
-            }
-            dheap_push(hp, &n, nd, v);
-        }
-    }
-done:
-    for (int64_t k = 0; k < touched_n; k++)
+    int64_t *touched = NULL, n_touched = 0, cap_touched = 0;
+    const int64_t found = grid_search(mask, h, w, &start, NULL, 1, limit, dist, cells, d, &touched, &n_touched,
+                                      &cap_touched);
+    for (int64_t k = 0; k < n_touched; k++)
         dist[touched[k]] = INFINITY;
-    free(hp);
     free(touched);
-    return status ? status : found;
+    return found;
 }
 
 /* The cell index `sdv_near_any` searches: each point's cell floor((p - o) / h) per axis (o: the points' minimum), the
