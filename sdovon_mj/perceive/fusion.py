@@ -140,10 +140,14 @@ class _Fused:
 
     def probe(self) -> tuple[Instance, tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Return this instance as consolidation tests it: an Instance of its points (as float32, centred at 0)
-        and its (world points, their min, their max), the latter kept until the voxel map changes."""
+        and, for `InstanceFuser.best_match`, its (query points, world min, world max), kept until the voxel map
+        changes. best_match reads an instance's world points only through `query_points`, which returns at most
+        MAX_OVERLAP_QUERY points and leaves such a set as it is: keeping those few gives its answer, not a copy
+        of every point."""
         inst = Instance(id=-1, label=self.label, points=self.points.astype(np.float32), center=np.zeros(3))
         if self._probe_world is None:
-            self._probe_world = _world(inst)
+            p, lo, hi = _world(inst)
+            self._probe_world = (np.ascontiguousarray(query_points(p)), lo, hi)
         return inst, self._probe_world
 
     @property
