@@ -5,6 +5,8 @@ definition of the geodesic distance from a world point to a set of world targets
 generator stores it as an episode's ``geodesic_distance``, the suite uses it for distance to goal and
 the SPL denominator, and the agents' planners measure on the same graph (`graph_of`, `distance_field`).
 So an episode's stored distance equals the suite's shortest-path length for the same start.
+Distances come from scipy's Dijkstra on the graph or, where the compiled kernels load, from a search of the
+mask itself (`grid_distances`): the same values, byte for byte.
 """
 
 from __future__ import annotations

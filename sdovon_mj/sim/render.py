@@ -319,7 +319,7 @@ class SceneRenderer:
         The context is made current first: mujoco.Renderer.close frees its textures, buffers and framebuffer by
         their GL names in whichever context is current, and another live renderer's objects carry the same names
         (each context counts from 1), so closing one renderer while another was current used to delete the other's
-        framebuffer and meshes: its next frames came out wrong, without an error (tests/test_render.py).
+        framebuffer and meshes: its next frames came out wrong, without an error (tests/test_observe.py).
         """
         r = getattr(self, "_renderer", None)
         if r is not None:
