@@ -440,6 +440,8 @@ static int64_t grid_search(const uint8_t *mask, int64_t h, int64_t w, const int6
     static const int dr[8] = {0, 1, 1, 1, 0, -1, -1, -1}, dc[8] = {1, 1, 0, -1, -1, -1, 0, 1};
     const double diag = sqrt(2.0);
     Bucket bk[4] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    if (h <= 0 || w <= 0)
+        return 0; /* no cells: nothing to settle (calloc of 0 bytes may give NULL) */
     uint8_t *done = calloc((size_t)(h * w), 1);
     int64_t settled = 0, live = 0;
     if (!done)
