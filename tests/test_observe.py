@@ -388,3 +388,39 @@ def test_observe_scene_without_floor_names_the_mesh(tmp_path):
     with pytest.raises(InputError) as e:
         observe_scene(scene, tmp_path, "observe", ObserveConfig(), render=False)
     assert scene.mesh in str(e.value) and "no floor found" in str(e.value)
+
+
+@pytest.mark.parametrize("boxes", [60, 300])
+def test_id_decoding_reads_only_the_colours_shown_and_equals_the_full_table(boxes):
+    """SceneRenderer._decode_ids builds its colour -> geom table from the colours the image shows (checking that
+    scene geom c - 1 holds segment c - 1): the same geom-id image as the table of every scene geom, with the ids in
+    the red channel (under 255 geoms) and in all three (more)."""
+    import mujoco
+
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    side = int(np.ceil(np.sqrt(boxes)))
+    geoms = "".join(f'<geom type="box" size="0.04 0.04 0.04" pos="3 {(k % side - side / 2) * 0.1:.2f} '
+                    f'{1 + (k // side - side / 2) * 0.1:.2f}" rgba="0.5 0.5 0.5 1"/>' for k in range(boxes))
+    model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody><light pos='0 0 4'/>{geoms}</worldbody></mujoco>")
+    r = SceneRenderer(model, width=96, height=72, hfov=90.0, groups=(0,))
+    try:
+        r.render(pose_cv(np.array([0.0, 0.0, 1.0]), 0.0, 0.0), rgb=False, segmentation=True)  # posed and updated
+        ids, _ = r._pass(flat=True, want_rgb=True, want_depth=False)
+        got = r._decode_ids(ids)
+        scn = r._renderer.scene
+        n = scn.ngeom
+        table = np.full(n + 1, -1, dtype=np.int32)
+        for g in scn.geoms[:n]:  # the table of every geom, as the code before built it
+            if g.segid != -1 and g.objtype == int(mujoco.mjtObj.mjOBJ_GEOM):
+                table[g.segid + 1] = g.objid
+        if n < 255:
+            want = np.concatenate([table, np.full(255 - n, -1, np.int32)]).take(ids[..., 0])
+        else:
+            seg = ids[..., 0].astype(np.int32) | (ids[..., 1].astype(np.int32) << 8) | (ids[..., 2].astype(np.int32) << 16)
+            want = table.take(np.clip(seg, 0, n))
+    finally:
+        r.close()
+    assert (n >= 255) == (boxes >= 255)
+    assert np.array_equal(got, want) and len(np.unique(got)) > min(boxes, 40)

@@ -278,18 +278,38 @@ class SceneRenderer:
         """Map an id-colour image to geom ids (-1 where no geom)."""
         scn = self._renderer.scene
         n = scn.ngeom
-        lut = np.full(n + 1, -1, dtype=np.int32)
-        geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
-        for g in scn.geoms[:n]:
-            if g.segid != -1 and g.objtype == geom_type:
-                lut[g.segid + 1] = g.objid
         if n < 255:  # ids fit the red channel
+            seg = ids[..., 0]
+            present = np.flatnonzero(np.bincount(seg.ravel(), minlength=256)[1 : n + 1]) + 1
             lut256 = np.full(256, -1, dtype=np.int32)
-            lut256[: n + 1] = lut
-            return lut256.take(ids[..., 0])
+            lut256[: n + 1] = self._id_table(scn, n, present)
+            return lut256.take(seg)
         seg = ids[..., 0].astype(np.int32) | (ids[..., 1].astype(np.int32) << 8) | (ids[..., 2].astype(np.int32) << 16)
         np.clip(seg, 0, n, out=seg)
-        return lut.take(seg)
+        present = np.flatnonzero(np.bincount(seg.ravel(), minlength=n + 1)[1:]) + 1
+        return self._id_table(scn, n, present).take(seg)
+
+    @staticmethod
+    def _id_table(scn: mujoco.MjvScene, n: int, present: np.ndarray) -> np.ndarray:
+        """Return the table id colour -> geom id (-1: none) of the scene's `n` geoms, filled for the colours in
+        `present`: the others are never read. Colour c is the geom whose segid is c - 1; MuJoCo numbers segments by
+        their place in the scene, so that is scene geom c - 1, checked for each colour (if one is not, every geom is
+        read, as a geom's segid is what counts). Reading a few dozen geoms instead of all of them (each a Python
+        object) saves most of the table's time."""
+        lut = np.full(n + 1, -1, dtype=np.int32)
+        geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
+        geoms = scn.geoms
+        for c in present.tolist():
+            g = geoms[c - 1]
+            if g.segid != c - 1:
+                lut[:] = -1
+                for g in geoms[:n]:
+                    if g.segid != -1 and g.objtype == geom_type:
+                        lut[g.segid + 1] = g.objid
+                return lut
+            if g.objtype == geom_type:
+                lut[c] = g.objid
+        return lut
 
     def _render_passes(self, rgb: bool, depth: bool, segmentation: bool) -> Frame:
         """Fallback through the public mujoco.Renderer API (one pass per image)."""
