@@ -119,11 +119,11 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.sdv_grid_dijkstra.restype = i32
     lib.sdv_grid_dijkstra.argtypes = [p, i64, i64, p, p, i64, d, p]
     lib.sdv_grid_reach.restype = i64
+    lib.sdv_grid_reach.argtypes = [p, i64, i64, i64, d, p, p, p]
     lib.sdv_category.restype = None
     lib.sdv_category.argtypes = [p, i64, i64, i64, p, i64, p]
     lib.sdv_voxel_stats.restype = i64
     lib.sdv_voxel_stats.argtypes = [p, i64, d, p, p, p, p, p]
     lib.sdv_cells.restype = i32
     lib.sdv_cells.argtypes = [p, i64, d, d, d, d, p, p, p]
-    lib.sdv_grid_reach.argtypes = [p, i64, i64, i64, d, p, p, p]
     return lib

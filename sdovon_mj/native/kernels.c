@@ -525,9 +525,32 @@ int64_t sdv_grid_reach(const uint8_t *mask, int64_t h, int64_t w, int64_t start,
     return found;
 }
 
+/* Sort keys (n, nonnegative, none above top's bits) and their idx alongside, by a stable LSD radix sort of 11 bits a
+ * pass: equal keys keep their order, as numpy's stable argsort. key2, idx2 and count (2049) are scratch; the sorted
+ * arrays end up in *key and *idx (the pointers swap with each pass). */
+static void radix_sort(int64_t **key, int64_t **idx, int64_t **key2, int64_t **idx2, int64_t n, uint64_t top,
+                       int64_t *count) {
+    for (int shift = 0; shift < 64 && (top >> shift) > 0; shift += 11) {
+        const int64_t *k = *key, *x = *idx;
+        int64_t *k2 = *key2, *x2 = *idx2;
+        memset(count, 0, 2049 * sizeof(int64_t));
+        for (int64_t i = 0; i < n; i++)
+            count[((k[i] >> shift) & 0x7FF) + 1]++;
+        for (int b = 0; b < 2048; b++)
+            count[b + 1] += count[b];
+        for (int64_t i = 0; i < n; i++) {
+            const int64_t at = count[(k[i] >> shift) & 0x7FF]++;
+            k2[at] = k[i];
+            x2[at] = x[i];
+        }
+        int64_t *t = *key; *key = *key2; *key2 = t;
+        t = *idx; *idx = *idx2; *idx2 = t;
+    }
+}
+
 /* The cell index `sdv_near_any` searches: each point's cell floor((p - o) / h) per axis (o: the points' minimum), the
  * grid's cell counts into dims, and the points and their keys (ix * ny + iy) * nz + iz sorted by key into spts and
- * skeys (a stable LSD radix sort, 11 bits a pass). Returns -1 out of memory, else 0. */
+ * skeys (`radix_sort`). Returns -1 out of memory, else 0. */
 int32_t sdv_cells(const double *pts, int64_t n, double ox, double oy, double oz, double h, double *spts,
                   int64_t *skeys, int64_t *dims) {
     int64_t *c = malloc((size_t)(3 * n + 1) * sizeof(int64_t));
@@ -557,20 +580,7 @@ int32_t sdv_cells(const double *pts, int64_t n, double ox, double oy, double oz,
         idx[i] = i;
         if (key[i] > kmax) kmax = key[i];
     }
-    for (int shift = 0; shift < 64 && (kmax >> shift) > 0; shift += 11) {
-        memset(count, 0, 2049 * sizeof(int64_t));
-        for (int64_t i = 0; i < n; i++)
-            count[((key[i] >> shift) & 0x7FF) + 1]++;
-        for (int b = 0; b < 2048; b++)
-            count[b + 1] += count[b];
-        for (int64_t i = 0; i < n; i++) {
-            const int64_t at = count[(key[i] >> shift) & 0x7FF]++;
-            key2[at] = key[i];
-            idx2[at] = idx[i];
-        }
-        int64_t *t = key; key = key2; key2 = t;
-        t = idx; idx = idx2; idx2 = t;
-    }
+    radix_sort(&key, &idx, &key2, &idx2, n, (uint64_t)kmax, count);
     for (int64_t i = 0; i < n; i++) {
         skeys[i] = key[i];
         spts[3 * i] = pts[3 * idx[i]];
@@ -583,8 +593,8 @@ done:
 }
 
 /* perceive/backproject.py `voxel_stats` without its values: each point's voxel key (floor(p / voxel) + 2^20 per
- * axis, 21 bits each, as `voxel_keys`), the points' order sorted by key (a stable LSD radix sort, 11 bits a pass:
- * equal keys keep their input order, as numpy's stable argsort), and per voxel its key, the start of its run in
+ * axis, 21 bits each, as `voxel_keys`), the points' order sorted by key (`radix_sort`: equal keys keep their input
+ * order, as numpy's stable argsort), and per voxel its key, the start of its run in
  * that order, its point count and its sums, each added from 0.0 in input order as numpy's bincount adds them.
  * Returns the number of voxels, -1 out of memory. */
 int64_t sdv_voxel_stats(const double *p, int64_t n, double voxel, int64_t *order, int64_t *uniq, int64_t *starts,
@@ -608,20 +618,7 @@ int64_t sdv_voxel_stats(const double *p, int64_t n, double voxel, int64_t *order
         m = -2;
         goto done;
     }
-    for (int shift = 0; shift < 64 && (all >> shift) > 0; shift += 11) {
-        memset(count, 0, 2049 * sizeof(int64_t));
-        for (int64_t i = 0; i < n; i++)
-            count[((key[i] >> shift) & 0x7FF) + 1]++;
-        for (int b = 0; b < 2048; b++)
-            count[b + 1] += count[b];
-        for (int64_t i = 0; i < n; i++) {
-            const int64_t at = count[(key[i] >> shift) & 0x7FF]++;
-            key2[at] = key[i];
-            idx2[at] = idx[i];
-        }
-        int64_t *t = key; key = key2; key2 = t;
-        t = idx; idx = idx2; idx2 = t;
-    }
+    radix_sort(&key, &idx, &key2, &idx2, n, all, count);
     m = 0;
     for (int64_t i = 0; i < n; i++) {
         order[i] = idx[i];

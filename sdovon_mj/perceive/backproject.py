@@ -29,6 +29,11 @@ def voxel_stats(points: np.ndarray, voxel: float, values: np.ndarray | None = No
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """Return sorted voxel keys, per-voxel point sums (n, 3), counts (n,) and the per-voxel max of `values` (NaN ignored; None without values)."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    v = None
+    if values is not None:
+        v = np.asarray(values, dtype=np.float64).reshape(-1)
+        if len(v) != len(p):
+            raise ValueError(f"voxel_stats: {len(v)} values for {len(p)} points")
     lib = native.library() if len(p) else None
     if lib is not None:  # the same arrays in one compiled pass (native sdv_voxel_stats: sums added in input order)
         p = np.ascontiguousarray(p)
@@ -40,12 +45,7 @@ def voxel_stats(points: np.ndarray, voxel: float, values: np.ndarray | None = No
         if m == -1:
             raise MemoryError("voxel_stats: out of memory")
         if m >= 0:
-            vmax = None
-            if values is not None:
-                v = np.asarray(values, dtype=np.float64).reshape(-1)
-                if len(v) != n:
-                    raise ValueError(f"voxel_stats: {len(v)} values for {n} points")
-                vmax = np.fmax.reduceat(v[order], starts[:m])
+            vmax = None if v is None else np.fmax.reduceat(v[order], starts[:m])
             return uniq[:m], sums[:m], counts[:m], vmax
     keys = voxel_keys(p, voxel)
     # np.unique(keys, return_inverse=True, return_counts=True) by one stable sort, whose order the values' maxima
@@ -64,10 +64,7 @@ def voxel_stats(points: np.ndarray, voxel: float, values: np.ndarray | None = No
     for d in range(3):  # bincount adds each voxel's points in their input order, as before
         sums[:, d] = np.bincount(inv, weights=p[:, d], minlength=len(uniq))
     vmax = None
-    if values is not None:
-        v = np.asarray(values, dtype=np.float64).reshape(-1)
-        if len(v) != len(p):
-            raise ValueError(f"voxel_stats: {len(v)} values for {len(p)} points")
+    if v is not None:
         vmax = np.full(len(uniq), np.nan)
         if len(v):
             vmax = np.fmax.reduceat(v[order], starts)
