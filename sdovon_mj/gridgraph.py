@@ -18,7 +18,7 @@ from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from . import native
-from .grid import GridFrame, segment_free
+from .grid import GridFrame, segment_free, true_box
 
 # (drow, dcol, cost in cells); a diagonal needs both orthogonal neighbours free (no corner cutting).
 STEPS = ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2.0)), (1, -1, math.sqrt(2.0)))
@@ -77,9 +77,13 @@ def distance_field(mask: np.ndarray, sources: np.ndarray, resolution: float) -> 
     src = src[nav[src[:, 0], src[:, 1]]]  # sources off the mask are no nodes
     if len(src) == 0:
         return out
-    cells = grid_distances(nav, src[:, 0] * w + src[:, 1])
+    r0, r1, c0, c1 = true_box(nav)  # not None: a source lies on the mask
+    # the search on the window that holds every mask cell: the same graph (cells outside are no nodes), the same
+    # distances, and no work on the empty rest of the grid
+    cells = grid_distances(nav[r0:r1, c0:c1], (src[:, 0] - r0) * (c1 - c0) + (src[:, 1] - c0))
     if cells is not None:  # no graph to build: the kernel walks the mask
-        return cells * float(resolution)
+        out[r0:r1, c0:c1] = cells * float(resolution)
+        return out
     g, index = graph_of(nav)
     nodes = np.unique(index[src[:, 0], src[:, 1]])
     # The graph holds both directions of every edge: a directed search gives the undirected distances
@@ -133,7 +137,6 @@ def node_distances(mask: np.ndarray, cell: tuple[int, int]) -> tuple[np.ndarray,
     return cells[nav], index
 
 
-_NINE = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1)], dtype=np.int64)  # a cell and its 8 neighbours
 
 
 class GeodesicField:
@@ -208,15 +211,24 @@ class GeodesicField:
             if segment_free(self.mask, self.frame, p, self.targets[k]):
                 best = float(eu[k])
                 break
-        # the 9 cells around p at once (to_world and inside are row by row: the values of one cell at a time)
-        cells = self.frame.to_cell(p[None])[0][None] + _NINE
-        ok = self.frame.inside(cells)
-        ok[ok] = self.mask[cells[ok, 0], cells[ok, 1]]
-        centres = self.frame.to_world(cells)
-        for k in np.flatnonzero(ok).tolist():
-            if k != 4 and not segment_free(self.mask, self.frame, p, centres[k]):  # 4: p's own cell
-                continue
-            best = min(best, float(self.field[cells[k, 0], cells[k, 1]] + np.linalg.norm(centres[k] - p)))
+        # the 9 cells around p (p's own cell 4), in Python floats: the same operations as GridFrame's to_cell and
+        # to_world and numpy's norm of a 2-vector (sqrt of the unfused dx * dx + dy * dy), without nine small arrays
+        fr = self.frame
+        ox, oy, res = float(fr.origin[0]), float(fr.origin[1]), float(fr.resolution)
+        px, py = float(p[0]), float(p[1])
+        r0, c0 = math.floor((py - oy) / res), math.floor((px - ox) / res)
+        h, w = int(fr.shape[0]), int(fr.shape[1])
+        k = -1
+        for r in (r0 - 1, r0, r0 + 1):
+            for c in (c0 - 1, c0, c0 + 1):
+                k += 1
+                if not (0 <= r < h and 0 <= c < w and self.mask[r, c]):
+                    continue
+                cx, cy = ox + (c + 0.5) * res, oy + (r + 0.5) * res
+                if k != 4 and not segment_free(self.mask, fr, p, (cx, cy)):
+                    continue
+                dx, dy = cx - px, cy - py
+                best = min(best, float(self.field[r, c]) + math.sqrt(dx * dx + dy * dy))
         return best
 
     def distances(self, xy: np.ndarray) -> np.ndarray:

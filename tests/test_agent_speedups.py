@@ -474,6 +474,48 @@ def test_segment_image_equals_the_masked_lookup():
     assert got.dtype == np.int32 and np.array_equal(got, want)
 
 
+def test_clip_depth_range_equals_nan_to_num_then_clip():
+    """Depth images (float32 and float64) with NaN, +-inf, -0.0 and values either side of the range: the bits of
+    ``np.clip(np.nan_to_num(d, nan=hi, posinf=hi), lo, hi).astype(np.float32)``, the form it replaces."""
+    from sdovon_mj.sim.render import clip_depth_range
+
+    rng = np.random.default_rng(4754)
+    for dtype in (np.float32, np.float64):
+        d = rng.uniform(-1.0, 12.0, size=(60, 80)).astype(dtype)
+        for value, count in ((np.nan, 300), (np.inf, 300), (-np.inf, 300), (-0.0, 30)):
+            d.flat[rng.integers(0, d.size, count)] = value
+        for lo, hi in ((0.1, 5.0), (0.0, 10.0), (0.5, 4.9)):
+            want = np.clip(np.nan_to_num(d, nan=hi, posinf=hi), lo, hi).astype(np.float32)
+            got = clip_depth_range(d, lo, hi)
+            assert got.dtype == np.float32 and np.array_equal(got.view(np.uint32), want.view(np.uint32))
+    clean = rng.uniform(0.0, 6.0, size=(8, 8)).astype(np.float32)  # no NaN: no fill
+    assert np.array_equal(clip_depth_range(clean, 0.1, 5.0), np.clip(clean, 0.1, 5.0))
+
+
+def test_distance_field_on_the_mask_window_equals_scipy_on_the_whole_grid():
+    """Masks filling a window of a larger grid, sources on and off the mask and off the grid: `distance_field`
+    (searching only the window that holds the mask's cells) gives scipy's Dijkstra on the whole grid's graph."""
+    from scipy.sparse.csgraph import dijkstra
+
+    from sdovon_mj.gridgraph import cell_graph, distance_field
+
+    rng = np.random.default_rng(4755)
+    for trial in range(30):
+        h, w = int(rng.integers(5, 90)), int(rng.integers(5, 90))
+        mask = np.zeros((h, w), bool)
+        a, b = sorted(rng.integers(0, h, 2))
+        c, d = sorted(rng.integers(0, w, 2))
+        mask[a:b + 1, c:d + 1] = rng.random((b - a + 1, d - c + 1)) > 0.2
+        src = np.stack([rng.integers(-2, h + 2, 6), rng.integers(-2, w + 2, 6)], 1)
+        on = src[(src[:, 0] >= 0) & (src[:, 0] < h) & (src[:, 1] >= 0) & (src[:, 1] < w)]
+        on = on[mask[on[:, 0], on[:, 1]]]
+        want = np.full((h, w), np.inf)
+        if len(on):
+            g, index = cell_graph(mask)
+            want[mask] = dijkstra(g, directed=True, indices=np.unique(index[on[:, 0], on[:, 1]]), min_only=True) * 0.05
+        assert np.array_equal(distance_field(mask, src, 0.05), want), trial
+
+
 def test_learned_scores_with_the_kernel_cache_equal_fresh_ones():
     """The bundled model's pair scores asked in a sequence of overlapping column lists (as an agent asks them while it
     sees more receptacles): each answer equals a fresh model's (no cached kernel column), bit for bit."""

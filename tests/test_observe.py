@@ -294,6 +294,36 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
         assert not set(np.unique(b.segmentation).tolist()) & set(out.tolist())
 
 
+def test_frustum_cull_uses_the_camera_mujoco_draws_with():
+    """The frustum test reads the camera mjr_render draws a mono scene with (the average of the scene's two eye
+    cameras, half the inter-pupillary distance either side): a small box near the right edge of the view, close to
+    the camera, lies outside the left eye's frustum yet shows in the render, and it is not culled."""
+    import mujoco
+
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    # camera at the origin looking along +x (image right is -y); hfov 79 degrees: the right edge at 0.3 m ahead
+    # lies 0.3 * tan(39.5 deg) = 0.247 m to the right, the left eye's (3.4 cm further left, its side widened 5 %)
+    # 0.226 m: a 2 mm box centred 0.243 m to the right lies between, 13 mm beyond the left eye's side plane
+    xml = ('<mujoco><worldbody><geom type="box" size="0.002 0.002 0.002" pos="0.3 -0.243 0" rgba="1 0 0 1"/>'
+           '<geom type="box" size="0.1 2 2" pos="3 0 0" rgba="0 0 1 1"/></worldbody></mujoco>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    r = SceneRenderer(model, width=320, height=240, hfov=79.0, groups=(0,))
+    try:
+        T = pose_cv(np.array([0.0, 0.0, 0.0]), 0.0, 0.0)
+        seg = r.render(T, rgb=False, depth=False, segmentation=True).segmentation
+        r._pose_camera(T)
+        r._update_scene()
+        eye = r._renderer.scene.camera[0]
+        assert abs(float(np.linalg.norm(np.asarray(eye.pos) - np.asarray(r.gl_camera().pos))) - 0.034) < 1e-6
+        assert 0 not in r.outside_view(T).tolist()
+        assert np.count_nonzero(seg == 0) > 0  # the box shows at the right edge
+        assert np.flatnonzero((seg == 0).any(axis=0)).min() > 300
+    finally:
+        r.close()
+
+
 GLASS = """<mujoco>
   <asset><material name="glass" rgba="0.2 0.4 0.9 0.4"/></asset>
   <worldbody>

@@ -124,7 +124,7 @@ class SceneRenderer:
     def outside_view(self, T_cam: np.ndarray) -> np.ndarray:
         """Return the ids of the geoms that no pixel of a view from T_cam can show (they are not drawn).
 
-        The frustum is MuJoCo's own for the posed free camera (``MjvScene.camera``: position, forward and up axes,
+        The frustum is MuJoCo's own for the posed free camera (`gl_camera`: position, forward and up axes,
         the near plane's edges, the far distance), as `mujoco.mjr_render` sets it. A geom is out when its bounding
         sphere (grown by 1 mm) lies wholly outside one of the frustum's planes, the four sides widened by 5 % of
         their half-range: beyond the far plane, before the near one, or off a side. A triangle outside a frustum
@@ -133,7 +133,7 @@ class SceneRenderer:
         """
         self._pose_camera(T_cam)
         self._update_scene()
-        cam = self._renderer.scene.camera[0]  # a mono camera: both of the scene's cameras are the same
+        cam = self.gl_camera()
         near, far = float(cam.frustum_near), float(cam.frustum_far)
         top, bottom = float(cam.frustum_top), float(cam.frustum_bottom)
         if not (0.0 < near < far) or top <= bottom:
@@ -153,6 +153,13 @@ class SceneRenderer:
             out |= (c - s_hi * z) / math.hypot(1.0, s_hi) > r_out
             out |= (s_lo * z - c) / math.hypot(1.0, s_lo) > r_out
         return np.nonzero(out & (rb > 0.0))[0]
+
+    def gl_camera(self) -> mujoco.MjvGLCamera:
+        """Return the camera `mujoco.mjr_render` draws a mono scene with: the average of the scene's two eye cameras,
+        which sit half the model's inter-pupillary distance (``vis.global_.ipd``, 6.8 cm by default) to either side of
+        it (the frustum test once used the left eye's and could cull a geom at the view's edge that the render shows)."""
+        scn = self._renderer.scene
+        return mujoco.mjv_averageCamera(scn.camera[0], scn.camera[1])
 
     def render(self, T_cam: np.ndarray, rgb: bool = True, depth: bool = True, segmentation: bool = False) -> Frame:
         """Render the requested images from pose T_cam (world <- OpenCV camera).
@@ -447,6 +454,19 @@ def clip_depth(depth: np.ndarray, dmin: float, dmax: float) -> np.ndarray:
     d = depth.astype(np.float32, copy=True)
     d[(d < dmin) | (d > dmax) | ~np.isfinite(d)] = 0.0
     return d
+
+
+def clip_depth_range(depth: np.ndarray, dmin: float, dmax: float) -> np.ndarray:
+    """Return float32 depth clipped to [dmin, dmax] with NaN and +inf read as dmax (a sensor's saturated reading).
+
+    The values of ``np.clip(np.nan_to_num(depth, nan=dmax, posinf=dmax), dmin, dmax).astype(np.float32)``
+    (-inf, which `nan_to_num` makes the most negative float, clips to dmin either way) in one clip and, only when a
+    NaN is there, one fill."""
+    out = np.clip(np.asarray(depth, dtype=np.float32), dmin, dmax)  # NaN stays NaN, +inf -> dmax, -inf -> dmin
+    nan = np.isnan(out)
+    if nan.any():
+        out[nan] = dmax
+    return out
 
 
 def top_down_camera(bounds: np.ndarray, margin: float = 0.5) -> tuple[np.ndarray, float]:

@@ -53,7 +53,7 @@ from ..sim import GROUP_AGENT
 from ..sim.articulation import part_joints
 from ..sim.camera import intrinsics, pose_cv, vfov_from_hfov
 from ..sim.model import OBJECT_ID_BASE, geom_segment_ids, object_segment_id, segment_image
-from ..sim.render import SceneRenderer
+from ..sim.render import SceneRenderer, clip_depth_range
 from ..grid import lookup, segment_free
 from ..gridgraph import GeodesicField, cell_graph
 from .bundle import Bundle, load_bundle
@@ -449,7 +449,11 @@ class ObjectNavTask(control.Task):
         """Return whether one of the segments `ids` covers at least ``eta_gt`` of a segmentation render from `cam`
         (yaw, pitch in degrees) at the episodes' visibility size, as their view points are defined."""
         r = self.sight_renderer(physics)
-        f = r.render(pose_cv(cam, yaw, pitch), rgb=False, depth=False, segmentation=True)
+        T = pose_cv(cam, yaw, pitch)
+        # a segment whose geoms all lie outside the view covers no pixel (`SceneRenderer.outside_view`): no render
+        if np.isin(np.flatnonzero(np.isin(self._lut, ids)), r.outside_view(T)).all():
+            return False
+        f = r.render(T, rgb=False, depth=False, segmentation=True)
         seg = segment_image(f.segmentation, self._lut)
         eta = float(self.bundle.visibility.get("eta_gt", self.agent.eta_gt))
         need = max(int(math.ceil(eta * seg.size - 1e-9)), 1)  # as the episodes' VisibilityChecker
@@ -538,8 +542,7 @@ class ObjectNavTask(control.Task):
         seg = self.semantic if segmentation is None else segmentation
         r = self.renderer(physics)
         f = r.render(self.camera_pose(), rgb=rgb, depth=True, segmentation=seg)
-        depth = np.clip(np.nan_to_num(f.depth, nan=self.nav.depth_max, posinf=self.nav.depth_max),
-                        self.nav.depth_min, self.nav.depth_max).astype(np.float32)
+        depth = clip_depth_range(f.depth, self.nav.depth_min, self.nav.depth_max)
         ids = segment_image(f.segmentation, self._lut) if seg else None
         return f.rgb, depth, ids
 
