@@ -294,6 +294,168 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
         assert not set(np.unique(b.segmentation).tolist()) & set(out.tolist())
 
 
+def test_occlusion_cull_leaves_every_image_unchanged(two_storey, monkeypatch):
+    """Walks through the two-storey apartment (steps, turns, looking down and up): with the occlusion test on every
+    frame (no triangle floor), the flat pass leaves out geoms lying behind those the previous frame showed, and every
+    image (geom ids, depth, colour) equals that of a second renderer drawing everything in view."""
+    import math
+
+    from sdovon_mj import native
+    from sdovon_mj.observe.render_views import load_model, make_renderer
+    from sdovon_mj.sim import render as render_module
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    assert native.library() is not None, native.status()  # the test needs the compiled kernels
+    scene, root, *_ = two_storey
+    model = load_model(scene, root)
+    cfg = dataclasses.replace(ObserveConfig(), width=160, height=120)
+    culled, full = make_renderer(model, cfg), make_renderer(model, cfg)
+    monkeypatch.setattr(render_module, "OCCLUSION_MIN_TRIANGLES", 0)
+    left_out: list[int] = []
+    occluded = SceneRenderer._occluded
+
+    def counted(self):
+        out = occluded(self)
+        if self is culled:
+            left_out.append(len(out))
+        return out
+
+    monkeypatch.setattr(SceneRenderer, "_occluded", counted)
+    rng = np.random.default_rng(4756)
+    try:
+        for x, y, z in ((2.0, 4.0, 0.88), (6.0, 2.5, 3.68), (1.0, 1.0, 2.0), (4.0, 3.0, 1.2)):
+            yaw, pitch = float(rng.uniform(0.0, 360.0)), 0.0
+            for step in range(24):
+                move = int(rng.integers(4))
+                if move == 0:
+                    x, y = x + 0.25 * math.cos(math.radians(yaw)), y + 0.25 * math.sin(math.radians(yaw))
+                elif move == 1:
+                    yaw += 30.0
+                elif move == 2:
+                    yaw -= 30.0
+                else:
+                    pitch = -30.0 if pitch == 0.0 else (25.0 if pitch < 0.0 else 0.0)
+                T = pose_cv(np.array([x, y, z]), yaw, pitch)
+                rgb = step % 3 == 0
+                a = culled.render(T, rgb=rgb, depth=True, segmentation=True)
+                full._shown_last = None  # no previous frame: everything in view is drawn
+                b = full.render(T, rgb=rgb, depth=True, segmentation=True)
+                assert np.array_equal(a.segmentation, b.segmentation), (x, y, yaw, pitch)
+                assert np.array_equal(a.depth, b.depth), (x, y, yaw, pitch)
+                assert not rgb or np.array_equal(a.rgb, b.rgb), (x, y, yaw, pitch)
+    finally:
+        culled.close()
+        full.close()
+    assert sum(n > 0 for n in left_out) > 10  # the test does leave geoms out in these views
+
+
+def _box_mesh(name: str, lo: tuple, hi: tuple) -> str:
+    v = " ".join(f"{x} {y} {z}" for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2]))
+    return f'<mesh name="{name}" vertex="{v}"/>'
+
+
+def test_occlusion_test_leaves_out_only_what_lies_behind_drawn_triangles(monkeypatch):
+    """A camera at the origin looking along +x at a wall 3 m away: a box wholly behind the wall is left out; a box
+    poking 4 cm out of the wall's face, and a box behind a one-sided quad that faces away (MuJoCo culls its back
+    face, so the box shows) are drawn; the floor reaching behind the camera bounds depth only beyond the near plane.
+    The images equal a render of everything. (A kernel counting back faces, or lowering its depth bound by 3 %, or
+    raising a box's limit, fails here.)"""
+    import mujoco
+
+    from sdovon_mj import native
+    from sdovon_mj.sim import render as render_module
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    assert native.library() is not None, native.status()  # the test needs the compiled kernels
+    names = ("wall", "poke", "behind", "seen", "floor", "quad")
+    xml = ("<mujoco><asset>" + _box_mesh("wall", (3.0, -3.0, -2.0), (3.1, 3.0, 2.0))
+           + _box_mesh("poke", (2.96, 0.5, 0.0), (3.05, 0.7, 0.2)) + _box_mesh("behind", (3.5, -0.3, -0.3), (3.7, 0.3, 0.3))
+           + _box_mesh("seen", (2.0, -1.2, -0.2), (2.2, -0.8, 0.2)) + _box_mesh("floor", (-2.0, -3.0, -1.0), (3.0, 3.0, -0.9))
+           + '<mesh name="quad" vertex="1.5 -1.5 -0.5  1.5 -0.5 -0.5  1.5 -0.5 0.5  1.5 -1.5 0.5  1.6 -1 0" '
+             'face="0 1 2 0 2 3" inertia="shell"/>'  # a one-sided quad whose front faces +x (away from the camera)
+           + "</asset><worldbody>" + "".join(f'<geom name="{n}" type="mesh" mesh="{n}"/>' for n in names)
+           + "</worldbody></mujoco>")
+    model = mujoco.MjModel.from_xml_string(xml)
+    gid = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in names}
+    monkeypatch.setattr(render_module, "OCCLUSION_MIN_TRIANGLES", 0)
+    culled = SceneRenderer(model, width=160, height=120, hfov=79.0, groups=(0,))
+    full = SceneRenderer(model, width=160, height=120, hfov=79.0, groups=(0,))
+    try:
+        T = pose_cv(np.zeros(3), 0.0, 0.0)
+        want = full.render(T, rgb=True, depth=True, segmentation=True)
+        assert {gid[n] for n in ("wall", "poke", "seen", "floor")} <= set(np.unique(want.segmentation).tolist())
+        assert gid["quad"] not in want.segmentation and gid["behind"] not in want.segmentation
+        culled._shown_last = np.zeros(model.ngeom, dtype=bool)  # as if the last frame had shown these
+        culled._shown_last[[gid["wall"], gid["quad"], gid["floor"]]] = True
+        culled._pose_camera(T)
+        culled._update_scene()
+        assert sorted(culled._occluded().tolist()) == [gid["behind"]]
+        got = culled.render(T, rgb=True, depth=True, segmentation=True)
+        assert np.array_equal(got.segmentation, want.segmentation) and np.array_equal(got.depth, want.depth)
+        assert np.array_equal(got.rgb, want.rgb)
+    finally:
+        culled.close()
+        full.close()
+
+
+def test_render_labels_equal_the_lookup_of_the_geom_ids(two_storey):
+    """`SceneRenderer.render(..., labels=)` gives per pixel the label of its geom (-1 where none): the geom-id image
+    looked up through the labels (`segment_image`), with and without colour."""
+    from sdovon_mj.observe.render_views import load_model, make_renderer
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.model import segment_image
+
+    scene, root, *_ = two_storey
+    model = load_model(scene, root)
+    r = make_renderer(model, dataclasses.replace(ObserveConfig(), width=96, height=72))
+    labels = np.random.default_rng(4757).integers(-1, 100_500, size=model.ngeom)  # -1: a geom of no segment
+    seen: set[int] = set()
+    try:
+        for yaw in (0.0, 130.0, 250.0):
+            T = pose_cv(np.array([2.0, 4.0, 0.88]), yaw, -20.0)
+            ids = r.render(T, rgb=False, depth=False, segmentation=True).segmentation
+            for rgb in (False, True):
+                got = r.render(T, rgb=rgb, depth=True, segmentation=True, labels=labels).segmentation
+                want = segment_image(ids, labels)
+                assert got.dtype == want.dtype and np.array_equal(got, want)
+            seen |= set(np.unique(ids).tolist())
+    finally:
+        r.close()
+    assert len(seen) > 4
+
+
+def test_renderers_of_one_model_keep_their_own_view():
+    """Two renderers of one model with different image shapes and depth ranges (the model holds one camera setting):
+    the first one's images are the same before the second is built, after it, and after it draws."""
+    import mujoco
+
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    xml = ('<mujoco><worldbody><light pos="0 0 4"/><geom type="box" size="0.1 2 2" pos="3 0 0" rgba="0 0 1 1"/>'
+           '<geom type="sphere" size="0.3" pos="2 0.8 0.5" rgba="1 0 0 1"/></worldbody></mujoco>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    T = pose_cv(np.zeros(3), 0.0, 0.0)
+    a = SceneRenderer(model, width=96, height=72, hfov=79.0, znear=0.05, zfar=50.0, groups=(0,))
+    try:
+        first = a.render(T, rgb=True, depth=True, segmentation=True)
+        b = SceneRenderer(model, width=128, height=48, hfov=60.0, znear=0.2, zfar=10.0, groups=(0,))
+        try:
+            after_build = a.render(T, rgb=True, depth=True, segmentation=True)
+            other = b.render(T, rgb=True, depth=True, segmentation=True)
+            after_draw = a.render(T, rgb=True, depth=True, segmentation=True)
+        finally:
+            b.close()
+    finally:
+        a.close()
+    for f in (after_build, after_draw):
+        assert np.array_equal(f.rgb, first.rgb) and np.array_equal(f.depth, first.depth)
+        assert np.array_equal(f.segmentation, first.segmentation)
+    assert other.depth.shape == (48, 128) and np.count_nonzero(other.segmentation == 1) > 0
+
+
 def test_frustum_cull_uses_the_camera_mujoco_draws_with():
     """The frustum test reads the camera mjr_render draws a mono scene with (the average of the scene's two eye
     cameras, half the inter-pupillary distance either side): a small box near the right edge of the view, close to

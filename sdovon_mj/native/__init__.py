@@ -4,6 +4,8 @@ Each kernel has a pure-Python reference beside its caller (the lattice planner i
 in `nav/frontier.py`, the free-segment test in `grid.py`, fusion's overlap test and voxel union in
 `perceive/fusion.py`, the grid Dijkstra of `gridgraph.py`) and computes exactly what it computes: same results, bit for bit (tests/test_native.py compares
 both). Where no compiler is found or the build fails, the callers run their Python form: slower, never different.
+One kernel has no Python form: the renderer's occlusion test (`sim/occlusion.py`) only decides what need not be drawn,
+and without it everything in view is drawn: the same images.
 `status()` says which one runs and why.
 
 The library is built once per source text and compiler flags into the shared cache (``$SDOVON_CACHE/native/<digest>``,
@@ -126,4 +128,6 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.sdv_voxel_stats.argtypes = [p, i64, d, p, p, p, p, p]
     lib.sdv_cells.restype = i32
     lib.sdv_cells.argtypes = [p, i64, d, d, d, d, p, p, p]
+    lib.sdv_occlusion_cull.restype = None
+    lib.sdv_occlusion_cull.argtypes = [p, p, p, p, p, p, p, p, p, i64, p, i64, p, p, i64, i64, p, p]
     return lib

@@ -651,3 +651,249 @@ void sdv_category(const int32_t *seg, int64_t n, int64_t inst_n, int64_t base, c
         out[i] = lut[key];
     }
 }
+
+/* Lower `depth` to an upper bound of the depth (metres along the optical axis) the flat pass will hold at each pixel,
+ * from the front-facing triangles of mesh geom g, which that pass draws (for sdv_occlusion_cull). Each
+ * triangle is cut to its part beyond the near plane (times 1.001); that convex polygon counts at a pixel whose centre
+ * lies inside it by more than EDGE_MARGIN pixels (the rasteriser then covers that pixel), with the depth of the
+ * triangle's plane along the ray through the centre (1/z is affine over the image), raised by a relative 1e-6.
+ * Triangles reaching the far plane, projecting beyond GUARD pixels, edge-on or back-facing count nowhere.
+ * vert/face: MuJoCo's mesh_vert (float32) and mesh_face (vertex numbers within the mesh); vadr/fadr/fnum: per model
+ * geom its mesh's first vertex and face and its face count; pos/mat: per model geom its world position and row-major
+ * rotation; cam: camera position, right, up and forward axes (12 doubles); fr: near, far, left, right, bottom, top of
+ * the near plane (6 doubles); depth: h x w, rows top-down, lowered where a triangle bounds it. */
+#define EDGE_MARGIN 0.05
+/* GL transforms and clips in float32: a vertex u pixels off the image lands within about 1e-7 u of where it should,
+ * so beyond GUARD pixels that error could reach EDGE_MARGIN / 5: such triangles are left out */
+#define GUARD 1e5
+static void raster_geom(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
+                        const int64_t *fnum, const double *pos, const double *mat, int64_t g, const double *cam,
+                        const double *fr, int64_t w, int64_t h, double *depth) {
+    const double near = fr[0], far = fr[1], left = fr[2], span_x = fr[3] - fr[2], top = fr[5];
+    const double span_y = fr[5] - fr[4], zc = near * 1.001;
+    {  /* one geom's triangles */
+        const float *V = vert + 3 * vadr[g];
+        const int32_t *F = face + 3 * fadr[g];
+        const double *P = pos + 3 * g, *R = mat + 9 * g;
+        for (int64_t t = 0; t < fnum[g]; t++) {
+            double wv[3][3], e[3][3]; /* world and eye (right, up, forward) coordinates */
+            int skip = 0, front = 0;
+            for (int k = 0; k < 3; k++) {
+                const float *v = V + 3 * F[3 * t + k];
+                double rel[3];
+                for (int j = 0; j < 3; j++) {
+                    wv[k][j] = P[j] + R[3 * j] * (double)v[0] + R[3 * j + 1] * (double)v[1] + R[3 * j + 2] * (double)v[2];
+                    rel[j] = wv[k][j] - cam[j];
+                }
+                for (int a = 0; a < 3; a++)
+                    e[k][a] = rel[0] * cam[3 + 3 * a] + rel[1] * cam[4 + 3 * a] + rel[2] * cam[5 + 3 * a];
+                if (!(e[k][2] < far * 0.999))
+                    skip = 1;
+                front += e[k][2] >= zc;
+            }
+            if (skip || front == 0)
+                continue;
+            /* front-facing: MuJoCo's faces wind counter-clockwise seen from outside, and it culls back faces */
+            double e1[3], e2[3], nv[3], to[3];
+            for (int j = 0; j < 3; j++) {
+                e1[j] = wv[1][j] - wv[0][j];
+                e2[j] = wv[2][j] - wv[0][j];
+                to[j] = cam[j] - wv[0][j];
+            }
+            nv[0] = e1[1] * e2[2] - e1[2] * e2[1];
+            nv[1] = e1[2] * e2[0] - e1[0] * e2[2];
+            nv[2] = e1[0] * e2[1] - e1[1] * e2[0];
+            const double facing = nv[0] * to[0] + nv[1] * to[1] + nv[2] * to[2];
+            const double nlen = sqrt(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]);
+            if (!(facing > 1e-6 * nlen * sqrt(to[0] * to[0] + to[1] * to[1] + to[2] * to[2])))
+                continue;
+            /* the plane in eye coordinates: m . X = dpl, so along the ray X = z (xn, yn, 1): 1/z = m . (xn, yn, 1) / dpl */
+            double m3[3];
+            for (int a = 0; a < 3; a++)
+                m3[a] = nv[0] * cam[3 + 3 * a] + nv[1] * cam[4 + 3 * a] + nv[2] * cam[5 + 3 * a];
+            const double dpl = m3[0] * e[0][0] + m3[1] * e[0][1] + m3[2] * e[0][2];
+            if (!(fabs(dpl) > 1e-12 * nlen))
+                continue;
+            /* cut to z >= zc (Sutherland-Hodgman against one plane): at most four vertices, then project */
+            double pu[4], pv[4];
+            int np = 0;
+            for (int k = 0; k < 3 && !skip; k++) {
+                const double *a = e[k], *b = e[(k + 1) % 3];
+                const int ina = a[2] >= zc, inb = b[2] >= zc;
+                double q[2][3];
+                int nq = 0;
+                if (ina) {
+                    q[nq][0] = a[0]; q[nq][1] = a[1]; q[nq][2] = a[2]; nq++;
+                }
+                if (ina != inb) {
+                    const double s = (zc - a[2]) / (b[2] - a[2]);
+                    q[nq][0] = a[0] + s * (b[0] - a[0]);
+                    q[nq][1] = a[1] + s * (b[1] - a[1]);
+                    q[nq][2] = zc;
+                    nq++;
+                }
+                for (int j = 0; j < nq; j++) {
+                    pu[np] = (q[j][0] * near / q[j][2] - left) / span_x * (double)w;
+                    pv[np] = (top - q[j][1] * near / q[j][2]) / span_y * (double)h;
+                    if (!(fabs(pu[np]) < GUARD) || !(fabs(pv[np]) < GUARD))
+                        skip = 1;
+                    np++;
+                }
+            }
+            if (skip || np < 3)
+                continue;
+            double area = 0.0, vmin = pv[0], vmax = pv[0];
+            for (int k = 0; k < np; k++) {
+                const int k1 = (k + 1) % np;
+                area += pu[k] * pv[k1] - pu[k1] * pv[k];
+                vmin = pv[k] < vmin ? pv[k] : vmin;
+                vmax = pv[k] > vmax ? pv[k] : vmax;
+            }
+            if (!(fabs(area) > 2e-3))
+                continue;
+            const double sgn = area > 0 ? 1.0 : -1.0;
+            double len[4];
+            for (int k = 0; k < np; k++) {
+                const int k1 = (k + 1) % np;
+                len[k] = hypot(pu[k1] - pu[k], pv[k1] - pv[k]);
+                if (!(len[k] > 0.0))
+                    skip = 1;
+            }
+            if (skip)
+                continue;
+            /* 1/z at pixel (u, v): m . (xn, yn, 1) / dpl with xn, yn the near-plane coordinates over near */
+            const double cu = m3[0] * span_x / ((double)w * near * dpl), cv = -m3[1] * span_y / ((double)h * near * dpl);
+            const double c0 = (m3[0] * left / near + m3[1] * top / near + m3[2]) / dpl;
+            int64_t r0 = (int64_t)ceil(vmin - 0.5), r1 = (int64_t)floor(vmax - 0.5);
+            r0 = r0 < 0 ? 0 : r0;
+            r1 = r1 > h - 1 ? h - 1 : r1;
+            for (int64_t r = r0; r <= r1; r++) {
+                const double qv = (double)r + 0.5;
+                /* along the row each edge's signed distance (times its length) is affine in u: the span where all
+                 * edges clear the margin, then each pixel of it (checked at its ends; inside between by convexity) */
+                double a[4], b[4], ilo = -1e300, ihi = 1e300;
+                for (int k = 0; k < np; k++) {
+                    const int k1 = (k + 1) % np;
+                    a[k] = -(pv[k1] - pv[k]) * sgn;
+                    b[k] = ((pu[k1] - pu[k]) * (qv - pv[k]) + (pv[k1] - pv[k]) * pu[k]) * sgn;
+                    const double mk = EDGE_MARGIN * len[k];
+                    if (a[k] > 0.0) {
+                        const double x = (mk - b[k]) / a[k];
+                        ilo = x > ilo ? x : ilo;
+                    } else if (a[k] < 0.0) {
+                        const double x = (mk - b[k]) / a[k];
+                        ihi = x < ihi ? x : ihi;
+                    } else if (!(b[k] > mk)) {
+                        ihi = -1e300;
+                    }
+                }
+                if (!(ilo < ihi))
+                    continue;
+                int64_t ca = ilo < -1.0 ? 0 : (int64_t)floor(ilo - 0.5);
+                int64_t cb = ihi > (double)w ? w - 1 : (int64_t)ceil(ihi - 0.5);
+                ca = ca < 0 ? 0 : ca;
+                cb = cb > w - 1 ? w - 1 : cb;
+                for (; ca <= cb; ca++) { /* the span's ends, by the exact test */
+                    int in = 1;
+                    for (int k = 0; k < np && in; k++)
+                        in = a[k] * ((double)ca + 0.5) + b[k] > EDGE_MARGIN * len[k];
+                    if (in)
+                        break;
+                }
+                for (; cb >= ca; cb--) {
+                    int in = 1;
+                    for (int k = 0; k < np && in; k++)
+                        in = a[k] * ((double)cb + 0.5) + b[k] > EDGE_MARGIN * len[k];
+                    if (in)
+                        break;
+                }
+                double *row = depth + r * w;
+                const double base = c0 + cv * qv;
+                for (int64_t c = ca; c <= cb; c++) {
+                    const double inv = base + cu * ((double)c + 0.5);
+                    if (!(inv > 0.0))
+                        continue;
+                    const double bound = (1.0 / inv) * (1.0 + 1e-6) + 1e-6;
+                    if (bound < row[c])
+                        row[c] = bound;
+                }
+            }
+        }
+    }
+}
+
+/* A box's screen rectangle (inclusive pixel bounds, grown by one pixel each side, inside the image) and its nearest
+ * corner's depth; returns 0 when a corner reaches the near plane (undecidable), 2 when it projects off the image. */
+static int box_rect(const double *P, const double *R, const double *A, const double *cam, const double *fr, int64_t w,
+                    int64_t h, int64_t *rect, double *zmin_out) {
+    const double near = fr[0], left = fr[2], span_x = fr[3] - fr[2], span_y = fr[5] - fr[4];
+    double zmin = INFINITY, umin = INFINITY, umax = -INFINITY, vmin = INFINITY, vmax = -INFINITY;
+    for (int k = 0; k < 8; k++) {
+        const double l0 = A[0] + ((k & 4) ? A[3] : -A[3]);
+        const double l1 = A[1] + ((k & 2) ? A[4] : -A[4]);
+        const double l2 = A[2] + ((k & 1) ? A[5] : -A[5]);
+        double rel[3];
+        for (int j = 0; j < 3; j++)
+            rel[j] = P[j] + R[3 * j] * l0 + R[3 * j + 1] * l1 + R[3 * j + 2] * l2 - cam[j];
+        const double x = rel[0] * cam[3] + rel[1] * cam[4] + rel[2] * cam[5];
+        const double y = rel[0] * cam[6] + rel[1] * cam[7] + rel[2] * cam[8];
+        const double z = rel[0] * cam[9] + rel[1] * cam[10] + rel[2] * cam[11];
+        zmin = z < zmin ? z : zmin;
+        if (!(z > near * (1.0 + 1e-6))) {
+            *zmin_out = zmin;
+            return 0;
+        }
+        const double u = (x * near / z - left) / span_x * (double)w;
+        const double v = (fr[5] - y * near / z) / span_y * (double)h;
+        umin = u < umin ? u : umin;
+        umax = u > umax ? u : umax;
+        vmin = v < vmin ? v : vmin;
+        vmax = v > vmax ? v : vmax;
+    }
+    *zmin_out = zmin;
+    if (!(umin > -1e15 && umax < 1e15 && vmin > -1e15 && vmax < 1e15))
+        return 0;
+    const double c0 = floor(umin) - 1.0, c1 = ceil(umax) + 1.0, r0 = floor(vmin) - 1.0, r1 = ceil(vmax) + 1.0;
+    if (c1 < 0.0 || c0 > (double)(w - 1) || r1 < 0.0 || r0 > (double)(h - 1))
+        return 2;
+    rect[0] = r0 < 0.0 ? 0 : (int64_t)r0;
+    rect[1] = r1 > (double)(h - 1) ? h - 1 : (int64_t)r1;
+    rect[2] = c0 < 0.0 ? 0 : (int64_t)c0;
+    rect[3] = c1 > (double)(w - 1) ? w - 1 : (int64_t)c1;
+    return 1;
+}
+
+/* sim/occlusion.py `OcclusionTest.hidden`: per geom test_ids[i], whether the flat pass may leave it out. The depth
+ * bound comes from the mesh geoms occ_ids, which that pass draws (raster_geom); a tested box projecting off the image
+ * is left out, and so is one lying behind the bound at every pixel of its rectangle by 1 mm + 0.1 % of its nearest
+ * corner's depth (a fragment inside the box lies no nearer than that corner). Boxes reaching the near plane are drawn.
+ * aabb: per model geom its box (centre, half sizes) in the geom frame; depth: h x w scratch filled with +inf by the
+ * caller; out: n_test flags (1 = leave out). */
+void sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
+                        const int64_t *fnum, const double *pos, const double *mat, const double *aabb,
+                        const int64_t *occ_ids, int64_t n_occ, const int64_t *test_ids, int64_t n_test,
+                        const double *cam, const double *fr, int64_t w, int64_t h, double *depth, uint8_t *out) {
+    for (int64_t i = 0; i < n_occ; i++)
+        raster_geom(vert, face, vadr, fadr, fnum, pos, mat, occ_ids[i], cam, fr, w, h, depth);
+    for (int64_t i = 0; i < n_test; i++) {
+        const int64_t g = test_ids[i];
+        int64_t r[4];
+        double zmin;
+        const int kind = box_rect(pos + 3 * g, mat + 9 * g, aabb + 6 * g, cam, fr, w, h, r, &zmin);
+        uint8_t hidden = kind == 2;
+        if (kind == 1) {
+            const double lim = zmin - (1e-3 + 1e-3 * zmin);
+            hidden = 1;
+            for (int64_t y = r[0]; hidden && y <= r[1]; y++) {
+                const double *row = depth + y * w;
+                for (int64_t x = r[2]; x <= r[3]; x++) {
+                    if (!(row[x] < lim)) {
+                        hidden = 0;
+                        break;
+                    }
+                }
+            }
+        }
+        out[i] = hidden;
+    }
+}

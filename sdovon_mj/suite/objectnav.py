@@ -52,7 +52,7 @@ from ..records import Episode
 from ..sim import GROUP_AGENT
 from ..sim.articulation import part_joints
 from ..sim.camera import intrinsics, pose_cv, vfov_from_hfov
-from ..sim.model import OBJECT_ID_BASE, geom_segment_ids, object_segment_id, segment_image
+from ..sim.model import OBJECT_ID_BASE, geom_segment_ids, object_segment_id
 from ..sim.render import SceneRenderer, clip_depth_range
 from ..grid import lookup, segment_free
 from ..gridgraph import GeodesicField, cell_graph
@@ -453,8 +453,7 @@ class ObjectNavTask(control.Task):
         # a segment whose geoms all lie outside the view covers no pixel (`SceneRenderer.outside_view`): no render
         if np.isin(np.flatnonzero(np.isin(self._lut, ids)), r.outside_view(T)).all():
             return False
-        f = r.render(T, rgb=False, depth=False, segmentation=True)
-        seg = segment_image(f.segmentation, self._lut)
+        seg = r.render(T, rgb=False, depth=False, segmentation=True, labels=self._lut).segmentation
         eta = float(self.bundle.visibility.get("eta_gt", self.agent.eta_gt))
         need = max(int(math.ceil(eta * seg.size - 1e-9)), 1)  # as the episodes' VisibilityChecker
         return any(np.count_nonzero(seg == i) >= need for i in ids)
@@ -541,10 +540,9 @@ class ObjectNavTask(control.Task):
         segment ids (or None)."""
         seg = self.semantic if segmentation is None else segmentation
         r = self.renderer(physics)
-        f = r.render(self.camera_pose(), rgb=rgb, depth=True, segmentation=seg)
+        f = r.render(self.camera_pose(), rgb=rgb, depth=True, segmentation=seg, labels=self._lut)
         depth = clip_depth_range(f.depth, self.nav.depth_min, self.nav.depth_max)
-        ids = segment_image(f.segmentation, self._lut) if seg else None
-        return f.rgb, depth, ids
+        return f.rgb, depth, (f.segmentation if seg else None)
 
     def get_observation(self, physics: Physics) -> dict:
         """Return the observation dict matching `observation_spec` (blank frames when rendering is off)."""
