@@ -456,6 +456,40 @@ def test_renderers_of_one_model_keep_their_own_view():
     assert other.depth.shape == (48, 128) and np.count_nonzero(other.segmentation == 1) > 0
 
 
+def test_a_renderer_sharing_another_ones_context_draws_its_own_images(two_storey):
+    """A smaller renderer drawing with a larger one's GL context (`share=`) gives the images of a renderer of its
+    own (colour, depth, geom ids, at several poses, its field of view and range too), and the larger one's images
+    stay its own; closing the larger one first makes the smaller one refuse to draw."""
+    from sdovon_mj.observe.render_views import load_model
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    scene, root, *_ = two_storey
+    model = load_model(scene, root)
+    big = SceneRenderer(model, width=160, height=120, hfov=79.0)
+    small = SceneRenderer(model, width=96, height=48, hfov=60.0, znear=0.1, zfar=20.0, share=big)
+    alone = SceneRenderer(model, width=96, height=48, hfov=60.0, znear=0.1, zfar=20.0)
+    poses = [pose_cv(np.array(p), yaw, pitch) for p in ((2.0, 4.0, 0.88), (6.0, 2.5, 3.68))
+             for yaw in (0.0, 140.0, 260.0) for pitch in (-30.0, 0.0)]
+    try:
+        assert small._renderer is big._renderer and alone._renderer is not big._renderer
+        for T in poses:
+            before = big.render(T, rgb=True, depth=True, segmentation=True)
+            a = small.render(T, rgb=True, depth=True, segmentation=True)
+            b = alone.render(T, rgb=True, depth=True, segmentation=True)
+            after = big.render(T, rgb=True, depth=True, segmentation=True)
+            assert a.rgb.shape == (48, 96, 3)
+            assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
+            assert np.array_equal(a.segmentation, b.segmentation)
+            assert np.array_equal(before.rgb, after.rgb) and np.array_equal(before.depth, after.depth)
+        big.close()
+        with pytest.raises(RuntimeError, match="shares was closed"):
+            small.render(poses[0], rgb=False, depth=True)
+    finally:
+        for r in (small, alone, big):
+            r.close()
+
+
 def test_frustum_cull_uses_the_camera_mujoco_draws_with():
     """The frustum test reads the camera mjr_render draws a mono scene with (the average of the scene's two eye
     cameras, half the inter-pupillary distance either side): a small box near the right edge of the view, close to

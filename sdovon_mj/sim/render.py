@@ -59,7 +59,8 @@ class SceneRenderer:
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData | None = None, width: int = 640,
                  height: int = 480, hfov: float = 79.0, znear: float = 0.05, zfar: float = 50.0,
-                 shadows: bool = False, groups: tuple[int, ...] = (GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL)) -> None:
+                 shadows: bool = False, groups: tuple[int, ...] = (GROUP_SCENE, GROUP_CEILING, GROUP_OBJECT_VISUAL),
+                 share: "SceneRenderer | None" = None) -> None:
         """Set up an offscreen renderer of `model` with a pinhole camera of the given size and field of view.
 
         Parameters
@@ -78,6 +79,10 @@ class SceneRenderer:
             Render shadows.
         groups : tuple of int
             Geom groups shown.
+        share : SceneRenderer, optional
+            A live renderer of the same model, at least as large: this one draws with its GL context and uploaded
+            meshes (in its own corner of that framebuffer, the same pixels as a framebuffer of its own) instead of
+            building and uploading its own; it must be closed first or with it.
         """
         self.model = model
         self.data = data if data is not None else mujoco.MjData(model)
@@ -92,7 +97,13 @@ class SceneRenderer:
         self._apply_view()
         self.K = intrinsics(width, height, hfov)
         gl.ensure()  # the process's renderer: llvmpipe unless this process chose otherwise (gl)
-        self._renderer = mujoco.Renderer(model, height=self.height, width=self.width)
+        self._shared_from = None  # the renderer whose GL context this one draws with (None: its own)
+        if share is not None and share.model is model and share._renderer is not None and \
+                _LOW_LEVEL_OK(share._renderer) and self.width <= share.width and self.height <= share.height:
+            self._renderer, self._shared_from = share._renderer, share
+        else:
+            self._renderer = mujoco.Renderer(model, height=self.height, width=self.width)
+        self._rect = mujoco.MjrRect(0, 0, self.width, self.height)  # the viewport, from the framebuffer's corner
         self.option = mujoco.MjvOption()
         mujoco.mjv_defaultOption(self.option)
         self.set_groups(groups)
@@ -193,6 +204,8 @@ class SceneRenderer:
             Per model geom an integer: the segmentation then holds each pixel's geom's label instead of its id
             (-1 where no geom either way), in one lookup.
         """
+        if self._shared_from is not None and self._shared_from._renderer is None:
+            raise RuntimeError("SceneRenderer: the renderer whose GL context this one shares was closed")
         hidden = self.outside_view(T_cam)
         self._pose_camera(T_cam)
         cut = segmentation or self._triangles_in_view(hidden) >= LIT_CUT_MIN_TRIANGLES
@@ -307,8 +320,8 @@ class SceneRenderer:
         col = np.empty((self.height, self.width, 3), dtype=np.uint8) if want_rgb else None
         dep = np.empty((self.height, self.width), dtype=np.float32) if want_depth else None
         try:
-            mujoco.mjr_render(r._rect, scn, r._mjr_context)
-            mujoco.mjr_readPixels(col, dep, r._rect, r._mjr_context)
+            mujoco.mjr_render(self._rect, scn, r._mjr_context)
+            mujoco.mjr_readPixels(col, dep, self._rect, r._mjr_context)
         finally:
             np.copyto(scn.flags, saved)
         if r._gl_context:  # GL rows run bottom-up; callers copy (convert) the flipped views
@@ -430,7 +443,10 @@ class SceneRenderer:
         framebuffer and meshes: its next frames came out wrong, without an error (tests/test_observe.py).
         """
         r = getattr(self, "_renderer", None)
-        if r is not None:
+        if r is not None and getattr(self, "_shared_from", None) is not None:  # the owner frees the context
+            self._renderer = None  # type: ignore[assignment]
+            self._shared_from = None
+        elif r is not None:
             if getattr(r, "_gl_context", None) is not None:
                 r._gl_context.make_current()
             r.close()

@@ -526,7 +526,9 @@ class ObjectNavTask(control.Task):
             defaults = EpisodeConfig()
             w = int(self.bundle.visibility.get("width", defaults.vis_width))
             h = int(self.bundle.visibility.get("height", defaults.vis_height))
-            self._sight = SceneRenderer(physics.model.ptr, physics.data.ptr, w, h, self.agent.hfov, znear=0.05, zfar=50.0)
+            # drawn with the agent camera's GL context when it fits in its framebuffer: no second upload of the scene
+            self._sight = SceneRenderer(physics.model.ptr, physics.data.ptr, w, h, self.agent.hfov, znear=0.05,
+                                        zfar=50.0, share=self._renderer)
         return self._sight
 
     def camera_pose(self) -> np.ndarray:
