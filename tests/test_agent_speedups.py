@@ -786,6 +786,72 @@ def test_plan_cells_equals_the_undirected_search_reference():
     assert calls and all(calls)  # the new form asks for the directed search
 
 
+def _reference_plan_cells(mask, start, goal, tolerance_cells=0.0):
+    """`nav.astar.plan_cells` before it searched the mask's window (verbatim but the name): the whole grid's graph."""
+    import math
+
+    from scipy.sparse.csgraph import dijkstra
+
+    from sdovon_mj.gridgraph import graph_of
+
+    m = np.asarray(mask, dtype=bool)
+    h, w = m.shape
+    if not (0 <= start[0] < h and 0 <= start[1] < w) or not m[start[0], start[1]]:
+        return None
+    g, index = graph_of(mask)
+    s = int(index[start[0], start[1]])
+    r = int(math.ceil(tolerance_cells))
+    r0, r1 = max(0, goal[0] - r), min(h, goal[0] + r + 1)
+    c0, c1 = max(0, goal[1] - r), min(w, goal[1] + r + 1)
+    if r0 >= r1 or c0 >= c1:
+        return None
+    rr, cc = np.mgrid[r0:r1, c0:c1]
+    near = ((rr - goal[0]) ** 2 + (cc - goal[1]) ** 2 <= tolerance_cells ** 2 + 1e-9) & m[r0:r1, c0:c1]
+    if not near.any():
+        return None
+    cand = np.stack([rr[near], cc[near]], axis=1)
+    dist, pred = dijkstra(g, directed=True, indices=s, return_predecessors=True)
+    dc = dist[index[cand[:, 0], cand[:, 1]]]
+    if not np.isfinite(dc).any():
+        return None
+    off = (cand[:, 0] - goal[0]) ** 2 + (cand[:, 1] - goal[1]) ** 2
+    k = int(np.lexsort((off, dc))[0])
+    node = int(index[cand[k, 0], cand[k, 1]])
+    nodes = [node]
+    while node != s:
+        node = int(pred[node])
+        if node < 0:
+            return None
+        nodes.append(node)
+    cells = np.argwhere(m)
+    return [(int(cells[n][0]), int(cells[n][1])) for n in nodes[::-1]]
+
+
+def test_plan_cells_on_the_mask_window_equals_the_whole_grid_reference():
+    """nav.astar.plan_cells searches the graph of the window holding the mask's cells: the same cell paths as the
+    whole grid's graph, on masks filling part of a larger grid, with starts and goals on and off them."""
+    from sdovon_mj.nav import astar
+
+    rng = np.random.default_rng(4758)
+    found = 0
+    for trial in range(60):
+        h, w = (int(x) for x in rng.integers(8, 80, 2))
+        mask = np.zeros((h, w), bool)
+        a, b = sorted(int(x) for x in rng.integers(0, h, 2))
+        c, d = sorted(int(x) for x in rng.integers(0, w, 2))
+        mask[a:b + 1, c:d + 1] = rng.random((b - a + 1, d - c + 1)) > rng.uniform(0.0, 0.35)
+        on = np.argwhere(mask)
+        start = tuple(int(x) for x in on[rng.integers(len(on))]) if len(on) and trial % 5 else \
+            (int(rng.integers(0, h)), int(rng.integers(0, w)))
+        goal = tuple(int(x) for x in on[rng.integers(len(on))]) if len(on) and trial % 4 else \
+            (int(rng.integers(0, h)), int(rng.integers(0, w)))
+        tol = float(rng.choice([0.0, 1.5, 4.0]))
+        got, want = astar.plan_cells(mask, start, goal, tol), _reference_plan_cells(mask, start, goal, tol)
+        assert got == want, trial
+        found += got is not None
+    assert found > 10
+
+
 def test_category_image_compiled_equals_the_numpy_form(monkeypatch):
     """ObservationBuilder.category_image in one compiled pass (native sdv_category): the numpy form's image for
     segment ids of instances, placed objects, unlabelled ids between them, ids past the table and -1."""

@@ -236,3 +236,20 @@ def test_geodesic_field_compiled_equals_scipys(python_only):
         got = GeodesicField(mask, frame, targets).field
         want = python_only(GeodesicField, mask, frame, targets).field
         assert got.tobytes() == want.tobytes(), trial
+
+
+def test_codes_seen_equal_bincount():
+    """sdv_codes_seen (the id codes an image shows, read every third byte) marks exactly the codes np.bincount counts,
+    on images of few and of all 256 codes, of one pixel and many."""
+    from sdovon_mj import native
+
+    lib = native.library()
+    assert lib is not None, native.status()
+    rng = np.random.default_rng(4759)
+    for trial in range(40):
+        h, w = int(rng.integers(1, 60)), int(rng.integers(1, 80))
+        img = rng.integers(0, int(rng.integers(1, 257)), size=(h, w, 3)).astype(np.uint8)
+        seen = np.full(256, 7, dtype=np.uint8)
+        lib.sdv_codes_seen(img.ctypes.data, h * w, 3, seen.ctypes.data)
+        assert np.array_equal(seen.astype(bool), np.bincount(img[..., 0].ravel(), minlength=256) > 0), trial
+        assert set(np.unique(seen).tolist()) <= {0, 1}

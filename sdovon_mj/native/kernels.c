@@ -897,3 +897,11 @@ void sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t *v
         out[i] = hidden;
     }
 }
+
+/* sim/render.py `SceneRenderer._decode_table`: which of the 256 red-channel id codes an image shows (n pixels,
+ * `stride` bytes apart): seen[c] = 1 for each code c present, as np.bincount(codes) > 0. */
+void sdv_codes_seen(const uint8_t *codes, int64_t n, int64_t stride, uint8_t *seen) {
+    memset(seen, 0, 256);
+    for (int64_t i = 0; i < n; i++)
+        seen[codes[i * stride]] = 1;
+}

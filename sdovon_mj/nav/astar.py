@@ -14,7 +14,7 @@ import numpy as np
 from scipy.sparse.csgraph import dijkstra
 
 from ..gridgraph import graph_of
-from ..grid import GridFrame, nearest_true, segment_free
+from ..grid import GridFrame, nearest_true, segment_free, true_box
 
 _SQ2 = math.sqrt(2.0)
 _MOVES = ((-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0),
@@ -124,8 +124,11 @@ def plan_cells(mask: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
     h, w = m.shape
     if not (0 <= start[0] < h and 0 <= start[1] < w) or not m[start[0], start[1]]:
         return None
-    g, index = graph_of(mask)
-    s = int(index[start[0], start[1]])
+    # the graph of the window holding every mask cell: the same nodes in the same order (row-major), the same
+    # canonical (sorted) graph, so scipy's search gives the same distances and predecessors on a smaller grid
+    a, b, c, d = true_box(m)  # not None: the start lies on the mask
+    g, index = graph_of(m[a:b, c:d])
+    s = int(index[start[0] - a, start[1] - c])
     r = int(math.ceil(tolerance_cells))
     r0, r1 = max(0, goal[0] - r), min(h, goal[0] + r + 1)
     c0, c1 = max(0, goal[1] - r), min(w, goal[1] + r + 1)
@@ -140,20 +143,20 @@ def plan_cells(mask: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
     # undirected one (which also scans the transpose, relaxing nothing more), distances and predecessors alike,
     # without scipy transposing the graph on every call.
     dist, pred = dijkstra(g, directed=True, indices=s, return_predecessors=True)
-    dc = dist[index[cand[:, 0], cand[:, 1]]]
+    dc = dist[index[cand[:, 0] - a, cand[:, 1] - c]]
     if not np.isfinite(dc).any():
         return None
     off = (cand[:, 0] - goal[0]) ** 2 + (cand[:, 1] - goal[1]) ** 2
     k = int(np.lexsort((off, dc))[0])
-    node = int(index[cand[k, 0], cand[k, 1]])
+    node = int(index[cand[k, 0] - a, cand[k, 1] - c])
     nodes = [node]
     while node != s:
         node = int(pred[node])
         if node < 0:
             return None
         nodes.append(node)
-    cells = np.argwhere(m)  # node n is the n-th True cell in row-major order (cell_graph's numbering)
-    return [(int(cells[n][0]), int(cells[n][1])) for n in nodes[::-1]]
+    cells = np.argwhere(m[a:b, c:d])  # node n is the n-th True cell in row-major order (cell_graph's numbering)
+    return [(int(cells[n][0]) + a, int(cells[n][1]) + c) for n in nodes[::-1]]
 
 
 def plan(mask: np.ndarray, frame: GridFrame, start_xy: np.ndarray, goal_xy: np.ndarray,

@@ -18,7 +18,7 @@ import numpy as np
 
 import mujoco
 
-from .. import gl
+from .. import gl, native
 from . import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from . import occlusion
 from .camera import intrinsics, vfov_from_hfov
@@ -353,7 +353,14 @@ class SceneRenderer:
         n = scn.ngeom
         if n < 255:  # ids fit the red channel
             codes = ids[..., 0]
-            present = np.flatnonzero(np.bincount(codes.ravel(), minlength=256)[1 : n + 1]) + 1
+            lib = native.library()
+            buf = ids[::-1] if ids.strides[0] < 0 else ids  # the GL rows flipped back: which codes show is the same
+            if lib is not None and buf.flags.c_contiguous and buf.shape[-1] == 3:  # the codes seen, in one pass
+                seen = np.empty(256, dtype=np.uint8)
+                lib.sdv_codes_seen(buf.ctypes.data, codes.size, 3, seen.ctypes.data)
+                present = np.flatnonzero(seen[1 : n + 1]) + 1
+            else:
+                present = np.flatnonzero(np.bincount(codes.ravel(), minlength=256)[1 : n + 1]) + 1
             lut256 = np.full(256, -1, dtype=np.int32)
             lut256[: n + 1] = self._id_table(scn, n, present)
             return codes, lut256, present
