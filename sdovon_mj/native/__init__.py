@@ -130,6 +130,6 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.sdv_cells.argtypes = [p, i64, d, d, d, d, p, p, p]
     lib.sdv_codes_seen.restype = None
     lib.sdv_codes_seen.argtypes = [p, i64, i64, p]
-    lib.sdv_occlusion_cull.restype = None
+    lib.sdv_occlusion_cull.restype = i32
     lib.sdv_occlusion_cull.argtypes = [p, p, p, p, p, p, p, p, p, i64, p, i64, p, p, i64, i64, p, p]
     return lib

@@ -652,23 +652,26 @@ void sdv_category(const int32_t *seg, int64_t n, int64_t inst_n, int64_t base, c
     }
 }
 
-/* Lower `depth` to an upper bound of the depth (metres along the optical axis) the flat pass will hold at each pixel,
- * from the front-facing triangles of mesh geom g, which that pass draws (for sdv_occlusion_cull). Each
+/* Raise `inv_depth` to a lower bound of 1 / the depth (metres along the optical axis) the flat pass will hold at each
+ * pixel (0: no bound), from the front-facing triangles of mesh geom g, which that pass draws (for sdv_occlusion_cull).
+ * Each
  * triangle is cut to its part beyond the near plane (times 1.001); that convex polygon counts at a pixel whose centre
  * lies inside it by more than EDGE_MARGIN pixels (the rasteriser then covers that pixel), with the depth of the
- * triangle's plane along the ray through the centre (1/z is affine over the image), raised by a relative 1e-6.
+ * triangle's plane along the ray through the centre (1/z is affine over the image), raised by a relative 1e-5 (1/z
+ * times INV_SHRINK: no division per pixel).
  * Triangles reaching the far plane, projecting beyond GUARD pixels, edge-on or back-facing count nowhere.
  * vert/face: MuJoCo's mesh_vert (float32) and mesh_face (vertex numbers within the mesh); vadr/fadr/fnum: per model
  * geom its mesh's first vertex and face and its face count; pos/mat: per model geom its world position and row-major
  * rotation; cam: camera position, right, up and forward axes (12 doubles); fr: near, far, left, right, bottom, top of
- * the near plane (6 doubles); depth: h x w, rows top-down, lowered where a triangle bounds it. */
+ * the near plane (6 doubles); inv_depth: h x w, rows top-down, raised where a triangle bounds it. */
 #define EDGE_MARGIN 0.05
+#define INV_SHRINK (1.0 / (1.0 + 1e-5))
 /* GL transforms and clips in float32: a vertex u pixels off the image lands within about 1e-7 u of where it should,
  * so beyond GUARD pixels that error could reach EDGE_MARGIN / 5: such triangles are left out */
 #define GUARD 1e5
 static void raster_geom(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
                         const int64_t *fnum, const double *pos, const double *mat, int64_t g, const double *cam,
-                        const double *fr, int64_t w, int64_t h, double *depth) {
+                        const double *fr, int64_t w, int64_t h, double *inv_depth) {
     const double near = fr[0], far = fr[1], left = fr[2], span_x = fr[3] - fr[2], top = fr[5];
     const double span_y = fr[5] - fr[4], zc = near * 1.001;
     {  /* one geom's triangles */
@@ -807,15 +810,12 @@ static void raster_geom(const float *vert, const int32_t *face, const int64_t *v
                     if (in)
                         break;
                 }
-                double *row = depth + r * w;
+                double *row = inv_depth + r * w;
                 const double base = c0 + cv * qv;
                 for (int64_t c = ca; c <= cb; c++) {
-                    const double inv = base + cu * ((double)c + 0.5);
-                    if (!(inv > 0.0))
-                        continue;
-                    const double bound = (1.0 / inv) * (1.0 + 1e-6) + 1e-6;
-                    if (bound < row[c])
-                        row[c] = bound;
+                    const double inv = (base + cu * ((double)c + 0.5)) * INV_SHRINK;
+                    if (inv > row[c])
+                        row[c] = inv;
                 }
             }
         }
@@ -867,14 +867,44 @@ static int box_rect(const double *P, const double *R, const double *A, const dou
  * bound comes from the mesh geoms occ_ids, which that pass draws (raster_geom); a tested box projecting off the image
  * is left out, and so is one lying behind the bound at every pixel of its rectangle by 1 mm + 0.1 % of its nearest
  * corner's depth (a fragment inside the box lies no nearer than that corner). Boxes reaching the near plane are drawn.
- * aabb: per model geom its box (centre, half sizes) in the geom frame; depth: h x w scratch filled with +inf by the
- * caller; out: n_test flags (1 = leave out). */
-void sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
-                        const int64_t *fnum, const double *pos, const double *mat, const double *aabb,
-                        const int64_t *occ_ids, int64_t n_occ, const int64_t *test_ids, int64_t n_test,
-                        const double *cam, const double *fr, int64_t w, int64_t h, double *depth, uint8_t *out) {
-    for (int64_t i = 0; i < n_occ; i++)
-        raster_geom(vert, face, vadr, fadr, fnum, pos, mat, occ_ids[i], cam, fr, w, h, depth);
+ * aabb: per model geom its box (centre, half sizes) in the geom frame; inv_depth: h x w scratch filled with 0 (no
+ * bound) by the caller, kept as 1/depth; out: n_test flags (1 = leave out). Returns -1 when out of memory. */
+#define OCC_TILE 8
+#define OCC_PIXELS_PER_TRIANGLE 16.0
+int32_t sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
+                           const int64_t *fnum, const double *pos, const double *mat, const double *aabb,
+                           const int64_t *occ_ids, int64_t n_occ, const int64_t *test_ids, int64_t n_test,
+                           const double *cam, const double *fr, int64_t w, int64_t h, double *inv_depth,
+                           uint8_t *out) {
+    for (int64_t i = 0; i < n_occ; i++) {
+        /* an occluder whose box covers fewer than OCC_PIXELS_PER_TRIANGLE pixels a triangle (a detailed small object)
+         * costs more to rasterise than it can hide: left out of the bound (fewer occluders only draws more) */
+        const int64_t g = occ_ids[i];
+        int64_t r[4];
+        double zmin;
+        const int kind = box_rect(pos + 3 * g, mat + 9 * g, aabb + 6 * g, cam, fr, w, h, r, &zmin);
+        if (kind == 2 || (kind == 1 && (double)((r[1] - r[0] + 1) * (r[3] - r[2] + 1)) <
+                                           OCC_PIXELS_PER_TRIANGLE * (double)fnum[g]))
+            continue;
+        raster_geom(vert, face, vadr, fadr, fnum, pos, mat, g, cam, fr, w, h, inv_depth);
+    }
+    /* each OCC_TILE x OCC_TILE tile's smallest inverse bound: a tile wholly inside a box's rectangle is read at once
+     * (all its pixels lie above a limit exactly when its smallest does); tiles the rectangle cuts pixel by pixel */
+    const int64_t tw = (w + OCC_TILE - 1) / OCC_TILE, th = (h + OCC_TILE - 1) / OCC_TILE;
+    double *tmin = (double *)malloc((size_t)(tw * th) * sizeof(double));
+    if (!tmin)
+        return -1;
+    for (int64_t t = 0; t < tw * th; t++)
+        tmin[t] = INFINITY;
+    for (int64_t y = 0; y < h; y++) {
+        const double *row = inv_depth + y * w;
+        double *trow = tmin + (y / OCC_TILE) * tw;
+        for (int64_t x = 0; x < w; x++) {
+            const double v = row[x];
+            if (!(v >= trow[x / OCC_TILE]))
+                trow[x / OCC_TILE] = v;
+        }
+    }
     for (int64_t i = 0; i < n_test; i++) {
         const int64_t g = test_ids[i];
         int64_t r[4];
@@ -882,20 +912,38 @@ void sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t *v
         const int kind = box_rect(pos + 3 * g, mat + 9 * g, aabb + 6 * g, cam, fr, w, h, r, &zmin);
         uint8_t hidden = kind == 2;
         if (kind == 1) {
-            const double lim = zmin - (1e-3 + 1e-3 * zmin);
+            const double lim = 1.0 / (zmin - (1e-3 + 1e-3 * zmin)); /* in 1/z: zmin > near, so positive */
             hidden = 1;
-            for (int64_t y = r[0]; hidden && y <= r[1]; y++) {
-                const double *row = depth + y * w;
-                for (int64_t x = r[2]; x <= r[3]; x++) {
-                    if (!(row[x] < lim)) {
-                        hidden = 0;
+            for (int64_t ty = r[0] / OCC_TILE; hidden && ty <= r[1] / OCC_TILE; ty++) {
+                const int64_t y0 = ty * OCC_TILE > r[0] ? ty * OCC_TILE : r[0];
+                const int64_t y1 = ty * OCC_TILE + OCC_TILE - 1 < r[1] ? ty * OCC_TILE + OCC_TILE - 1 : r[1];
+                for (int64_t tx = r[2] / OCC_TILE; hidden && tx <= r[3] / OCC_TILE; tx++) {
+                    const int64_t x0 = tx * OCC_TILE > r[2] ? tx * OCC_TILE : r[2];
+                    const int64_t x1 = tx * OCC_TILE + OCC_TILE - 1 < r[3] ? tx * OCC_TILE + OCC_TILE - 1 : r[3];
+                    const double m = tmin[ty * tw + tx];
+                    if (m > lim)
+                        continue; /* the whole tile is nearer than the limit, so its part in the rectangle is */
+                    if (y0 == ty * OCC_TILE && y1 == ty * OCC_TILE + OCC_TILE - 1 && x0 == tx * OCC_TILE &&
+                        x1 == tx * OCC_TILE + OCC_TILE - 1) {
+                        hidden = 0; /* a whole tile inside the rectangle, and its smallest is not above */
                         break;
+                    }
+                    for (int64_t y = y0; hidden && y <= y1; y++) {
+                        const double *row = inv_depth + y * w;
+                        for (int64_t x = x0; x <= x1; x++) {
+                            if (!(row[x] > lim)) {
+                                hidden = 0;
+                                break;
+                            }
+                        }
                     }
                 }
             }
         }
         out[i] = hidden;
     }
+    free(tmin);
+    return 0;
 }
 
 /* sim/render.py `SceneRenderer._decode_table`: which of the 256 red-channel id codes an image shows (n pixels,

@@ -94,10 +94,11 @@ class OcclusionTest:
         ids = np.ascontiguousarray(tested, dtype=np.int64)
         axes = np.ascontiguousarray(axes, dtype=np.float64)
         frustum = np.ascontiguousarray(frustum, dtype=np.float64)
-        depth = np.full((int(height), int(width)), np.inf)
-        lib.sdv_occlusion_cull(self._vert.ctypes.data, self._face.ctypes.data, self._vadr.ctypes.data,
-                               self._fadr.ctypes.data, self._fnum.ctypes.data, pos.ctypes.data, mat.ctypes.data,
-                               self._aabb.ctypes.data, occ.ctypes.data, len(occ), ids.ctypes.data, len(ids),
-                               axes.ctypes.data, frustum.ctypes.data, int(width), int(height), depth.ctypes.data,
-                               out.ctypes.data)
+        inv_depth = np.zeros((int(height), int(width)))  # the kernel's bound, as 1 / depth (0: none)
+        if lib.sdv_occlusion_cull(self._vert.ctypes.data, self._face.ctypes.data, self._vadr.ctypes.data,
+                                  self._fadr.ctypes.data, self._fnum.ctypes.data, pos.ctypes.data, mat.ctypes.data,
+                                  self._aabb.ctypes.data, occ.ctypes.data, len(occ), ids.ctypes.data, len(ids),
+                                  axes.ctypes.data, frustum.ctypes.data, int(width), int(height),
+                                  inv_depth.ctypes.data, out.ctypes.data):
+            raise MemoryError("occlusion test: out of memory")
         return out.astype(bool)
