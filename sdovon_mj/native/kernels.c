@@ -654,8 +654,7 @@ void sdv_category(const int32_t *seg, int64_t n, int64_t inst_n, int64_t base, c
 
 /* Raise `inv_depth` to a lower bound of 1 / the depth (metres along the optical axis) the flat pass will hold at each
  * pixel (0: no bound), from the front-facing triangles of mesh geom g, which that pass draws (for sdv_occlusion_cull).
- * Each
- * triangle is cut to its part beyond the near plane (times 1.001); that convex polygon counts at a pixel whose centre
+ * Each triangle is cut to its part beyond the near plane (times 1.001); that convex polygon counts at a pixel whose centre
  * lies inside it by more than EDGE_MARGIN pixels (the rasteriser then covers that pixel), with the depth of the
  * triangle's plane along the ray through the centre (1/z is affine over the image), raised by a relative 1e-5 (1/z
  * times INV_SHRINK: no division per pixel).
@@ -669,154 +668,149 @@ void sdv_category(const int32_t *seg, int64_t n, int64_t inst_n, int64_t base, c
 /* GL transforms and clips in float32: a vertex u pixels off the image lands within about 1e-7 u of where it should,
  * so beyond GUARD pixels that error could reach EDGE_MARGIN / 5: such triangles are left out */
 #define GUARD 1e5
+/* whether pixel column c's centre lies inside all np edges by the margin (the edges' affine terms along the row) */
+static inline int span_inside(const double *a, const double *b, const double *len, int np, int64_t c) {
+    for (int k = 0; k < np; k++)
+        if (!(a[k] * ((double)c + 0.5) + b[k] > EDGE_MARGIN * len[k]))
+            return 0;
+    return 1;
+}
 static void raster_geom(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
                         const int64_t *fnum, const double *pos, const double *mat, int64_t g, const double *cam,
                         const double *fr, int64_t w, int64_t h, double *inv_depth) {
     const double near = fr[0], far = fr[1], left = fr[2], span_x = fr[3] - fr[2], top = fr[5];
     const double span_y = fr[5] - fr[4], zc = near * 1.001;
-    {  /* one geom's triangles */
-        const float *V = vert + 3 * vadr[g];
-        const int32_t *F = face + 3 * fadr[g];
-        const double *P = pos + 3 * g, *R = mat + 9 * g;
-        for (int64_t t = 0; t < fnum[g]; t++) {
-            double wv[3][3], e[3][3]; /* world and eye (right, up, forward) coordinates */
-            int skip = 0, front = 0;
-            for (int k = 0; k < 3; k++) {
-                const float *v = V + 3 * F[3 * t + k];
-                double rel[3];
-                for (int j = 0; j < 3; j++) {
-                    wv[k][j] = P[j] + R[3 * j] * (double)v[0] + R[3 * j + 1] * (double)v[1] + R[3 * j + 2] * (double)v[2];
-                    rel[j] = wv[k][j] - cam[j];
-                }
-                for (int a = 0; a < 3; a++)
-                    e[k][a] = rel[0] * cam[3 + 3 * a] + rel[1] * cam[4 + 3 * a] + rel[2] * cam[5 + 3 * a];
-                if (!(e[k][2] < far * 0.999))
-                    skip = 1;
-                front += e[k][2] >= zc;
-            }
-            if (skip || front == 0)
-                continue;
-            /* front-facing: MuJoCo's faces wind counter-clockwise seen from outside, and it culls back faces */
-            double e1[3], e2[3], nv[3], to[3];
+    const float *V = vert + 3 * vadr[g];
+    const int32_t *F = face + 3 * fadr[g];
+    const double *P = pos + 3 * g, *R = mat + 9 * g;
+    for (int64_t t = 0; t < fnum[g]; t++) {
+        double wv[3][3], e[3][3]; /* world and eye (right, up, forward) coordinates */
+        int skip = 0, front = 0;
+        for (int k = 0; k < 3; k++) {
+            const float *v = V + 3 * F[3 * t + k];
+            double rel[3];
             for (int j = 0; j < 3; j++) {
-                e1[j] = wv[1][j] - wv[0][j];
-                e2[j] = wv[2][j] - wv[0][j];
-                to[j] = cam[j] - wv[0][j];
+                wv[k][j] = P[j] + R[3 * j] * (double)v[0] + R[3 * j + 1] * (double)v[1] + R[3 * j + 2] * (double)v[2];
+                rel[j] = wv[k][j] - cam[j];
             }
-            nv[0] = e1[1] * e2[2] - e1[2] * e2[1];
-            nv[1] = e1[2] * e2[0] - e1[0] * e2[2];
-            nv[2] = e1[0] * e2[1] - e1[1] * e2[0];
-            const double facing = nv[0] * to[0] + nv[1] * to[1] + nv[2] * to[2];
-            const double nlen = sqrt(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]);
-            if (!(facing > 1e-6 * nlen * sqrt(to[0] * to[0] + to[1] * to[1] + to[2] * to[2])))
-                continue;
-            /* the plane in eye coordinates: m . X = dpl, so along the ray X = z (xn, yn, 1): 1/z = m . (xn, yn, 1) / dpl */
-            double m3[3];
             for (int a = 0; a < 3; a++)
-                m3[a] = nv[0] * cam[3 + 3 * a] + nv[1] * cam[4 + 3 * a] + nv[2] * cam[5 + 3 * a];
-            const double dpl = m3[0] * e[0][0] + m3[1] * e[0][1] + m3[2] * e[0][2];
-            if (!(fabs(dpl) > 1e-12 * nlen))
-                continue;
-            /* cut to z >= zc (Sutherland-Hodgman against one plane): at most four vertices, then project */
-            double pu[4], pv[4];
-            int np = 0;
-            for (int k = 0; k < 3 && !skip; k++) {
-                const double *a = e[k], *b = e[(k + 1) % 3];
-                const int ina = a[2] >= zc, inb = b[2] >= zc;
-                double q[2][3];
-                int nq = 0;
-                if (ina) {
-                    q[nq][0] = a[0]; q[nq][1] = a[1]; q[nq][2] = a[2]; nq++;
-                }
-                if (ina != inb) {
-                    const double s = (zc - a[2]) / (b[2] - a[2]);
-                    q[nq][0] = a[0] + s * (b[0] - a[0]);
-                    q[nq][1] = a[1] + s * (b[1] - a[1]);
-                    q[nq][2] = zc;
-                    nq++;
-                }
-                for (int j = 0; j < nq; j++) {
-                    pu[np] = (q[j][0] * near / q[j][2] - left) / span_x * (double)w;
-                    pv[np] = (top - q[j][1] * near / q[j][2]) / span_y * (double)h;
-                    if (!(fabs(pu[np]) < GUARD) || !(fabs(pv[np]) < GUARD))
-                        skip = 1;
-                    np++;
-                }
+                e[k][a] = rel[0] * cam[3 + 3 * a] + rel[1] * cam[4 + 3 * a] + rel[2] * cam[5 + 3 * a];
+            if (!(e[k][2] < far * 0.999))
+                skip = 1;
+            front += e[k][2] >= zc;
+        }
+        if (skip || front == 0)
+            continue;
+        /* front-facing: MuJoCo's faces wind counter-clockwise seen from outside, and it culls back faces */
+        double e1[3], e2[3], nv[3], to[3];
+        for (int j = 0; j < 3; j++) {
+            e1[j] = wv[1][j] - wv[0][j];
+            e2[j] = wv[2][j] - wv[0][j];
+            to[j] = cam[j] - wv[0][j];
+        }
+        nv[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        nv[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        nv[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        const double facing = nv[0] * to[0] + nv[1] * to[1] + nv[2] * to[2];
+        const double nlen = sqrt(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]);
+        if (!(facing > 1e-6 * nlen * sqrt(to[0] * to[0] + to[1] * to[1] + to[2] * to[2])))
+            continue;
+        /* the plane in eye coordinates: m . X = dpl, so along the ray X = z (xn, yn, 1): 1/z = m . (xn, yn, 1) / dpl */
+        double m3[3];
+        for (int a = 0; a < 3; a++)
+            m3[a] = nv[0] * cam[3 + 3 * a] + nv[1] * cam[4 + 3 * a] + nv[2] * cam[5 + 3 * a];
+        const double dpl = m3[0] * e[0][0] + m3[1] * e[0][1] + m3[2] * e[0][2];
+        if (!(fabs(dpl) > 1e-12 * nlen))
+            continue;
+        /* cut to z >= zc (Sutherland-Hodgman against one plane): at most four vertices, then project */
+        double pu[4], pv[4];
+        int np = 0;
+        for (int k = 0; k < 3 && !skip; k++) {
+            const double *a = e[k], *b = e[(k + 1) % 3];
+            const int ina = a[2] >= zc, inb = b[2] >= zc;
+            double q[2][3];
+            int nq = 0;
+            if (ina) {
+                q[nq][0] = a[0]; q[nq][1] = a[1]; q[nq][2] = a[2]; nq++;
             }
-            if (skip || np < 3)
-                continue;
-            double area = 0.0, vmin = pv[0], vmax = pv[0];
-            for (int k = 0; k < np; k++) {
-                const int k1 = (k + 1) % np;
-                area += pu[k] * pv[k1] - pu[k1] * pv[k];
-                vmin = pv[k] < vmin ? pv[k] : vmin;
-                vmax = pv[k] > vmax ? pv[k] : vmax;
+            if (ina != inb) {
+                const double s = (zc - a[2]) / (b[2] - a[2]);
+                q[nq][0] = a[0] + s * (b[0] - a[0]);
+                q[nq][1] = a[1] + s * (b[1] - a[1]);
+                q[nq][2] = zc;
+                nq++;
             }
-            if (!(fabs(area) > 2e-3))
-                continue;
-            const double sgn = area > 0 ? 1.0 : -1.0;
-            double len[4];
-            for (int k = 0; k < np; k++) {
-                const int k1 = (k + 1) % np;
-                len[k] = hypot(pu[k1] - pu[k], pv[k1] - pv[k]);
-                if (!(len[k] > 0.0))
+            for (int j = 0; j < nq; j++) {
+                pu[np] = (q[j][0] * near / q[j][2] - left) / span_x * (double)w;
+                pv[np] = (top - q[j][1] * near / q[j][2]) / span_y * (double)h;
+                if (!(fabs(pu[np]) < GUARD) || !(fabs(pv[np]) < GUARD))
                     skip = 1;
+                np++;
             }
-            if (skip)
+        }
+        if (skip || np < 3)
+            continue;
+        double area = 0.0, vmin = pv[0], vmax = pv[0];
+        for (int k = 0; k < np; k++) {
+            const int k1 = (k + 1) % np;
+            area += pu[k] * pv[k1] - pu[k1] * pv[k];
+            vmin = pv[k] < vmin ? pv[k] : vmin;
+            vmax = pv[k] > vmax ? pv[k] : vmax;
+        }
+        if (!(fabs(area) > 2e-3))
+            continue;
+        const double sgn = area > 0 ? 1.0 : -1.0;
+        double len[4];
+        for (int k = 0; k < np; k++) {
+            const int k1 = (k + 1) % np;
+            len[k] = hypot(pu[k1] - pu[k], pv[k1] - pv[k]);
+            if (!(len[k] > 0.0))
+                skip = 1;
+        }
+        if (skip)
+            continue;
+        /* 1/z at pixel (u, v): m . (xn, yn, 1) / dpl with xn, yn the near-plane coordinates over near */
+        const double cu = m3[0] * span_x / ((double)w * near * dpl), cv = -m3[1] * span_y / ((double)h * near * dpl);
+        const double c0 = (m3[0] * left / near + m3[1] * top / near + m3[2]) / dpl;
+        int64_t r0 = (int64_t)ceil(vmin - 0.5), r1 = (int64_t)floor(vmax - 0.5);
+        r0 = r0 < 0 ? 0 : r0;
+        r1 = r1 > h - 1 ? h - 1 : r1;
+        for (int64_t r = r0; r <= r1; r++) {
+            const double qv = (double)r + 0.5;
+            /* along the row each edge's signed distance (times its length) is affine in u: the span where all
+             * edges clear the margin, then each pixel of it (checked at its ends; inside between by convexity) */
+            double a[4], b[4], ilo = -1e300, ihi = 1e300;
+            for (int k = 0; k < np; k++) {
+                const int k1 = (k + 1) % np;
+                a[k] = -(pv[k1] - pv[k]) * sgn;
+                b[k] = ((pu[k1] - pu[k]) * (qv - pv[k]) + (pv[k1] - pv[k]) * pu[k]) * sgn;
+                const double mk = EDGE_MARGIN * len[k];
+                if (a[k] > 0.0) {
+                    const double x = (mk - b[k]) / a[k];
+                    ilo = x > ilo ? x : ilo;
+                } else if (a[k] < 0.0) {
+                    const double x = (mk - b[k]) / a[k];
+                    ihi = x < ihi ? x : ihi;
+                } else if (!(b[k] > mk)) {
+                    ihi = -1e300;
+                }
+            }
+            if (!(ilo < ihi))
                 continue;
-            /* 1/z at pixel (u, v): m . (xn, yn, 1) / dpl with xn, yn the near-plane coordinates over near */
-            const double cu = m3[0] * span_x / ((double)w * near * dpl), cv = -m3[1] * span_y / ((double)h * near * dpl);
-            const double c0 = (m3[0] * left / near + m3[1] * top / near + m3[2]) / dpl;
-            int64_t r0 = (int64_t)ceil(vmin - 0.5), r1 = (int64_t)floor(vmax - 0.5);
-            r0 = r0 < 0 ? 0 : r0;
-            r1 = r1 > h - 1 ? h - 1 : r1;
-            for (int64_t r = r0; r <= r1; r++) {
-                const double qv = (double)r + 0.5;
-                /* along the row each edge's signed distance (times its length) is affine in u: the span where all
-                 * edges clear the margin, then each pixel of it (checked at its ends; inside between by convexity) */
-                double a[4], b[4], ilo = -1e300, ihi = 1e300;
-                for (int k = 0; k < np; k++) {
-                    const int k1 = (k + 1) % np;
-                    a[k] = -(pv[k1] - pv[k]) * sgn;
-                    b[k] = ((pu[k1] - pu[k]) * (qv - pv[k]) + (pv[k1] - pv[k]) * pu[k]) * sgn;
-                    const double mk = EDGE_MARGIN * len[k];
-                    if (a[k] > 0.0) {
-                        const double x = (mk - b[k]) / a[k];
-                        ilo = x > ilo ? x : ilo;
-                    } else if (a[k] < 0.0) {
-                        const double x = (mk - b[k]) / a[k];
-                        ihi = x < ihi ? x : ihi;
-                    } else if (!(b[k] > mk)) {
-                        ihi = -1e300;
-                    }
-                }
-                if (!(ilo < ihi))
-                    continue;
-                int64_t ca = ilo < -1.0 ? 0 : (int64_t)floor(ilo - 0.5);
-                int64_t cb = ihi > (double)w ? w - 1 : (int64_t)ceil(ihi - 0.5);
-                ca = ca < 0 ? 0 : ca;
-                cb = cb > w - 1 ? w - 1 : cb;
-                for (; ca <= cb; ca++) { /* the span's ends, by the exact test */
-                    int in = 1;
-                    for (int k = 0; k < np && in; k++)
-                        in = a[k] * ((double)ca + 0.5) + b[k] > EDGE_MARGIN * len[k];
-                    if (in)
-                        break;
-                }
-                for (; cb >= ca; cb--) {
-                    int in = 1;
-                    for (int k = 0; k < np && in; k++)
-                        in = a[k] * ((double)cb + 0.5) + b[k] > EDGE_MARGIN * len[k];
-                    if (in)
-                        break;
-                }
-                double *row = inv_depth + r * w;
-                const double base = c0 + cv * qv;
-                for (int64_t c = ca; c <= cb; c++) {
-                    const double inv = (base + cu * ((double)c + 0.5)) * INV_SHRINK;
-                    if (inv > row[c])
-                        row[c] = inv;
-                }
+            int64_t ca = ilo < -1.0 ? 0 : (int64_t)floor(ilo - 0.5);
+            int64_t cb = ihi > (double)w ? w - 1 : (int64_t)ceil(ihi - 0.5);
+            ca = ca < 0 ? 0 : ca;
+            cb = cb > w - 1 ? w - 1 : cb;
+            while (ca <= cb && !span_inside(a, b, len, np, ca)) /* the span's ends, by the exact test */
+                ca++;
+            while (cb >= ca && !span_inside(a, b, len, np, cb))
+                cb--;
+            double *row = inv_depth + r * w;
+            const double base = c0 + cv * qv;
+            for (int64_t c = ca; c <= cb; c++) {
+                const double inv = (base + cu * ((double)c + 0.5)) * INV_SHRINK;
+                if (inv > row[c])
+                    row[c] = inv;
             }
         }
     }

@@ -50,12 +50,17 @@ def geom_segment_ids(model: mujoco.MjModel) -> np.ndarray:
     return out
 
 
-def segment_image(geom_ids: np.ndarray, lut: np.ndarray) -> np.ndarray:
-    """Map a geom-id image (-1 = none) to a segmentation-id image with lookup table `lut`."""
-    ext = np.empty(len(lut) + 1, dtype=np.int32)  # the table with -1 appended: every negative id reads it
+def label_table(lut: np.ndarray) -> np.ndarray:
+    """Return the int32 table `lut` (per geom id) with -1 appended: indexed by a geom id, or by -1 for no geom."""
+    ext = np.empty(len(lut) + 1, dtype=np.int32)
     ext[:-1] = lut
     ext[-1] = -1
-    return ext.take(np.maximum(geom_ids, -1))
+    return ext
+
+
+def segment_image(geom_ids: np.ndarray, lut: np.ndarray) -> np.ndarray:
+    """Map a geom-id image (-1 = none) to a segmentation-id image with lookup table `lut`."""
+    return label_table(lut).take(np.maximum(geom_ids, -1))  # every negative id reads the appended -1
 
 
 def load_scene_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -53,7 +53,6 @@ class OcclusionTest:
     """
 
     def __init__(self, model: mujoco.MjModel) -> None:
-        self.model = model
         mesh = np.clip(np.asarray(model.geom_dataid), 0, None)
         has = model.nmesh > 0
         self._vert = np.ascontiguousarray(model.mesh_vert if has else np.zeros((1, 3)), dtype=np.float32)
@@ -62,7 +61,6 @@ class OcclusionTest:
             (lambda a: np.zeros(model.ngeom, dtype=np.int64))
         self._vadr, self._fadr, self._fnum = table(model.mesh_vertadr), table(model.mesh_faceadr), table(model.mesh_facenum)
         self._aabb = np.ascontiguousarray(model.geom_aabb, dtype=np.float64)
-        self.is_mesh = (np.asarray(model.geom_type) == int(mujoco.mjtGeom.mjGEOM_MESH)) & (np.asarray(model.geom_dataid) >= 0)
 
     def hidden(self, data: mujoco.MjData, occluders: np.ndarray, tested: np.ndarray, axes: np.ndarray,
                frustum: np.ndarray, width: int, height: int) -> np.ndarray:

@@ -22,6 +22,7 @@ from .. import gl, native
 from . import GROUP_AGENT, GROUP_CEILING, GROUP_OBJECT_VISUAL, GROUP_SCENE
 from . import occlusion
 from .camera import intrinsics, vfov_from_hfov
+from .model import label_table, segment_image
 
 # The lit pass draws only the geoms the flat pass shows when the flat pass reads the id colours anyway (segmentation
 # asked for), or when the geoms in view hold at least this many triangles: without segmentation the cut costs a
@@ -212,10 +213,14 @@ class SceneRenderer:
         with hiding(self.model, hidden):
             return self._render(rgb, depth, segmentation, cut, labels)
 
+    def _in_shown_group(self) -> np.ndarray:
+        """Return, per model geom, whether its group is shown now (geoms `hiding` hides are not)."""
+        return np.asarray(self.option.geomgroup)[np.clip(np.asarray(self.model.geom_group), 0, 5)] > 0
+
     def _triangles_in_view(self, hidden: np.ndarray) -> int:
         """Return the triangles of the geoms a render would draw: those of a shown group, less `hidden` (mesh geoms
         their faces, a primitive `PRIMITIVE_TRIANGLES`)."""
-        shown = np.asarray(self.option.geomgroup)[np.clip(np.asarray(self.model.geom_group), 0, 5)] > 0
+        shown = self._in_shown_group()
         shown[hidden] = False
         return int(self._triangles[shown].sum())
 
@@ -228,7 +233,7 @@ class SceneRenderer:
         if not _LOW_LEVEL_OK(r):
             f = self._render_passes(rgb, depth, segmentation)
             if labels is not None and f.segmentation is not None:
-                f.segmentation = _label_table(labels).take(np.maximum(f.segmentation, -1))
+                f.segmentation = segment_image(f.segmentation, labels)
             return f
         out_rgb = out_depth = out_seg = None
         if depth or segmentation:
@@ -249,7 +254,7 @@ class SceneRenderer:
                 if track:
                     self._shown_last = shown
                 if segmentation:  # one lookup from colour code to geom id, or through it to the geom's label
-                    out_seg = (lut if labels is None else _label_table(labels).take(lut)).take(codes)
+                    out_seg = (lut if labels is None else label_table(labels).take(lut)).take(codes)
             if depth:
                 out_depth = self._linear_depth(d)
             if rgb:
@@ -379,12 +384,10 @@ class SceneRenderer:
         geoms are the occluders, hence how much is left out, never what the images hold.
         """
         none = np.zeros(0, dtype=np.int64)
-        if not occlusion.available():
+        if self._shown_last is None or not occlusion.available():
             return none
         m = self.model
-        vis = np.asarray(self.option.geomgroup)[np.clip(np.asarray(m.geom_group), 0, 5)] > 0  # shown, in the frustum
-        if self._shown_last is None:
-            return none
+        vis = self._in_shown_group()  # in the frustum: `render` hides the geoms outside it
         occluders = vis & self._mesh & self._shown_last
         tested = np.flatnonzero(vis & ~occluders & self._boxed)
         if int(self._triangles[tested].sum()) < OCCLUSION_MIN_TRIANGLES:
@@ -499,14 +502,6 @@ def _register_cleanup() -> None:
     if not _CLEANUP_REGISTERED:
         atexit.register(_close_all)
         _CLEANUP_REGISTERED = True
-
-
-def _label_table(labels: np.ndarray) -> np.ndarray:
-    """Return int32 `labels` (per geom) with -1 appended: indexed by a geom id, or by -1 for no geom."""
-    ext = np.empty(len(labels) + 1, dtype=np.int32)
-    ext[:-1] = labels
-    ext[-1] = -1
-    return ext
 
 
 def spheres_meet_box(centres: np.ndarray, radii: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
