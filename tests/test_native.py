@@ -5,6 +5,7 @@ library cannot be built (a failing compiler) or is turned off, the Python forms 
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import subprocess
@@ -253,3 +254,54 @@ def test_codes_seen_equal_bincount():
         lib.sdv_codes_seen(img.ctypes.data, h * w, 3, seen.ctypes.data)
         assert np.array_equal(seen.astype(bool), np.bincount(img[..., 0].ravel(), minlength=256) > 0), trial
         assert set(np.unique(seen).tolist()) <= {0, 1}
+
+
+def test_code_lookup_equals_numpy_take_of_the_red_channel():
+    """sdv_code_lookup (a table entry per pixel of an id-colour image, its red channel the code, rows read bottom-up
+    when flipped) equals numpy's take of the table by the flipped view's red channel, on images of one pixel and many,
+    tables of -1 and large labels."""
+    from sdovon_mj import native
+    from sdovon_mj.sim.render import _lookup_codes
+
+    lib = native.library()
+    assert lib is not None, native.status()
+    rng = np.random.default_rng(4761)
+    for trial in range(30):
+        h, w = int(rng.integers(1, 50)), int(rng.integers(1, 70))
+        buf = rng.integers(0, 256, size=(h, w, 3)).astype(np.uint8)
+        table = rng.integers(-1, 2**31 - 1, size=256).astype(np.int32)
+        for view in (buf, buf[::-1]):  # as GL read it (flipped by `_pass`) and as it is
+            want = table.take(view[..., 0])
+            got = _lookup_codes(view, view[..., 0], table)
+            assert got.dtype == np.int32 and got.flags.c_contiguous and np.array_equal(got, want), trial
+
+
+def test_frustum_out_compiled_equals_its_python_form():
+    """sdv_frustum_out decides for every geom exactly what `render.frustum_out` decides (the same double operations in
+    the same order), on random cameras and geoms many of which sit near the view's planes."""
+    from sdovon_mj import native
+    from sdovon_mj.sim.render import frustum_out
+
+    lib = native.library()
+    assert lib is not None, native.status()
+    rng = np.random.default_rng(4762)
+    for trial in range(40):
+        fwd = rng.normal(size=3)
+        fwd /= np.linalg.norm(fwd)
+        up = np.cross(np.cross(fwd, [0.0, 0.0, 1.0]), fwd)
+        up /= np.linalg.norm(up)
+        axes = np.concatenate([rng.uniform(-5, 5, 3), fwd, np.cross(fwd, up), up])
+        near, far = float(rng.uniform(0.01, 0.1)), float(rng.uniform(5, 50))
+        planes = [near, far]
+        for half in (rng.uniform(0.01, 0.1), rng.uniform(0.01, 0.1)):
+            s_hi, s_lo = 1.05 * half / near, -1.05 * half / near
+            planes += [s_hi, math.hypot(1.0, s_hi), s_lo, math.hypot(1.0, s_lo)]
+        n = 500
+        xpos = axes[:3] + rng.uniform(-12, 12, size=(n, 3))
+        rb = np.where(rng.random(n) < 0.05, 0.0, rng.uniform(0.0, 2.0, n))
+        want = frustum_out(xpos, rb, axes, planes)
+        out = np.empty(n, dtype=np.uint8)
+        p = np.asarray(planes, dtype=np.float64)
+        lib.sdv_frustum_out(xpos.ctypes.data, rb.ctypes.data, n, axes.ctypes.data, p.ctypes.data, out.ctypes.data)
+        assert np.array_equal(out.astype(bool), want), trial
+        assert 0 < want.sum() < n, trial  # both kinds of geom in every trial

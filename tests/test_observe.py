@@ -295,9 +295,10 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
 
 
 def test_occlusion_cull_leaves_every_image_unchanged(two_storey, monkeypatch):
-    """Walks through the two-storey apartment (steps, turns, looking down and up): with the occlusion test on every
-    frame (no triangle floor), the flat pass leaves out geoms lying behind those the previous frame showed, and every
-    image (geom ids, depth, colour) equals that of a second renderer drawing everything in view."""
+    """Walks through the two-storey apartment (steps, turns, looking down and up; each walk's first frame without a
+    previous one): with the occlusion test on every frame (no triangle floor), the flat pass leaves out geoms lying
+    behind those the previous frame showed and those the test found drawn, and every image (geom ids, depth, colour)
+    equals that of a second renderer drawing everything in view."""
     import math
 
     from sdovon_mj import native
@@ -316,9 +317,10 @@ def test_occlusion_cull_leaves_every_image_unchanged(two_storey, monkeypatch):
     occluded = SceneRenderer._occluded
 
     def counted(self):
+        if self is full:  # the reference draws everything in view
+            return np.zeros(0, dtype=np.int64)
         out = occluded(self)
-        if self is culled:
-            left_out.append(len(out))
+        left_out.append(len(out))
         return out
 
     monkeypatch.setattr(SceneRenderer, "_occluded", counted)
@@ -338,8 +340,9 @@ def test_occlusion_cull_leaves_every_image_unchanged(two_storey, monkeypatch):
                     pitch = -30.0 if pitch == 0.0 else (25.0 if pitch < 0.0 else 0.0)
                 T = pose_cv(np.array([x, y, z]), yaw, pitch)
                 rgb = step % 3 == 0
+                if step == 0:  # a first frame: no previous one, the test's own depth-ordered occluders only
+                    culled._shown_last = None
                 a = culled.render(T, rgb=rgb, depth=True, segmentation=True)
-                full._shown_last = None  # no previous frame: everything in view is drawn
                 b = full.render(T, rgb=rgb, depth=True, segmentation=True)
                 assert np.array_equal(a.segmentation, b.segmentation), (x, y, yaw, pitch)
                 assert np.array_equal(a.depth, b.depth), (x, y, yaw, pitch)
@@ -395,6 +398,13 @@ def test_occlusion_test_leaves_out_only_what_lies_behind_drawn_triangles(monkeyp
         got = culled.render(T, rgb=True, depth=True, segmentation=True)
         assert np.array_equal(got.segmentation, want.segmentation) and np.array_equal(got.depth, want.depth)
         assert np.array_equal(got.rgb, want.rgb)
+        # a first frame: no occluders from a previous one; the tested meshes, nearest box first, bound the depth for
+        # the rest when drawn (the quad, facing away, bounds nothing: the box behind it is drawn)
+        culled._shown_last = None
+        assert sorted(culled._occluded().tolist()) == [gid["behind"]]
+        culled._shown_last = None
+        got = culled.render(T, rgb=True, depth=True, segmentation=True)
+        assert np.array_equal(got.segmentation, want.segmentation) and np.array_equal(got.depth, want.depth)
     finally:
         culled.close()
         full.close()

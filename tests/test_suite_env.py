@@ -179,3 +179,41 @@ def test_goal_table_round_trip_and_its_fallback(tmp_path, fixture_root):
         unpack_episodes(tmp_path / "episodes.json", tmp_path / name)
     with pytest.raises(InputError, match="nope.npz.*not found"):
         unpack_episodes(tmp_path / "episodes.json", tmp_path / "nope.npz")
+
+
+def test_frames_not_rendered_are_the_shared_read_only_blanks_a_sealed_agent_gets(fixture_root):
+    """A step whose frame the agent did not ask for (render_frames off) holds blank images (black colour, depth at the
+    near limit, -1 ids, -1 categories): the same read-only arrays step after step, equal to the blanks the sealed
+    agent's side of the protocol reads (`FrameBuffer.read`), so an agent sees one kind of blank in-process and sealed;
+    the next rendered step holds fresh writable images again."""
+    from sdovon_mj.knowledge import Knowledge
+    from sdovon_mj.suite.observation import ObservationBuilder, Vocabulary
+    from sdovon_mj.suite.protocol import FrameBuffer
+
+    env = _env(fixture_root, semantic=True)
+    task = env.task
+    h, w = task.agent.sensor_height, task.agent.sensor_width
+    env.reset()
+    task.render_frames = False
+    a, b = env.step(2).observation, env.step(3).observation
+    for k in ("rgb", "depth", "semantic"):
+        assert a[k] is b[k] or np.shares_memory(a[k], b[k]), k  # one array, not a new one each step
+        assert not a[k].flags.writeable, k
+        with pytest.raises(ValueError):
+            a[k][...] = 1
+    assert not a["rgb"].any() and (a["depth"] == task.nav.depth_min).all() and (a["semantic"] == -1).all()
+    builder = ObservationBuilder(Knowledge(detector="gt"), Vocabulary(("chair",), ("chair",)), {})
+    o1, o2 = builder(a, rendered=False), builder(b, rendered=False)
+    assert o1["category"] is o2["category"] and not o1["category"].flags.writeable
+    assert (o1["category"] == -1).all() and o1["category"].shape == (h, w)
+    fb = FrameBuffer(w, h)
+    try:
+        sealed = fb.read(fb.write(o1, False), task.nav.depth_min)
+        for k in ("rgb", "depth", "category"):
+            assert np.array_equal(sealed[k].reshape(np.shape(o1[k])), o1[k]) and not sealed[k].flags.writeable, k
+    finally:
+        fb.close()
+    task.render_frames = True
+    c = env.step(2).observation
+    assert all(c[k].flags.writeable for k in ("rgb", "depth", "semantic"))
+    env.task.close()

@@ -132,4 +132,8 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
     lib.sdv_codes_seen.argtypes = [p, i64, i64, p]
     lib.sdv_occlusion_cull.restype = i32
     lib.sdv_occlusion_cull.argtypes = [p, p, p, p, p, p, p, p, p, i64, p, i64, p, p, i64, i64, p, p]
+    lib.sdv_code_lookup.restype = None
+    lib.sdv_code_lookup.argtypes = [p, i64, i64, i64, i32, p, p]
+    lib.sdv_frustum_out.restype = None
+    lib.sdv_frustum_out.argtypes = [p, p, i64, p, p, p]
     return lib

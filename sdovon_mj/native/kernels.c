@@ -677,7 +677,7 @@ static inline int span_inside(const double *a, const double *b, const double *le
 }
 static void raster_geom(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
                         const int64_t *fnum, const double *pos, const double *mat, int64_t g, const double *cam,
-                        const double *fr, int64_t w, int64_t h, double *inv_depth) {
+                        const double *fr, int64_t w, int64_t h, double *inv_depth, int64_t *touched) {
     const double near = fr[0], far = fr[1], left = fr[2], span_x = fr[3] - fr[2], top = fr[5];
     const double span_y = fr[5] - fr[4], zc = near * 1.001;
     const float *V = vert + 3 * vadr[g];
@@ -775,21 +775,27 @@ static void raster_geom(const float *vert, const int32_t *face, const int64_t *v
         int64_t r0 = (int64_t)ceil(vmin - 0.5), r1 = (int64_t)floor(vmax - 0.5);
         r0 = r0 < 0 ? 0 : r0;
         r1 = r1 > h - 1 ? h - 1 : r1;
+        /* along a row each edge's signed distance (times its length) is a u + b: a per edge, b per row */
+        double a[4], ia[4];
+        for (int k = 0; k < np; k++) {
+            a[k] = -(pv[(k + 1) % np] - pv[k]) * sgn;
+            ia[k] = a[k] != 0.0 ? 1.0 / a[k] : 0.0;
+        }
         for (int64_t r = r0; r <= r1; r++) {
             const double qv = (double)r + 0.5;
-            /* along the row each edge's signed distance (times its length) is affine in u: the span where all
-             * edges clear the margin, then each pixel of it (checked at its ends; inside between by convexity) */
-            double a[4], b[4], ilo = -1e300, ihi = 1e300;
+            /* the span where all edges clear the margin (estimated, then its ends moved inwards by the exact test: the
+             * estimate's rounding can only leave out a pixel, which bounds less), then each pixel of it (inside
+             * between its ends by convexity) */
+            double b[4], ilo = -1e300, ihi = 1e300;
             for (int k = 0; k < np; k++) {
                 const int k1 = (k + 1) % np;
-                a[k] = -(pv[k1] - pv[k]) * sgn;
                 b[k] = ((pu[k1] - pu[k]) * (qv - pv[k]) + (pv[k1] - pv[k]) * pu[k]) * sgn;
                 const double mk = EDGE_MARGIN * len[k];
                 if (a[k] > 0.0) {
-                    const double x = (mk - b[k]) / a[k];
+                    const double x = (mk - b[k]) * ia[k];
                     ilo = x > ilo ? x : ilo;
                 } else if (a[k] < 0.0) {
-                    const double x = (mk - b[k]) / a[k];
+                    const double x = (mk - b[k]) * ia[k];
                     ihi = x < ihi ? x : ihi;
                 } else if (!(b[k] > mk)) {
                     ihi = -1e300;
@@ -805,12 +811,17 @@ static void raster_geom(const float *vert, const int32_t *face, const int64_t *v
                 ca++;
             while (cb >= ca && !span_inside(a, b, len, np, cb))
                 cb--;
+            if (ca > cb)
+                continue;
+            touched[0] = r < touched[0] ? r : touched[0];
+            touched[1] = r > touched[1] ? r : touched[1];
+            touched[2] = ca < touched[2] ? ca : touched[2];
+            touched[3] = cb > touched[3] ? cb : touched[3];
             double *row = inv_depth + r * w;
             const double base = c0 + cv * qv;
             for (int64_t c = ca; c <= cb; c++) {
                 const double inv = (base + cu * ((double)c + 0.5)) * INV_SHRINK;
-                if (inv > row[c])
-                    row[c] = inv;
+                row[c] = inv > row[c] ? inv : row[c];
             }
         }
     }
@@ -857,86 +868,152 @@ static int box_rect(const double *P, const double *R, const double *A, const dou
     return 1;
 }
 
-/* sim/occlusion.py `OcclusionTest.hidden`: per geom test_ids[i], whether the flat pass may leave it out. The depth
- * bound comes from the mesh geoms occ_ids, which that pass draws (raster_geom); a tested box projecting off the image
- * is left out, and so is one lying behind the bound at every pixel of its rectangle by 1 mm + 0.1 % of its nearest
- * corner's depth (a fragment inside the box lies no nearer than that corner). Boxes reaching the near plane are drawn.
- * aabb: per model geom its box (centre, half sizes) in the geom frame; inv_depth: h x w scratch filled with 0 (no
- * bound) by the caller, kept as 1/depth; out: n_test flags (1 = leave out). Returns -1 when out of memory. */
+/* Each OCC_TILE x OCC_TILE tile's smallest inverse bound (tile rows t0..t1, columns u0..u1): a tile wholly inside a
+ * box's rectangle is read at once (all its pixels lie above a limit exactly when its smallest does). */
 #define OCC_TILE 8
-#define OCC_PIXELS_PER_TRIANGLE 16.0
-int32_t sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
-                           const int64_t *fnum, const double *pos, const double *mat, const double *aabb,
-                           const int64_t *occ_ids, int64_t n_occ, const int64_t *test_ids, int64_t n_test,
-                           const double *cam, const double *fr, int64_t w, int64_t h, double *inv_depth,
-                           uint8_t *out) {
-    for (int64_t i = 0; i < n_occ; i++) {
-        /* an occluder whose box covers fewer than OCC_PIXELS_PER_TRIANGLE pixels a triangle (a detailed small object)
-         * costs more to rasterise than it can hide: left out of the bound (fewer occluders only draws more) */
-        const int64_t g = occ_ids[i];
-        int64_t r[4];
-        double zmin;
-        const int kind = box_rect(pos + 3 * g, mat + 9 * g, aabb + 6 * g, cam, fr, w, h, r, &zmin);
-        if (kind == 2 || (kind == 1 && (double)((r[1] - r[0] + 1) * (r[3] - r[2] + 1)) <
-                                           OCC_PIXELS_PER_TRIANGLE * (double)fnum[g]))
-            continue;
-        raster_geom(vert, face, vadr, fadr, fnum, pos, mat, g, cam, fr, w, h, inv_depth);
-    }
-    /* each OCC_TILE x OCC_TILE tile's smallest inverse bound: a tile wholly inside a box's rectangle is read at once
-     * (all its pixels lie above a limit exactly when its smallest does); tiles the rectangle cuts pixel by pixel */
-    const int64_t tw = (w + OCC_TILE - 1) / OCC_TILE, th = (h + OCC_TILE - 1) / OCC_TILE;
-    double *tmin = (double *)malloc((size_t)(tw * th) * sizeof(double));
-    if (!tmin)
-        return -1;
-    for (int64_t t = 0; t < tw * th; t++)
-        tmin[t] = INFINITY;
-    for (int64_t y = 0; y < h; y++) {
+static void tiles_min(const double *inv_depth, int64_t w, int64_t h, double *tmin, int64_t tw, int64_t t0, int64_t t1,
+                      int64_t u0, int64_t u1) {
+    for (int64_t t = t0; t <= t1; t++)
+        for (int64_t u = u0; u <= u1; u++)
+            tmin[t * tw + u] = INFINITY;
+    const int64_t y1 = (t1 + 1) * OCC_TILE < h ? (t1 + 1) * OCC_TILE : h;
+    const int64_t x0 = u0 * OCC_TILE, x1 = (u1 + 1) * OCC_TILE < w ? (u1 + 1) * OCC_TILE : w;
+    for (int64_t y = t0 * OCC_TILE; y < y1; y++) {
         const double *row = inv_depth + y * w;
         double *trow = tmin + (y / OCC_TILE) * tw;
-        for (int64_t x = 0; x < w; x++) {
+        for (int64_t x = x0; x < x1; x++) {
             const double v = row[x];
             if (!(v >= trow[x / OCC_TILE]))
                 trow[x / OCC_TILE] = v;
         }
     }
-    for (int64_t i = 0; i < n_test; i++) {
-        const int64_t g = test_ids[i];
+}
+
+/* Whether a box (rectangle r: rows r[0]..r[1], columns r[2]..r[3]; nearest corner at depth zmin) lies behind the bound
+ * at every pixel of its rectangle by 1 mm + 0.1 % of zmin (a fragment inside the box lies no nearer than that corner).
+ * Tiles marked in `stale` (raised since their smallest was taken) are read again first. */
+static int box_behind(const double *inv_depth, int64_t w, int64_t h, double *tmin, uint8_t *stale, int64_t tw,
+                      const int64_t *r, double zmin) {
+    const double lim = 1.0 / (zmin - (1e-3 + 1e-3 * zmin)); /* in 1/z: zmin > near, so positive */
+    for (int64_t ty = r[0] / OCC_TILE; ty <= r[1] / OCC_TILE; ty++) {
+        const int64_t y0 = ty * OCC_TILE > r[0] ? ty * OCC_TILE : r[0];
+        const int64_t y1 = ty * OCC_TILE + OCC_TILE - 1 < r[1] ? ty * OCC_TILE + OCC_TILE - 1 : r[1];
+        for (int64_t tx = r[2] / OCC_TILE; tx <= r[3] / OCC_TILE; tx++) {
+            const int64_t x0 = tx * OCC_TILE > r[2] ? tx * OCC_TILE : r[2];
+            const int64_t x1 = tx * OCC_TILE + OCC_TILE - 1 < r[3] ? tx * OCC_TILE + OCC_TILE - 1 : r[3];
+            if (stale[ty * tw + tx]) {
+                tiles_min(inv_depth, w, h, tmin, tw, ty, ty, tx, tx);
+                stale[ty * tw + tx] = 0;
+            }
+            if (tmin[ty * tw + tx] > lim)
+                continue; /* the whole tile is nearer than the limit, so its part in the rectangle is */
+            if (y0 == ty * OCC_TILE && y1 == ty * OCC_TILE + OCC_TILE - 1 && x0 == tx * OCC_TILE &&
+                x1 == tx * OCC_TILE + OCC_TILE - 1)
+                return 0; /* a whole tile inside the rectangle, and its smallest is not above */
+            for (int64_t y = y0; y <= y1; y++) {
+                const double *row = inv_depth + y * w;
+                for (int64_t x = x0; x <= x1; x++)
+                    if (!(row[x] > lim))
+                        return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+typedef struct {
+    double z;
+    int64_t i;
+} occ_order;
+
+static int occ_order_cmp(const void *a, const void *b) {
+    const occ_order *p = (const occ_order *)a, *q = (const occ_order *)b;
+    if (p->z != q->z)
+        return p->z < q->z ? -1 : 1;
+    return p->i < q->i ? -1 : (p->i > q->i);
+}
+
+/* sim/occlusion.py `OcclusionTest.hidden`: per geom test_ids[i], whether the flat pass may leave it out. The depth
+ * bound comes only from geoms that pass draws: first the mesh geoms occ_ids (raster_geom); then, nearest box first,
+ * each tested mesh geom cheap to rasterise (OCC_CANDIDATE_PIXELS_PER_TRIANGLE) is tested and, when it must be drawn,
+ * raises the bound for the rest; last the other tested geoms. A tested box projecting off the image is left out, and so is one
+ * lying behind the bound at every pixel of its rectangle (`box_behind`); boxes reaching the near plane are drawn.
+ * aabb: per model geom its box (centre, half sizes) in the geom frame; inv_depth: h x w scratch filled with 0 (no
+ * bound) by the caller, kept as 1/depth; out: n_test flags (1 = leave out). Returns -1 when out of memory. */
+#define OCC_PIXELS_PER_TRIANGLE 16.0
+/* a tested mesh raises the bound when drawn only if its box covers this many pixels a triangle (walls, floors, big
+ * plain furniture): rasterising detailed ones cost the test more than the geoms they hid saved (a house's frames:
+ * 16 pixels a triangle, 128 and 1024 measured; docs/results.md) */
+#define OCC_CANDIDATE_PIXELS_PER_TRIANGLE 128.0
+int32_t sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
+                           const int64_t *fnum, const double *pos, const double *mat, const double *aabb,
+                           const int64_t *occ_ids, int64_t n_occ, const int64_t *test_ids, int64_t n_test,
+                           const double *cam, const double *fr, int64_t w, int64_t h, double *inv_depth,
+                           uint8_t *out) {
+    /* a geom whose box covers fewer than OCC_PIXELS_PER_TRIANGLE pixels a triangle (a detailed small object; the whole
+     * image for a box reaching the near plane) costs more to rasterise than it can hide: it raises no bound (fewer
+     * occluders only draws more) */
+    const double image = (double)(w * h);
+    int64_t touched[4] = {h, -1, w, -1}; /* the rows and columns a rasterised geom reached */
+    for (int64_t i = 0; i < n_occ; i++) {
+        const int64_t g = occ_ids[i];
         int64_t r[4];
         double zmin;
         const int kind = box_rect(pos + 3 * g, mat + 9 * g, aabb + 6 * g, cam, fr, w, h, r, &zmin);
-        uint8_t hidden = kind == 2;
-        if (kind == 1) {
-            const double lim = 1.0 / (zmin - (1e-3 + 1e-3 * zmin)); /* in 1/z: zmin > near, so positive */
-            hidden = 1;
-            for (int64_t ty = r[0] / OCC_TILE; hidden && ty <= r[1] / OCC_TILE; ty++) {
-                const int64_t y0 = ty * OCC_TILE > r[0] ? ty * OCC_TILE : r[0];
-                const int64_t y1 = ty * OCC_TILE + OCC_TILE - 1 < r[1] ? ty * OCC_TILE + OCC_TILE - 1 : r[1];
-                for (int64_t tx = r[2] / OCC_TILE; hidden && tx <= r[3] / OCC_TILE; tx++) {
-                    const int64_t x0 = tx * OCC_TILE > r[2] ? tx * OCC_TILE : r[2];
-                    const int64_t x1 = tx * OCC_TILE + OCC_TILE - 1 < r[3] ? tx * OCC_TILE + OCC_TILE - 1 : r[3];
-                    const double m = tmin[ty * tw + tx];
-                    if (m > lim)
-                        continue; /* the whole tile is nearer than the limit, so its part in the rectangle is */
-                    if (y0 == ty * OCC_TILE && y1 == ty * OCC_TILE + OCC_TILE - 1 && x0 == tx * OCC_TILE &&
-                        x1 == tx * OCC_TILE + OCC_TILE - 1) {
-                        hidden = 0; /* a whole tile inside the rectangle, and its smallest is not above */
-                        break;
-                    }
-                    for (int64_t y = y0; hidden && y <= y1; y++) {
-                        const double *row = inv_depth + y * w;
-                        for (int64_t x = x0; x <= x1; x++) {
-                            if (!(row[x] > lim)) {
-                                hidden = 0;
-                                break;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        out[i] = hidden;
+        const double px = kind == 1 ? (double)((r[1] - r[0] + 1) * (r[3] - r[2] + 1)) : image;
+        if (kind == 2 || px < OCC_PIXELS_PER_TRIANGLE * (double)fnum[g])
+            continue;
+        raster_geom(vert, face, vadr, fadr, fnum, pos, mat, g, cam, fr, w, h, inv_depth, touched);
     }
-    free(tmin);
+    const int64_t tw = (w + OCC_TILE - 1) / OCC_TILE, th = (h + OCC_TILE - 1) / OCC_TILE;
+    double *tmin = (double *)malloc((size_t)(tw * th) * sizeof(double));
+    int64_t *rect = (int64_t *)malloc((size_t)(4 * (n_test > 0 ? n_test : 1)) * sizeof(int64_t));
+    double *zmin = (double *)malloc((size_t)(n_test > 0 ? n_test : 1) * sizeof(double));
+    int *kind = (int *)malloc((size_t)(n_test > 0 ? n_test : 1) * sizeof(int));
+    occ_order *order = (occ_order *)malloc((size_t)(n_test > 0 ? n_test : 1) * sizeof(occ_order));
+    uint8_t *stale = (uint8_t *)calloc((size_t)(tw * th), 1);
+    if (!tmin || !rect || !zmin || !kind || !order || !stale) {
+        free(tmin), free(rect), free(zmin), free(kind), free(order), free(stale);
+        return -1;
+    }
+    tiles_min(inv_depth, w, h, tmin, tw, 0, th - 1, 0, tw - 1);
+    int64_t n_cand = 0;
+    for (int64_t i = 0; i < n_test; i++) {
+        const int64_t g = test_ids[i];
+        kind[i] = box_rect(pos + 3 * g, mat + 9 * g, aabb + 6 * g, cam, fr, w, h, rect + 4 * i, zmin + i);
+        out[i] = kind[i] == 2;
+        if (kind[i] != 1 || fnum[g] <= 0)
+            continue;
+        const int64_t *r = rect + 4 * i;
+        const double px = kind[i] == 1 ? (double)((r[1] - r[0] + 1) * (r[3] - r[2] + 1)) : image;
+        if (px >= OCC_CANDIDATE_PIXELS_PER_TRIANGLE * (double)fnum[g]) {
+            order[n_cand].z = zmin[i];
+            order[n_cand].i = i;
+            n_cand++;
+            kind[i] += 4; /* a candidate occluder: decided below, in depth order */
+        }
+    }
+    qsort(order, (size_t)n_cand, sizeof(occ_order), occ_order_cmp);
+    for (int64_t k = 0; k < n_cand; k++) {
+        const int64_t i = order[k].i, g = test_ids[i];
+        kind[i] -= 4;
+        if (kind[i] == 1 && box_behind(inv_depth, w, h, tmin, stale, tw, rect + 4 * i, zmin[i])) {
+            out[i] = 1;
+            kind[i] = -1; /* decided: left out */
+            continue;
+        }
+        /* drawn: its triangles bound the depth behind it; the tiles its rectangle (or, reaching the near plane, the
+         * image) overlaps are read again */
+        int64_t t[4] = {h, -1, w, -1};
+        raster_geom(vert, face, vadr, fadr, fnum, pos, mat, g, cam, fr, w, h, inv_depth, t);
+        for (int64_t ty = t[0] / OCC_TILE; t[1] >= 0 && ty <= t[1] / OCC_TILE; ty++)
+            memset(stale + ty * tw + t[2] / OCC_TILE, 1, (size_t)(t[3] / OCC_TILE - t[2] / OCC_TILE + 1));
+        kind[i] = -1; /* decided: drawn */
+    }
+    for (int64_t i = 0; i < n_test; i++)
+        if (kind[i] == 1)
+            out[i] = box_behind(inv_depth, w, h, tmin, stale, tw, rect + 4 * i, zmin[i]);
+    free(tmin), free(rect), free(zmin), free(kind), free(order), free(stale);
     return 0;
 }
 
@@ -946,4 +1023,41 @@ void sdv_codes_seen(const uint8_t *codes, int64_t n, int64_t stride, uint8_t *se
     memset(seen, 0, 256);
     for (int64_t i = 0; i < n; i++)
         seen[codes[i * stride]] = 1;
+}
+
+/* sim/render.py `SceneRenderer._render`: per pixel of an id-colour image (h rows of w pixels, `channels` bytes each,
+ * rows bottom-up when `flip`, as GL reads them), table[its red code] into out (h x w int32, rows top-down). */
+void sdv_code_lookup(const uint8_t *pix, int64_t h, int64_t w, int64_t channels, int32_t flip, const int32_t *table,
+                     int32_t *out) {
+    for (int64_t r = 0; r < h; r++) {
+        const uint8_t *src = pix + (flip ? h - 1 - r : r) * w * channels;
+        int32_t *dst = out + r * w;
+        for (int64_t c = 0; c < w; c++)
+            dst[c] = table[src[c * channels]];
+    }
+}
+
+/* sim/render.py `SceneRenderer.outside_view`: per geom (centre xpos, bounding radius rbound), whether its sphere grown
+ * by 1 mm lies wholly outside one plane of the view: before the near plane, beyond the far one, or off a side whose
+ * slope (c = s z on it) is s with unit normal scale 1 / nrm. cam: position, forward, right, up (12 doubles); planes:
+ * near, far, then s_hi, nrm_hi, s_lo, nrm_lo for x, then for y (10 doubles). The same double operations in the same
+ * order as the Python form (each dot product summed left to right). out: n flags (1 = outside, radius > 0). */
+void sdv_frustum_out(const double *xpos, const double *rbound, int64_t n, const double *cam, const double *planes,
+                     uint8_t *out) {
+    const double near = planes[0], far = planes[1];
+    for (int64_t i = 0; i < n; i++) {
+        const double p0 = xpos[3 * i] - cam[0], p1 = xpos[3 * i + 1] - cam[1], p2 = xpos[3 * i + 2] - cam[2];
+        const double z = p0 * cam[3] + p1 * cam[4] + p2 * cam[5];
+        const double x = p0 * cam[6] + p1 * cam[7] + p2 * cam[8];
+        const double y = p0 * cam[9] + p1 * cam[10] + p2 * cam[11];
+        const double rb = rbound[i], r_out = rb + 1e-3;
+        int o = (z + r_out < near) | (z - r_out > far);
+        const double cs[2] = {x, y};
+        for (int k = 0; k < 2; k++) {
+            const double *q = planes + 2 + 4 * k;
+            o |= (cs[k] - q[0] * z) / q[1] > r_out;
+            o |= (q[2] * z - cs[k]) / q[3] > r_out;
+        }
+        out[i] = (uint8_t)(o && rb > 0.0);
+    }
 }

@@ -1,11 +1,14 @@
 """Occlusion test of the flat pass: which geoms in view lie wholly behind geoms that pass draws anyway.
 
 The renderer's flat (id-colour) pass draws every geom in MuJoCo's frustum, yet indoors most of them lie behind a wall.
-Before it draws, `SceneRenderer` asks here which can be left out: the mesh geoms the previous frame showed are drawn
-(the occluders); from their front-facing triangles the kernel bounds the depth the pass will hold at each pixel, and
-a geom whose bounding box lies beyond that bound at every pixel its projection can cover can win no pixel, whatever
-else is drawn. (Drawing the others nearest first, each bounding the depth for those behind, left out more geoms on
-the default-world house but cost more to test than it saved: docs/results.md.) Every step errs towards drawing: a triangle counts only at pixels whose centres lie inside it by a
+Before it draws, `SceneRenderer` asks here which can be left out. The depth the pass will hold is bounded at each
+pixel from triangles of geoms it surely draws: first the mesh geoms the previous frame showed (the occluders, drawn);
+then the tested mesh geoms cheap to rasterise (walls, floors, big furniture: few triangles for their size), nearest
+box first, each either found behind the bound (left out) or drawn, and then bounding the depth behind it (so a wall a
+turn brings into view hides what lies behind it in its first frame); last the other tested geoms. A geom whose
+bounding box lies beyond that bound at every pixel its projection can cover can win no pixel, whatever else is drawn.
+(Drawing every remaining geom nearest first, detailed ones too, left out more but cost more to test than it saved:
+docs/results.md.) Every step errs towards drawing: a triangle counts only at pixels whose centres lie inside it by a
 margin (the rasteriser surely covers them), a box reaching the near plane or over a pixel with no bound is drawn,
 depths carry a margin. So the images are those of drawing everything (tests/test_observe.py). The test runs compiled
 (`sdovon_mj.native`: ``sdv_occlusion_cull``); without the kernels nothing is left out.
@@ -66,8 +69,8 @@ class OcclusionTest:
                frustum: np.ndarray, width: int, height: int) -> np.ndarray:
         """Return, per geom of `tested`, whether the flat pass may leave it out: it lies wholly behind geoms drawn.
 
-        The depth bound comes from the triangles of the mesh geoms `occluders`, which the same pass draws
-        (``sdv_occlusion_cull``).
+        The depth bound comes from the triangles of the mesh geoms `occluders`, which the same pass draws, then from
+        those of the tested mesh geoms found drawn, nearest first (``sdv_occlusion_cull``).
 
         Parameters
         ----------

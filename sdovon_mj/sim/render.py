@@ -31,10 +31,11 @@ from .model import label_table, segment_image
 # Either way the images are the same bytes: this is a choice of speed only (docs/results.md, issue 47).
 LIT_CUT_MIN_TRIANGLES = 20_000
 PRIMITIVE_TRIANGLES = 200  # what a primitive geom (box, sphere, cylinder...) counts for: MuJoCo tessellates it finely
-# The flat pass leaves out the geoms `occlusion` finds behind those the previous frame showed when the geoms it tests
-# hold at least this many triangles: the test costs about 0.5 ms at 320x240 (bounding the depth from the occluders'
-# triangles, then each box) and a geom left out saves about 2 us plus 0.12 us per triangle and its pixels (llvmpipe),
-# so below a few thousand triangles it cannot pay. The images are the same either way: a choice of speed only.
+# The flat pass leaves out the geoms `occlusion` finds behind what it draws when the geoms it tests hold at least this
+# many triangles: the test costs about 0.7 ms at 320x240 on a house's frames (bounding the depth from the drawn
+# meshes' triangles, then each box) and a geom left out saves about 17 us plus 0.08 us per triangle (llvmpipe; fitted
+# over a house's frames: docs/results.md), so below a few thousand triangles it cannot pay. The images are the same
+# either way: a choice of speed only.
 OCCLUSION_MIN_TRIANGLES = 4_000
 
 
@@ -53,6 +54,55 @@ def prepare_model(model: mujoco.MjModel, width: int, height: int, multisample: b
     model.vis.global_.offheight = max(int(model.vis.global_.offheight), int(height))
     if not multisample:
         model.vis.quality.offsamples = 0
+
+
+def _rows_as_read(img: np.ndarray) -> tuple[np.ndarray, int]:
+    """Return an image as its buffer holds it and whether its rows are flipped (1: `_pass`'s view of GL's bottom-up
+    rows), so a compiled pass can read the buffer once and write the rows top-down."""
+    return (img[::-1], 1) if img.strides[0] < 0 else (img, 0)
+
+
+def _lookup_codes(ids: np.ndarray, codes: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """Return int32 table[codes]: per pixel of an id-colour image `ids` (H, W, 3), the table's entry for its colour
+    code `codes` (H, W) (`SceneRenderer._decode_table`); one compiled pass when the code is the red channel."""
+    lib = native.library()
+    rows, flip = _rows_as_read(ids)
+    if lib is not None and len(table) == 256 and codes.dtype == np.uint8 and rows.flags.c_contiguous and \
+            rows.ndim == 3 and rows.shape[2] == 3:
+        tab = np.ascontiguousarray(table, dtype=np.int32)
+        out = np.empty(rows.shape[:2], dtype=np.int32)
+        lib.sdv_code_lookup(rows.ctypes.data, rows.shape[0], rows.shape[1], 3, flip, tab.ctypes.data,
+                            out.ctypes.data)
+        return out
+    return np.asarray(table, dtype=np.int32).take(codes)
+
+
+def frustum_out(xpos: np.ndarray, rbound: np.ndarray, axes: np.ndarray, planes: list[float]) -> np.ndarray:
+    """Return, per geom, whether its bounding sphere grown by 1 mm lies wholly outside one plane of a view (and its
+    radius is positive): before the near plane, beyond the far one, or off a side (`SceneRenderer.outside_view`).
+
+    Parameters
+    ----------
+    xpos : numpy.ndarray
+        (N, 3) geom centres, metres.
+    rbound : numpy.ndarray
+        (N,) bounding radii, metres (0: a plane, never out).
+    axes : numpy.ndarray
+        (12,) camera position, forward, right and up axes.
+    planes : list of float
+        Near and far distances (metres), then for x and for y the side planes' slopes s (c = s z on a plane) and
+        unit-normal scales: s_hi, hypot(1, s_hi), s_lo, hypot(1, s_lo).
+    """
+    p = xpos - axes[None, :3]
+    # each dot product summed left to right, as the compiled form (sdv_frustum_out) does
+    z, x, y = (p[:, 0] * axes[k] + p[:, 1] * axes[k + 1] + p[:, 2] * axes[k + 2] for k in (3, 6, 9))
+    r_out = rbound + 1e-3
+    near, far = planes[0], planes[1]
+    out = (z + r_out < near) | (z - r_out > far)
+    for c, (s_hi, n_hi, s_lo, n_lo) in ((x, planes[2:6]), (y, planes[6:10])):
+        out |= (c - s_hi * z) / n_hi > r_out
+        out |= (s_lo * z - c) / n_lo > r_out
+    return out & (rbound > 0.0)
 
 
 class SceneRenderer:
@@ -154,7 +204,8 @@ class SceneRenderer:
         in view.
         """
         self._pose_camera(T_cam)
-        self._update_scene()
+        self._apply_view()  # the view's camera alone (mjv_updateScene's last step), not the scene's geoms
+        mujoco.mjv_updateCamera(self.model, self.data, self.camera, self._renderer.scene)
         cam = self.gl_camera()
         near, far = float(cam.frustum_near), float(cam.frustum_far)
         top, bottom = float(cam.frustum_top), float(cam.frustum_bottom)
@@ -162,19 +213,24 @@ class SceneRenderer:
             return np.zeros(0, dtype=np.int64)
         half_w = float(cam.frustum_width) or 0.5 * self.width / self.height * (top - bottom)
         centre = float(cam.frustum_center)
-        fwd, up = np.asarray(cam.forward, float), np.asarray(cam.up, float)
-        right = np.cross(fwd, up)
-        p = np.asarray(self.data.geom_xpos) - np.asarray(cam.pos, float)[None]
-        rb = np.asarray(self.model.geom_rbound)
-        r_out = rb + 1e-3
-        z, x, y = p @ fwd, p @ right, p @ up
-        out = (z + r_out < near) | (z - r_out > far)
-        for lo, hi, c in ((centre - half_w, centre + half_w, x), (bottom, top, y)):
+        (p0, p1, p2), (f0, f1, f2), (u0, u1, u2) = (np.asarray(v, float).tolist() for v in (cam.pos, cam.forward, cam.up))
+        right = (f1 * u2 - f2 * u1, f2 * u0 - f0 * u2, f0 * u1 - f1 * u0)  # forward x up (np.cross's products)
+        axes = np.array([p0, p1, p2, f0, f1, f2, *right, u0, u1, u2])
+        planes = [near, far]
+        for lo, hi in ((centre - half_w, centre + half_w), (bottom, top)):
             grow = 0.05 * (hi - lo) / 2.0
             s_lo, s_hi = (lo - grow) / near, (hi + grow) / near  # the side planes' slopes (c = s z on a plane)
-            out |= (c - s_hi * z) / math.hypot(1.0, s_hi) > r_out
-            out |= (s_lo * z - c) / math.hypot(1.0, s_lo) > r_out
-        return np.nonzero(out & (rb > 0.0))[0]
+            planes += [s_hi, math.hypot(1.0, s_hi), s_lo, math.hypot(1.0, s_lo)]
+        xpos = np.ascontiguousarray(self.data.geom_xpos, dtype=np.float64)
+        rb = np.ascontiguousarray(self.model.geom_rbound, dtype=np.float64)
+        lib = native.library()
+        if lib is not None:  # the same operations compiled (sdv_frustum_out)
+            out = np.empty(len(rb), dtype=np.uint8)
+            planes = np.asarray(planes, dtype=np.float64)
+            lib.sdv_frustum_out(xpos.ctypes.data, rb.ctypes.data, len(rb), axes.ctypes.data, planes.ctypes.data,
+                                out.ctypes.data)
+            return np.flatnonzero(out)
+        return np.flatnonzero(frustum_out(xpos, rb, axes, planes))
 
     def gl_camera(self) -> mujoco.MjvGLCamera:
         """Return the camera `mujoco.mjr_render` draws a mono scene with: the average of the scene's two eye cameras,
@@ -254,7 +310,7 @@ class SceneRenderer:
                 if track:
                     self._shown_last = shown
                 if segmentation:  # one lookup from colour code to geom id, or through it to the geom's label
-                    out_seg = (lut if labels is None else label_table(labels).take(lut)).take(codes)
+                    out_seg = _lookup_codes(ids, codes, lut if labels is None else label_table(labels).take(lut))
             if depth:
                 out_depth = self._linear_depth(d)
             if rgb:
@@ -359,7 +415,7 @@ class SceneRenderer:
         if n < 255:  # ids fit the red channel
             codes = ids[..., 0]
             lib = native.library()
-            buf = ids[::-1] if ids.strides[0] < 0 else ids  # the GL rows flipped back: which codes show is the same
+            buf = _rows_as_read(ids)[0]  # the GL rows flipped back: which codes show is the same
             if lib is not None and buf.flags.c_contiguous and buf.shape[-1] == 3:  # the codes seen, in one pass
                 seen = np.empty(256, dtype=np.uint8)
                 lib.sdv_codes_seen(buf.ctypes.data, codes.size, 3, seen.ctypes.data)
@@ -376,19 +432,24 @@ class SceneRenderer:
 
     def _occluded(self) -> np.ndarray:
         """Return the geoms in view the flat pass of the posed camera may leave out (`occlusion`): those whose boxes
-        lie behind the mesh geoms the previous flat pass showed, which this pass draws.
+        lie behind the mesh geoms the previous flat pass showed (none in a first frame) or behind tested meshes the
+        test found drawn, all of which this pass draws.
 
-        Empty without a previous frame, without the compiled kernels, or when the geoms tested hold fewer than
-        `OCCLUSION_MIN_TRIANGLES`. A geom left out can win no pixel of a render of everything (`occlusion`), so the
-        ids and depths are the same; what the previous frame showed (the renderer's history) decides only which
-        geoms are the occluders, hence how much is left out, never what the images hold.
+        Empty without the compiled kernels, or when the geoms tested hold fewer than `OCCLUSION_MIN_TRIANGLES`. A
+        geom left out can win no pixel of a render of everything (`occlusion`), so the ids and depths are the same;
+        what the previous frame showed (the renderer's history) decides only which geoms are the occluders, hence
+        how much is left out, never what the images hold.
         """
         none = np.zeros(0, dtype=np.int64)
-        if self._shown_last is None or not occlusion.available():
+        if not occlusion.available():
             return none
         m = self.model
         vis = self._in_shown_group()  # in the frustum: `render` hides the geoms outside it
-        occluders = vis & self._mesh & self._shown_last
+        occluders = vis & self._mesh
+        if self._shown_last is not None:
+            occluders &= self._shown_last
+        else:  # a first frame: the kernel's own depth-ordered occluders only
+            occluders[:] = False
         tested = np.flatnonzero(vis & ~occluders & self._boxed)
         if int(self._triangles[tested].sum()) < OCCLUSION_MIN_TRIANGLES:
             return none

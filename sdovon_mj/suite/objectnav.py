@@ -53,6 +53,7 @@ from ..sim import GROUP_AGENT
 from ..sim.articulation import part_joints
 from ..sim.camera import intrinsics, pose_cv, vfov_from_hfov
 from ..sim.model import OBJECT_ID_BASE, geom_segment_ids, object_segment_id
+from ..sim.frames import blank_image
 from ..sim.render import SceneRenderer, clip_depth_range
 from ..grid import lookup, segment_free
 from ..gridgraph import GeodesicField, cell_graph
@@ -552,11 +553,11 @@ class ObjectNavTask(control.Task):
         if self.render_frames:
             rgb, depth, ids = self.render(physics, rgb=self.render_rgb)
             if rgb is None:
-                rgb = np.zeros((h, w, 3), np.uint8)
-        else:
-            rgb = np.zeros((h, w, 3), np.uint8)
-            depth = np.full((h, w), self.nav.depth_min, np.float32)
-            ids = np.full((h, w), -1, np.int32) if self.semantic else None
+                rgb = blank_image((h, w, 3), np.uint8, 0)
+        else:  # the shared read-only blanks, as a sealed agent gets them
+            rgb = blank_image((h, w, 3), np.uint8, 0)
+            depth = blank_image((h, w), np.float32, self.nav.depth_min)
+            ids = blank_image((h, w), np.int32, -1) if self.semantic else None
         yaw0 = math.radians(self.start.yaw)
         d = self.state.position[:2] - self.start.position[:2]
         c, s = math.cos(yaw0), math.sin(yaw0)

@@ -35,6 +35,7 @@ from ..errors import InputError
 from ..knowledge import Knowledge
 from ..sim.camera import intrinsics
 from ..sim.model import OBJECT_ID_BASE
+from ..sim.frames import blank_image
 
 
 @dataclass(frozen=True)
@@ -205,7 +206,7 @@ class ObservationBuilder:
         if self.knowledge.detector == "gt":
             seg = o.get("semantic")
             if seg is None or not rendered:
-                out["category"] = np.full(np.asarray(o["depth"]).shape[:2], -1, np.int16)
+                out["category"] = blank_image(tuple(np.shape(o["depth"])[:2]), np.int16, -1)
             else:
                 out["category"] = self.category_image(seg)
         return out

@@ -42,6 +42,7 @@ import numpy as np
 from ..actions import ACTION_NAMES
 from ..errors import InputError, SdovonError
 from ..knowledge import ORACLE_PARTS, Knowledge, KnowledgeError, check_word
+from ..sim.frames import blank_image
 from ..store import json_safe
 
 PHASES = ("explore", "episode")
@@ -448,7 +449,6 @@ class FrameBuffer:
                        "category": (7 * n, (self.h, self.w), np.int16)}
         self.size = 9 * n
         self.owner = fd is None
-        self._blank: dict[str, np.ndarray] = {}
         if fd is None:
             if hasattr(os, "memfd_create"):
                 fd = os.memfd_create("sdovon-frames", os.MFD_CLOEXEC)
@@ -481,12 +481,8 @@ class FrameBuffer:
             if head["_frame"]:
                 obs[k] = self._view(k).copy()
                 continue
-            if k not in self._blank:
-                _off, shape, dt = self.layout[k]
-                blank = np.full(shape, 0 if k == "rgb" else depth_min if k == "depth" else -1, dt)
-                blank.flags.writeable = False
-                self._blank[k] = blank
-            obs[k] = self._blank[k]
+            _off, shape, dt = self.layout[k]
+            obs[k] = blank_image(shape, dt, 0 if k == "rgb" else depth_min if k == "depth" else -1)
         return obs
 
     def close(self) -> None:
