@@ -239,10 +239,22 @@ def sample_nav_points(plane: ReceptaclePlane, traversable: np.ndarray, frame: Gr
         return np.zeros((0, 2))
     order = np.argsort(dist[cand[:, 0], cand[:, 1]], kind="stable")
     xy = frame.to_world(cand[order] + np.array([r0, c0]))
+    # greedy: a point is kept when it lies at least `spacing` from every point kept before it (np.linalg.norm). The
+    # squared distance in plain floats decides all but the points within a relative 1e-9 of spacing^2 (the norm's
+    # own rounding is some 1e-16 of it); those few ask np.linalg.norm, so the same points are kept.
     keep: list[np.ndarray] = []
-    for p in xy:
-        if all(np.linalg.norm(p - q) >= spacing for q in keep):
+    kept: list[tuple[float, float]] = []
+    s2 = spacing * spacing
+    lo2, hi2 = s2 * (1.0 - 1e-9), s2 * (1.0 + 1e-9)
+    for p, (px, py) in zip(xy, xy.tolist()):
+        for k, (qx, qy) in enumerate(kept):
+            dx, dy = px - qx, py - qy
+            d2 = dx * dx + dy * dy
+            if d2 < lo2 or (d2 <= hi2 and np.linalg.norm(p - keep[k]) < spacing):
+                break
+        else:
             keep.append(p)
+            kept.append((px, py))
     return np.array(keep)
 
 

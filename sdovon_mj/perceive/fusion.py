@@ -341,8 +341,12 @@ class InstanceFuser:
         return self._sem[key]
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Return the fused instances' box corners (F, 3) each (read once per view or consolidation pass)."""
-        return np.array([f.lo for f in self.fused]), np.array([f.hi for f in self.fused])
+        """Return the fused instances' box corners (F, 3) each (read once per view or consolidation)."""
+        if not self.fused:
+            return np.zeros((0, 3)), np.zeros((0, 3))
+        # one concatenation of the (3,) corners: the values of np.array over the list, without its per-item discovery
+        return (np.concatenate([f.lo for f in self.fused]).reshape(-1, 3),
+                np.concatenate([f.hi for f in self.fused]).reshape(-1, 3))
 
     def _near(self, inst: Instance, world: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
               bounds: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
@@ -451,13 +455,14 @@ class InstanceFuser:
         settled: dict[int, _Fused] = {}  # id -> instances with nothing to merge into, in the map as it is
         recheck: dict[int, list[_Fused]] = {}  # id of a settled one -> instances grown near it since (held: live ids)
         r = self.cfg.overlap_radius
+        # the instances' sizes and boxes, kept in step with the list: a merge changes the target's, drops the merged
+        sizes = np.array([len(f.keys) for f in self.fused], dtype=np.int64)
+        bounds = self._bounds()
         while changed and len(self.fused) > 1:
             changed = False
-            order = sorted(range(len(self.fused)), key=lambda j: (len(self.fused[j].keys), j))
-            sizes = np.array([len(f.keys) for f in self.fused])
             index = np.arange(len(self.fused))
+            order = np.lexsort((index, sizes)).tolist()  # smallest first, then lowest index
             where = {id(f): k for k, f in enumerate(self.fused)}
-            bounds = self._bounds()
             for i in order:
                 small = self.fused[i]
                 key = id(small)
@@ -478,6 +483,10 @@ class InstanceFuser:
                     target = self.fused[j]
                     target.merge(small)
                     del self.fused[i]
+                    sizes[j] = len(target.keys)
+                    bounds[0][j], bounds[1][j] = target.lo, target.hi
+                    sizes = np.delete(sizes, i)
+                    bounds = (np.delete(bounds[0], i, axis=0), np.delete(bounds[1], i, axis=0))
                     merges += 1
                     changed = True
                     settled.pop(key, None)
@@ -487,8 +496,8 @@ class InstanceFuser:
                     lo, hi = target.lo - 2 * r, target.hi + 2 * r  # whose test may now find the grown instance
                     if settled:
                         keys = list(settled)
-                        slo = np.array([settled[k].lo for k in keys])
-                        shi = np.array([settled[k].hi for k in keys])
+                        slo = np.concatenate([settled[k].lo for k in keys]).reshape(-1, 3)
+                        shi = np.concatenate([settled[k].hi for k in keys]).reshape(-1, 3)
                         for n in np.flatnonzero(~boxes_apart(slo, shi, lo, hi)):
                             recheck.setdefault(keys[n], []).append(target)
                     break
