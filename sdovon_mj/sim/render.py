@@ -213,7 +213,8 @@ class SceneRenderer:
             return np.zeros(0, dtype=np.int64)
         half_w = float(cam.frustum_width) or 0.5 * self.width / self.height * (top - bottom)
         centre = float(cam.frustum_center)
-        (p0, p1, p2), (f0, f1, f2), (u0, u1, u2) = (np.asarray(v, float).tolist() for v in (cam.pos, cam.forward, cam.up))
+        (p0, p1, p2), (f0, f1, f2), (u0, u1, u2) = (np.asarray(v, float).tolist()
+                                                    for v in (cam.pos, cam.forward, cam.up))
         right = (f1 * u2 - f2 * u1, f2 * u0 - f0 * u2, f0 * u1 - f1 * u0)  # forward x up (np.cross's products)
         axes = np.array([p0, p1, p2, f0, f1, f2, *right, u0, u1, u2])
         planes = [near, far]
