@@ -361,9 +361,10 @@ def _box_mesh(name: str, lo: tuple, hi: tuple) -> str:
 def test_occlusion_test_leaves_out_only_what_lies_behind_drawn_triangles(monkeypatch):
     """A camera at the origin looking along +x at a wall 3 m away: a box wholly behind the wall is left out; a box
     poking 4 cm out of the wall's face, and a box behind a one-sided quad that faces away (MuJoCo culls its back
-    face, so the box shows) are drawn; the floor reaching behind the camera bounds depth only beyond the near plane.
-    The images equal a render of everything. (A kernel counting back faces, or lowering its depth bound by 3 %, or
-    raising a box's limit, fails here.)"""
+    face, so the box shows) are drawn; the floor reaching behind the camera bounds depth only beyond the near plane;
+    a primitive box in front bounds nothing (it has no mesh). The images equal a render of everything, after a
+    previous frame and in a first one. (A kernel counting back faces, or lowering its depth bound by 3 %, or raising a
+    box's limit, or reading a primitive as the first mesh, fails here.)"""
     import mujoco
 
     from sdovon_mj import native
@@ -372,23 +373,28 @@ def test_occlusion_test_leaves_out_only_what_lies_behind_drawn_triangles(monkeyp
     from sdovon_mj.sim.render import SceneRenderer
 
     assert native.library() is not None, native.status()  # the test needs the compiled kernels
-    names = ("wall", "poke", "behind", "seen", "floor", "quad")
-    xml = ("<mujoco><asset>" + _box_mesh("wall", (3.0, -3.0, -2.0), (3.1, 3.0, 2.0))
+    names = ("block", "wall", "poke", "behind", "seen", "floor", "quad", "prim")
+    xml = ("<mujoco><asset>" + _box_mesh("block", (-6.0, -1.0, -1.0), (-4.0, 1.0, 1.0))  # the first mesh, out of view
+           + _box_mesh("wall", (3.0, -3.0, -2.0), (3.1, 3.0, 2.0))
            + _box_mesh("poke", (2.96, 0.5, 0.0), (3.05, 0.7, 0.2)) + _box_mesh("behind", (3.5, -0.3, -0.3), (3.7, 0.3, 0.3))
            + _box_mesh("seen", (2.0, -1.2, -0.2), (2.2, -0.8, 0.2)) + _box_mesh("floor", (-2.0, -3.0, -1.0), (3.0, 3.0, -0.9))
            + '<mesh name="quad" vertex="1.5 -1.5 -0.5  1.5 -0.5 -0.5  1.5 -0.5 0.5  1.5 -1.5 0.5  1.6 -1 0" '
              'face="0 1 2 0 2 3" inertia="shell"/>'  # a one-sided quad whose front faces +x (away from the camera)
-           + "</asset><worldbody>" + "".join(f'<geom name="{n}" type="mesh" mesh="{n}"/>' for n in names)
+           + "</asset><worldbody>" + "".join(f'<geom name="{n}" type="mesh" mesh="{n}"/>' for n in names[:-1])
+           # a primitive box, big enough on screen to be tested first: no mesh, so no triangles (read as the first
+           # mesh's, a 2 m cube's, it would hide the boxes behind it)
+           + '<geom name="prim" type="box" size="0.3 0.3 0.3" pos="1.5 -0.9 0.6"/>'
            + "</worldbody></mujoco>")
     model = mujoco.MjModel.from_xml_string(xml)
     gid = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in names}
     monkeypatch.setattr(render_module, "OCCLUSION_MIN_TRIANGLES", 0)
     culled = SceneRenderer(model, width=160, height=120, hfov=79.0, groups=(0,))
     full = SceneRenderer(model, width=160, height=120, hfov=79.0, groups=(0,))
+    full._occluded = lambda: np.zeros(0, dtype=np.int64)  # the reference draws everything in view
     try:
         T = pose_cv(np.zeros(3), 0.0, 0.0)
         want = full.render(T, rgb=True, depth=True, segmentation=True)
-        assert {gid[n] for n in ("wall", "poke", "seen", "floor")} <= set(np.unique(want.segmentation).tolist())
+        assert {gid[n] for n in ("wall", "poke", "seen", "floor", "prim")} <= set(np.unique(want.segmentation).tolist())
         assert gid["quad"] not in want.segmentation and gid["behind"] not in want.segmentation
         culled._shown_last = np.zeros(model.ngeom, dtype=bool)  # as if the last frame had shown these
         culled._shown_last[[gid["wall"], gid["quad"], gid["floor"]]] = True

@@ -56,11 +56,15 @@ class OcclusionTest:
     """
 
     def __init__(self, model: mujoco.MjModel) -> None:
-        mesh = np.clip(np.asarray(model.geom_dataid), 0, None)
+        dataid = np.asarray(model.geom_dataid)
+        is_mesh = (np.asarray(model.geom_type) == int(mujoco.mjtGeom.mjGEOM_MESH)) & (dataid >= 0)
+        mesh = np.where(is_mesh, dataid, 0)
         has = model.nmesh > 0
         self._vert = np.ascontiguousarray(model.mesh_vert if has else np.zeros((1, 3)), dtype=np.float32)
         self._face = np.ascontiguousarray(model.mesh_face if has else np.zeros((1, 3)), dtype=np.int32)
-        table = (lambda a: np.ascontiguousarray(np.asarray(a)[mesh], dtype=np.int64)) if has else \
+        # per geom its mesh's tables; a geom that is no mesh (a primitive, a height field) has no triangles to bound
+        # depth with: the kernel rasterises only geoms with faces
+        table = (lambda a: np.where(is_mesh, np.asarray(a)[mesh], 0).astype(np.int64)) if has else \
             (lambda a: np.zeros(model.ngeom, dtype=np.int64))
         self._vadr, self._fadr, self._fnum = table(model.mesh_vertadr), table(model.mesh_faceadr), table(model.mesh_facenum)
         self._aabb = np.ascontiguousarray(model.geom_aabb, dtype=np.float64)
