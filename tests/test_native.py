@@ -290,7 +290,7 @@ def test_frustum_out_compiled_equals_its_python_form():
         fwd /= np.linalg.norm(fwd)
         up = np.cross(np.cross(fwd, [0.0, 0.0, 1.0]), fwd)
         up /= np.linalg.norm(up)
-        axes = np.concatenate([rng.uniform(-5, 5, 3), fwd, np.cross(fwd, up), up])
+        axes = np.concatenate([rng.uniform(-5, 5, 3), np.cross(fwd, up), up, fwd])  # as occlusion.camera_of
         near, far = float(rng.uniform(0.01, 0.1)), float(rng.uniform(5, 50))
         planes = [near, far]
         for half in (rng.uniform(0.01, 0.1), rng.uniform(0.01, 0.1)):

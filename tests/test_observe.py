@@ -262,8 +262,8 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
     lit_geoms: list[int] = []
     lit = SceneRenderer._lit_pass
 
-    def counted(self, seg):
-        out = lit(self, seg)
+    def counted(self, seg, rebuild=False):
+        out = lit(self, seg, rebuild)
         lit_geoms.append(self._renderer.scene.ngeom)
         return out
 
@@ -275,7 +275,8 @@ def test_views_hide_only_geoms_no_pixel_shows(two_storey, monkeypatch):
         rgb_depth_cut = [r.render(T, rgb=True, depth=True, segmentation=False) for T in poses]
         skipped = [r.outside_view(T) for T in poses]
         monkeypatch.setattr(SceneRenderer, "outside_view", lambda self, T: np.zeros(0, dtype=np.int64))
-        monkeypatch.setattr(SceneRenderer, "_lit_pass", lambda self, seg: counted(self, None))  # draw everything
+        monkeypatch.setattr(SceneRenderer, "_lit_pass",  # draw everything
+                            lambda self, seg, rebuild=False: counted(self, None, rebuild))
         full = [r.render(T, rgb=True, depth=True, segmentation=True) for T in poses]
     finally:
         r.close()
@@ -564,13 +565,49 @@ def test_lit_pass_draws_what_shows_through_glass(monkeypatch):
         a = r.render(T, rgb=True, depth=True, segmentation=True)
         with hiding(model, np.array([red])):
             no_red = r.render(T, rgb=True, depth=True, segmentation=True)
-        monkeypatch.setattr(SceneRenderer, "_lit_pass", lambda self, seg: lit(self, None))  # draw everything
+        monkeypatch.setattr(SceneRenderer, "_lit_pass",  # draw everything
+                            lambda self, seg, rebuild=False: lit(self, None, rebuild))
         b = r.render(T, rgb=True, depth=True, segmentation=True)
     finally:
         r.close()
     assert red not in set(np.unique(a.segmentation).tolist())  # the pane hides it from the flat pass
     assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
     assert not np.array_equal(a.rgb, no_red.rgb)  # and it shows through the pane in the lit image
+
+
+def test_a_geom_the_occlusion_test_leaves_out_behind_glass_still_shows_in_the_lit_image(monkeypatch):
+    """A mesh pane of glass in front of a box: the flat pass draws the pane opaque, so the occlusion test leaves the box
+    out of it; the lit pass, seeing a transparent geom, draws everything in view again (the scene rebuilt with the
+    box), and every image equals that of a renderer drawing everything in view."""
+    import mujoco
+
+    from sdovon_mj.sim import render as render_module
+    from sdovon_mj.sim.camera import pose_cv
+    from sdovon_mj.sim.render import SceneRenderer
+
+    xml = ("<mujoco><asset>" + _box_mesh("pane", (1.0, -2.0, -2.0), (1.02, 2.0, 2.0))
+           # the box off the pane's diagonal: its two triangles leave the pixels along their shared edge unbounded
+           + _box_mesh("box", (4.0, 0.9, -0.3), (4.6, 1.5, 0.3)) + "</asset><worldbody>"
+           + '<light pos="0 0 4" dir="0 0 -1"/><geom name="pane" type="mesh" mesh="pane" rgba="0.5 0.5 1 0.3"/>'
+           + '<geom name="box" type="mesh" mesh="box" rgba="1 0 0 1"/></worldbody></mujoco>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    monkeypatch.setattr(render_module, "OCCLUSION_MIN_TRIANGLES", 0)
+    culled = SceneRenderer(model, width=96, height=72, hfov=60.0, groups=(0,))
+    full = SceneRenderer(model, width=96, height=72, hfov=60.0, groups=(0,))
+    full._occluded = lambda: np.zeros(0, dtype=np.int64)  # the reference draws everything in view
+    T = pose_cv(np.zeros(3), 0.0, 0.0)
+    try:
+        culled._pose_camera(T)
+        culled._update_scene()
+        assert culled._occluded().tolist() == [model.geom("box").id]  # left out of the flat pass
+        for _ in range(2):  # a first frame, then one after it
+            a = culled.render(T, rgb=True, depth=True, segmentation=True)
+            b = full.render(T, rgb=True, depth=True, segmentation=True)
+            assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
+            assert np.array_equal(a.segmentation, b.segmentation)
+    finally:
+        culled.close()
+        full.close()
 
 
 @pytest.mark.parametrize("how", ["close", "collect"])
@@ -634,7 +671,7 @@ def test_observe_scene_without_floor_names_the_mesh(tmp_path):
 
 @pytest.mark.parametrize("boxes", [60, 300])
 def test_id_decoding_reads_only_the_colours_shown_and_equals_the_full_table(boxes):
-    """SceneRenderer._decode_ids builds its colour -> geom table from the colours the image shows (checking that
+    """SceneRenderer._decode_table builds its colour -> geom table from the colours the image shows (checking that
     scene geom c - 1 holds segment c - 1): the same geom-id image as the table of every scene geom, with the ids in
     the red channel (under 255 geoms) and in all three (more)."""
     import mujoco
@@ -650,7 +687,8 @@ def test_id_decoding_reads_only_the_colours_shown_and_equals_the_full_table(boxe
     try:
         r.render(pose_cv(np.array([0.0, 0.0, 1.0]), 0.0, 0.0), rgb=False, segmentation=True)  # posed and updated
         ids, _ = r._pass(flat=True, want_rgb=True, want_depth=False)
-        got = r._decode_ids(ids)
+        codes, lut, _ = r._decode_table(ids)
+        got = lut.take(codes)
         scn = r._renderer.scene
         n = scn.ngeom
         table = np.full(n + 1, -1, dtype=np.int32)

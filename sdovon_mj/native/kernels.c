@@ -678,6 +678,7 @@ static inline int span_inside(const double *a, const double *b, const double *le
 static void raster_geom(const float *vert, const int32_t *face, const int64_t *vadr, const int64_t *fadr,
                         const int64_t *fnum, const double *pos, const double *mat, int64_t g, const double *cam,
                         const double *fr, int64_t w, int64_t h, double *inv_depth, int64_t *touched) {
+    /* touched (optional): rows and columns (first, last row, first, last column) widened to those it raised */
     const double near = fr[0], far = fr[1], left = fr[2], span_x = fr[3] - fr[2], top = fr[5];
     const double span_y = fr[5] - fr[4], zc = near * 1.001;
     const float *V = vert + 3 * vadr[g];
@@ -813,10 +814,12 @@ static void raster_geom(const float *vert, const int32_t *face, const int64_t *v
                 cb--;
             if (ca > cb)
                 continue;
-            touched[0] = r < touched[0] ? r : touched[0];
-            touched[1] = r > touched[1] ? r : touched[1];
-            touched[2] = ca < touched[2] ? ca : touched[2];
-            touched[3] = cb > touched[3] ? cb : touched[3];
+            if (touched) {
+                touched[0] = r < touched[0] ? r : touched[0];
+                touched[1] = r > touched[1] ? r : touched[1];
+                touched[2] = ca < touched[2] ? ca : touched[2];
+                touched[3] = cb > touched[3] ? cb : touched[3];
+            }
             double *row = inv_depth + r * w;
             const double base = c0 + cv * qv;
             for (int64_t c = ca; c <= cb; c++) {
@@ -954,7 +957,6 @@ int32_t sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t
      * image for a box reaching the near plane) costs more to rasterise than it can hide: it raises no bound (fewer
      * occluders only draws more) */
     const double image = (double)(w * h);
-    int64_t touched[4] = {h, -1, w, -1}; /* the rows and columns a rasterised geom reached */
     for (int64_t i = 0; i < n_occ; i++) {
         const int64_t g = occ_ids[i];
         int64_t r[4];
@@ -963,7 +965,7 @@ int32_t sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t
         const double px = kind == 1 ? (double)((r[1] - r[0] + 1) * (r[3] - r[2] + 1)) : image;
         if (kind == 2 || px < OCC_PIXELS_PER_TRIANGLE * (double)fnum[g])
             continue;
-        raster_geom(vert, face, vadr, fadr, fnum, pos, mat, g, cam, fr, w, h, inv_depth, touched);
+        raster_geom(vert, face, vadr, fadr, fnum, pos, mat, g, cam, fr, w, h, inv_depth, NULL);
     }
     const int64_t tw = (w + OCC_TILE - 1) / OCC_TILE, th = (h + OCC_TILE - 1) / OCC_TILE;
     double *tmin = (double *)malloc((size_t)(tw * th) * sizeof(double));
@@ -985,30 +987,26 @@ int32_t sdv_occlusion_cull(const float *vert, const int32_t *face, const int64_t
         if (kind[i] != 1 || fnum[g] <= 0)
             continue;
         const int64_t *r = rect + 4 * i;
-        const double px = kind[i] == 1 ? (double)((r[1] - r[0] + 1) * (r[3] - r[2] + 1)) : image;
-        if (px >= OCC_CANDIDATE_PIXELS_PER_TRIANGLE * (double)fnum[g]) {
-            order[n_cand].z = zmin[i];
+        if ((double)((r[1] - r[0] + 1) * (r[3] - r[2] + 1)) >= OCC_CANDIDATE_PIXELS_PER_TRIANGLE * (double)fnum[g]) {
+            order[n_cand].z = zmin[i]; /* a candidate occluder: decided below, in depth order */
             order[n_cand].i = i;
             n_cand++;
-            kind[i] += 4; /* a candidate occluder: decided below, in depth order */
         }
     }
     qsort(order, (size_t)n_cand, sizeof(occ_order), occ_order_cmp);
     for (int64_t k = 0; k < n_cand; k++) {
         const int64_t i = order[k].i, g = test_ids[i];
-        kind[i] -= 4;
-        if (kind[i] == 1 && box_behind(inv_depth, w, h, tmin, stale, tw, rect + 4 * i, zmin[i])) {
+        kind[i] = -1; /* decided here: the last loop passes it over */
+        if (box_behind(inv_depth, w, h, tmin, stale, tw, rect + 4 * i, zmin[i])) {
             out[i] = 1;
-            kind[i] = -1; /* decided: left out */
             continue;
         }
-        /* drawn: its triangles bound the depth behind it; the tiles its rectangle (or, reaching the near plane, the
-         * image) overlaps are read again */
+        /* drawn: its triangles bound the depth behind it; the tiles of the rows and columns they reached are read
+         * again when a box test next reads them */
         int64_t t[4] = {h, -1, w, -1};
         raster_geom(vert, face, vadr, fadr, fnum, pos, mat, g, cam, fr, w, h, inv_depth, t);
         for (int64_t ty = t[0] / OCC_TILE; t[1] >= 0 && ty <= t[1] / OCC_TILE; ty++)
             memset(stale + ty * tw + t[2] / OCC_TILE, 1, (size_t)(t[3] / OCC_TILE - t[2] / OCC_TILE + 1));
-        kind[i] = -1; /* decided: drawn */
     }
     for (int64_t i = 0; i < n_test; i++)
         if (kind[i] == 1)
@@ -1039,7 +1037,8 @@ void sdv_code_lookup(const uint8_t *pix, int64_t h, int64_t w, int64_t channels,
 
 /* sim/render.py `SceneRenderer.outside_view`: per geom (centre xpos, bounding radius rbound), whether its sphere grown
  * by 1 mm lies wholly outside one plane of the view: before the near plane, beyond the far one, or off a side whose
- * slope (c = s z on it) is s with unit normal scale 1 / nrm. cam: position, forward, right, up (12 doubles); planes:
+ * slope (c = s z on it) is s with unit normal scale 1 / nrm. cam: position, right, up, forward (12 doubles, as
+ * sdv_occlusion_cull reads them); planes:
  * near, far, then s_hi, nrm_hi, s_lo, nrm_lo for x, then for y (10 doubles). The same double operations in the same
  * order as the Python form (each dot product summed left to right). out: n flags (1 = outside, radius > 0). */
 void sdv_frustum_out(const double *xpos, const double *rbound, int64_t n, const double *cam, const double *planes,
@@ -1047,9 +1046,9 @@ void sdv_frustum_out(const double *xpos, const double *rbound, int64_t n, const 
     const double near = planes[0], far = planes[1];
     for (int64_t i = 0; i < n; i++) {
         const double p0 = xpos[3 * i] - cam[0], p1 = xpos[3 * i + 1] - cam[1], p2 = xpos[3 * i + 2] - cam[2];
-        const double z = p0 * cam[3] + p1 * cam[4] + p2 * cam[5];
-        const double x = p0 * cam[6] + p1 * cam[7] + p2 * cam[8];
-        const double y = p0 * cam[9] + p1 * cam[10] + p2 * cam[11];
+        const double x = p0 * cam[3] + p1 * cam[4] + p2 * cam[5];
+        const double y = p0 * cam[6] + p1 * cam[7] + p2 * cam[8];
+        const double z = p0 * cam[9] + p1 * cam[10] + p2 * cam[11];
         const double rb = rbound[i], r_out = rb + 1e-3;
         int o = (z + r_out < near) | (z - r_out > far);
         const double cs[2] = {x, y};

@@ -25,24 +25,31 @@ import mujoco
 from .. import native
 
 
+def mesh_geoms(model: mujoco.MjModel) -> np.ndarray:
+    """Return, per model geom, whether it is a mesh geom (type mesh with a mesh): the only geoms with triangles to
+    bound depth with; primitives and height fields have none here."""
+    return (np.asarray(model.geom_type) == int(mujoco.mjtGeom.mjGEOM_MESH)) & (np.asarray(model.geom_dataid) >= 0)
+
+
 def available() -> bool:
     """Return whether the occlusion test can run (the compiled kernels are built)."""
     return native.library() is not None
 
 
 def camera_of(cam: mujoco.MjvGLCamera, width: int, height: int) -> tuple[np.ndarray, np.ndarray] | None:
-    """Return the camera of an ``mjvGLCamera`` as the kernels read it: axes (12,) (position, right, up, forward) and
-    frustum (6,) (near, far, left, right, bottom, top of the near plane, metres); None for a camera the test does not
-    handle (orthographic, no near plane, an empty extent)."""
+    """Return the camera of an ``mjvGLCamera`` as the kernels read it (this test's and the renderer's frustum test):
+    axes (12,) (position, right, up, forward; right = forward x up in doubles) and frustum (6,) (near, far, left,
+    right, bottom, top of the near plane, metres); None for a camera they do not handle (orthographic, no near plane,
+    an empty extent)."""
     near, far = float(cam.frustum_near), float(cam.frustum_far)
     top, bottom = float(cam.frustum_top), float(cam.frustum_bottom)
     if cam.orthographic or not (0.0 < near < far) or top <= bottom or not math.isfinite(far):
         return None
     half_w = float(cam.frustum_width) or 0.5 * width / height * (top - bottom)  # mjr_render's own rule
     centre = float(cam.frustum_center)
-    p, fwd, up = cam.pos, cam.forward, cam.up
-    right = (fwd[1] * up[2] - fwd[2] * up[1], fwd[2] * up[0] - fwd[0] * up[2], fwd[0] * up[1] - fwd[1] * up[0])
-    axes = np.array([p[0], p[1], p[2], *right, up[0], up[1], up[2], fwd[0], fwd[1], fwd[2]], dtype=np.float64)
+    (p0, p1, p2), (f0, f1, f2), (u0, u1, u2) = (np.asarray(v, float).tolist() for v in (cam.pos, cam.forward, cam.up))
+    right = (f1 * u2 - f2 * u1, f2 * u0 - f0 * u2, f0 * u1 - f1 * u0)
+    axes = np.array([p0, p1, p2, *right, u0, u1, u2, f0, f1, f2], dtype=np.float64)
     return axes, np.array([near, far, centre - half_w, centre + half_w, bottom, top])
 
 
@@ -56,9 +63,8 @@ class OcclusionTest:
     """
 
     def __init__(self, model: mujoco.MjModel) -> None:
-        dataid = np.asarray(model.geom_dataid)
-        is_mesh = (np.asarray(model.geom_type) == int(mujoco.mjtGeom.mjGEOM_MESH)) & (dataid >= 0)
-        mesh = np.where(is_mesh, dataid, 0)
+        is_mesh = mesh_geoms(model)
+        mesh = np.where(is_mesh, np.asarray(model.geom_dataid), 0)
         has = model.nmesh > 0
         self._vert = np.ascontiguousarray(model.mesh_vert if has else np.zeros((1, 3)), dtype=np.float32)
         self._face = np.ascontiguousarray(model.mesh_face if has else np.zeros((1, 3)), dtype=np.int32)

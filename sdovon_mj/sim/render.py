@@ -88,14 +88,14 @@ def frustum_out(xpos: np.ndarray, rbound: np.ndarray, axes: np.ndarray, planes: 
     rbound : numpy.ndarray
         (N,) bounding radii, metres (0: a plane, never out).
     axes : numpy.ndarray
-        (12,) camera position, forward, right and up axes.
+        (12,) camera position, right, up and forward axes (`occlusion.camera_of`).
     planes : list of float
         Near and far distances (metres), then for x and for y the side planes' slopes s (c = s z on a plane) and
         unit-normal scales: s_hi, hypot(1, s_hi), s_lo, hypot(1, s_lo).
     """
     p = xpos - axes[None, :3]
     # each dot product summed left to right, as the compiled form (sdv_frustum_out) does
-    z, x, y = (p[:, 0] * axes[k] + p[:, 1] * axes[k + 1] + p[:, 2] * axes[k + 2] for k in (3, 6, 9))
+    x, y, z = (p[:, 0] * axes[k] + p[:, 1] * axes[k + 1] + p[:, 2] * axes[k + 2] for k in (3, 6, 9))
     r_out = rbound + 1e-3
     near, far = planes[0], planes[1]
     out = (z + r_out < near) | (z - r_out > far)
@@ -167,7 +167,7 @@ class SceneRenderer:
         faces = np.asarray(model.mesh_facenum)[np.where(mesh, np.asarray(model.geom_dataid), 0)] if model.nmesh else 0
         self._triangles = np.where(mesh, faces, PRIMITIVE_TRIANGLES).astype(np.int64)
         self._alpha_texture = bool((np.asarray(getattr(model, "tex_nchannel", np.zeros(0))) > 3).any())
-        self._mesh = mesh & (np.asarray(model.geom_dataid) >= 0)  # the occluders the occlusion test reads
+        self._mesh = occlusion.mesh_geoms(model)  # the occluders the occlusion test reads
         self._boxed = np.asarray(model.geom_rbound) > 0.0  # planes (no bounding box) are always drawn
         self._shown_last: np.ndarray | None = None  # per geom, whether the last flat pass showed it (speed only)
         self._occlusion: occlusion.OcclusionTest | None = None  # built on first use
@@ -206,19 +206,13 @@ class SceneRenderer:
         self._pose_camera(T_cam)
         self._apply_view()  # the view's camera alone (mjv_updateScene's last step), not the scene's geoms
         mujoco.mjv_updateCamera(self.model, self.data, self.camera, self._renderer.scene)
-        cam = self.gl_camera()
-        near, far = float(cam.frustum_near), float(cam.frustum_far)
-        top, bottom = float(cam.frustum_top), float(cam.frustum_bottom)
-        if not (0.0 < near < far) or top <= bottom:
+        view = occlusion.camera_of(self.gl_camera(), self.width, self.height)  # the occlusion test's camera too
+        if view is None:  # a camera the test does not handle: nothing is left out
             return np.zeros(0, dtype=np.int64)
-        half_w = float(cam.frustum_width) or 0.5 * self.width / self.height * (top - bottom)
-        centre = float(cam.frustum_center)
-        (p0, p1, p2), (f0, f1, f2), (u0, u1, u2) = (np.asarray(v, float).tolist()
-                                                    for v in (cam.pos, cam.forward, cam.up))
-        right = (f1 * u2 - f2 * u1, f2 * u0 - f0 * u2, f0 * u1 - f1 * u0)  # forward x up (np.cross's products)
-        axes = np.array([p0, p1, p2, f0, f1, f2, *right, u0, u1, u2])
+        axes, fr = view
+        near, far = float(fr[0]), float(fr[1])
         planes = [near, far]
-        for lo, hi in ((centre - half_w, centre + half_w), (bottom, top)):
+        for lo, hi in ((float(fr[2]), float(fr[3])), (float(fr[4]), float(fr[5]))):
             grow = 0.05 * (hi - lo) / 2.0
             s_lo, s_hi = (lo - grow) / near, (hi + grow) / near  # the side planes' slopes (c = s z on a plane)
             planes += [s_hi, math.hypot(1.0, s_hi), s_lo, math.hypot(1.0, s_lo)]
@@ -314,10 +308,8 @@ class SceneRenderer:
                     out_seg = _lookup_codes(ids, codes, lut if labels is None else label_table(labels).take(lut))
             if depth:
                 out_depth = self._linear_depth(d)
-            if rgb:
-                if len(occluded):  # the lit pass starts from everything in view again
-                    self._update_scene()
-                out_rgb = self._lit_pass(shown if cut else None)  # None (no cut): everything in view
+            if rgb:  # None (no cut): everything in view; the scene the flat pass drew lacks the occluded geoms
+                out_rgb = self._lit_pass(shown if cut else None, rebuild=len(occluded) > 0)
         elif rgb:
             out_rgb = np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
         return Frame(out_rgb, out_depth, out_seg)
@@ -339,9 +331,10 @@ class SceneRenderer:
         scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
         scn.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = 0
 
-    def _lit_pass(self, shown: np.ndarray | None) -> np.ndarray:
+    def _lit_pass(self, shown: np.ndarray | None, rebuild: bool = False) -> np.ndarray:
         """Render the lit colour image, drawing only the geoms the flat pass showed (`shown`: per model geom; None:
-        everything in view).
+        everything in view; `rebuild`: the current scene is not everything in view, so drawing everything builds it
+        again).
 
         Every geom the flat pass drew ends at the same fragments in the lit pass (the same geometry and camera:
         lighting and colour do not move fragments), and with opaque geoms and a depth test a pixel shows the
@@ -358,6 +351,8 @@ class SceneRenderer:
                 with hiding(m, np.nonzero(hidden)[0]):
                     self._update_scene()
                     return np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
+        if rebuild:
+            self._update_scene()
         return np.ascontiguousarray(self._pass(flat=False, want_rgb=True, want_depth=False)[0])
 
     def _transparent(self, geoms: np.ndarray) -> np.ndarray:
@@ -402,11 +397,6 @@ class SceneRenderer:
         d_coef = np.float32(-0.5) * d_coef
         # float32 is exact enough: at 5 m the buffer term is ~1e-2, float32 keeps ~1e-9 of it
         return d_coef / (buf + c_coef)
-
-    def _decode_ids(self, ids: np.ndarray) -> np.ndarray:
-        """Map an id-colour image of the current scene to geom ids (-1 where no geom)."""
-        codes, lut, _ = self._decode_table(ids)
-        return lut.take(codes)
 
     def _decode_table(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return an id-colour image's colour code per pixel, the table code -> geom id (-1: none; filled at least for
